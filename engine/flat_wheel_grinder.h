@@ -56,9 +56,9 @@ namespace gearloop {
 struct EnvelopeOptions {
   // Newton iterations allowed per grid point.
   int max_iterations = 40;
-  // Converged when the residual of R1 - P - lambda n is below this [mm] and |f| is below it
-  // relative to the size of the terms in f.
-  double position_tolerance_mm = 1e-12;
+  // Converged when a full Newton step moves every unknown by less than this [mm] (phi_w
+  // counted as an arc on the wheel rim, phi1 as an arc on the pitch circle).
+  double step_tolerance_mm = 1e-11;
   // A Newton step larger than this in u_w [mm] (or, scaled by R_w, in phi_w; by r_j, in phi1)
   // is shortened to it: keeps Newton on the branch of the nominal contact.
   double max_step_mm = 20.0;
