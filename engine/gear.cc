@@ -8,6 +8,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegPerRad = 180.0 / kPi;
+// Angles arrive in degrees through the API and are held in radians; a limit given in degrees is
+// compared with this slack so that 45 deg or 60 deg converted to radians and back still counts
+// as the limit itself.
+constexpr double kAngleSlackDeg = 1e-9;
 
 bool Fail(ValidationIssue* issue, const std::string& field, const std::string& message) {
   if (issue != nullptr) {
@@ -65,12 +69,12 @@ bool ValidateGear(const GearData& gear, ValidationIssue* issue) {
                 "normal module must be in (0, 100] mm, got " + Num(gear.normal_module_mm));
   }
   const double alpha_deg = gear.normal_pressure_angle_rad * kDegPerRad;
-  if (!std::isfinite(alpha_deg) || alpha_deg <= 0.0 || alpha_deg >= 45.0) {
+  if (!std::isfinite(alpha_deg) || alpha_deg <= kAngleSlackDeg || alpha_deg >= 45.0 - kAngleSlackDeg) {
     return Fail(issue, "gear.normal_pressure_angle_rad",
                 "normal pressure angle must be in (0, 45) degrees, got " + Num(alpha_deg) + " degrees");
   }
   const double beta_deg = gear.helix_angle_rad * kDegPerRad;
-  if (!std::isfinite(beta_deg) || std::abs(beta_deg) >= 60.0) {
+  if (!std::isfinite(beta_deg) || std::abs(beta_deg) >= 60.0 - kAngleSlackDeg) {
     return Fail(issue, "gear.helix_angle_rad",
                 "helix angle must be in [0, 60) degrees, got " + Num(std::abs(beta_deg)) + " degrees");
   }
