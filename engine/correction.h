@@ -1,0 +1,279 @@
+// engine/correction.h: the closed-loop correction of MODEL.md §6: from a measured flank, the
+// wanted target and the current machine parameters, the change of the parameters that makes the
+// next part (or the reground part) match the target.
+//
+//   FlatWheelGrinder grinder(setup);
+//   CorrectionInput input;
+//   input.model = &grinder;
+//   input.current_parameters = NominalSettings(setup).ToVector();
+//   input.measured_um = measured;          // NaN = point not delivered by the measuring machine
+//   input.target_um = EvaluateTargetModifications(target, grinder.grid(), setup.gear, setup.flank);
+//   CorrectionOptions options;             // default solver "regularised", mode next part
+//   CorrectionResult result = ComputeCorrection(options, input);
+//   if (result.summary.IsSolutionUsable()) { use result.parameters; }
+//
+// The solver works against the abstract MachineModel only (engine/machine_model.h): any model
+// that reports polynomial axis blocks and scalar blocks plugs in.
+//
+// Notation: m the measured deviations, t the target, e = m - t the flank error (um, per grid
+// point), S the model's Jacobian d deviation / d parameter at the current parameters. A change
+// dzeta is predicted to leave the error e + S dzeta (linear) or, exactly,
+// e + d(zeta + dzeta) - d(zeta) with d the model's deviations.
+//
+// Correction size (MODEL.md §6): for a polynomial block (an axis C(phi1) = sum_k a_k phi1^k) the
+// mean over the roll range [roll_min, roll_max] of (dC(phi1) / s)^2, for a scalar block
+// (dp / s)^2; the size is the square root of the sum over blocks. s is the block's scale
+// (ParameterBlock::default_scale unless overridden; MODEL.md §6 defaults: 1 um for X, Y, Z,
+// 1 um / r_j for A, B, C, 1 um / R_w for theta_w, 1e-5 /mm for a_w, 1 mm for d_w).
+//
+// Default solver "regularised" (what the product uses):
+//  1. Each free polynomial block is written in orthonormal Legendre coordinates over the roll
+//     range: dC(phi1) = s sum_k y_k sqrt(2k+1) P_k((phi1 - c) / h), c and h the centre and half
+//     width of the range, so that the correction size is exactly |y| (Euclidean). Scalar blocks:
+//     dp = s y. dzeta = T y.
+//  2. With W the point weights, A = W^1/2 S T over the usable points, b = -W^1/2 e, the Tikhonov
+//     problem  min |A y - b|^2 + lambda^2 |y|^2  is solved through the SVD of A.
+//  3. lambda by a stated rule: the discrepancy principle when the probe noise sigma > 0 (the
+//     residual of the part of b inside the range of A equals the noise expected there,
+//     sigma^2 sum_i sum_j w_j U_ji^2 over the numerical rank), generalised cross-validation
+//     (minimum of |A y - b|^2 / (n - dof)^2, dof = sum of the Tikhonov filter factors) when
+//     sigma = 0. lambda never falls below min_relative_regularisation times the largest
+//     singular value. Rule, lambda and dof are reported.
+//  4. y is converted back to the machine's monomial coefficients and refined by Ceres
+//     (Levenberg-Marquardt) on the exact nonlinear model, keeping the same lambda^2 |y|^2 term,
+//     within the per-coefficient bounds.
+//  Rework mode (material can only be removed): the exact predicted change d(zeta + dzeta) -
+//  d(zeta) must be <= 0 at every reached point. Steps 2-4 become a sequence of convex quadratic
+//  programs (same objective, the linearised change <= 0 as constraints, solved through the dual
+//  non-negative least squares of Lawson and Hanson), each re-linearised on the exact model.
+//
+// Solver "pso" (the published method, Jiang 2015 / MODEL.md §6, kept for comparison): particle
+// swarm over the free coefficients, each within +-0.02 of the current value (mm, rad, and for the
+// cone angle the published degrees), 40 particles, 200 generations, inertia 0.7, c1 = c2 = 1.5,
+// a fixed seed; the stock-limited objective sum_i w_i f_i^2 with delta = t - m and
+// f_i = S_i dzeta - delta_i where S_i dzeta < 0, f_i = -delta_i elsewhere.
+//
+// Solver "lsq-plain" (for comparison): the minimum-norm unregularised least-squares solution in
+// the raw parameter units, dzeta = pinv(W^1/2 S) (-W^1/2 e), no refinement.
+//
+// Outliers: after a first fit the point with the largest robust residual is tested against
+// outlier_threshold times the robust spread (1.4826 * median absolute deviation, but at least the
+// probe noise and outlier_min_um); a gross outlier is dropped, the fit repeated, and the dropped
+// indices reported in the summary. They never take part in the final solve.
+#ifndef GEARLOOP_ENGINE_CORRECTION_H_
+#define GEARLOOP_ENGINE_CORRECTION_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "engine/machine_model.h"
+
+namespace gearloop {
+
+enum class CorrectionSolver {
+  kRegularised,         // "regularised" (default)
+  kParticleSwarm,       // "pso"
+  kPlainLeastSquares,   // "lsq-plain"
+};
+const char* CorrectionSolverName(CorrectionSolver solver);
+bool ParseCorrectionSolver(const std::string& name, CorrectionSolver* solver);
+
+enum class CorrectionMode {
+  kNextPart,  // "next-part": the next part is ground with the new settings (default)
+  kRework,    // "rework": the same part is reground, material can only be removed
+};
+const char* CorrectionModeName(CorrectionMode mode);
+bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode);
+
+enum class RegularisationRule {
+  kDiscrepancyPrinciple,          // "discrepancy-principle" (probe noise sigma > 0)
+  kGeneralisedCrossValidation,    // "gcv" (sigma = 0)
+  kNone,                          // "none" (pso, lsq-plain)
+};
+const char* RegularisationRuleName(RegularisationRule rule);
+
+struct CorrectionOptions {
+  CorrectionSolver solver = CorrectionSolver::kRegularised;
+  CorrectionMode mode = CorrectionMode::kNextPart;
+
+  // Which parameters may change. For a polynomial block: the highest order that may change
+  // (0..num_coefficients-1), or -1 = fixed. For a scalar block: 0 = free, -1 = fixed.
+  // `default_max_order` applies to every polynomial block not named in `max_order` (clamped to
+  // the block's own degree); scalar blocks not named are free. Block names are the model's
+  // (ParameterBlock::name: "X".."C", "cone_angle", ...). Example, the published cutter case:
+  // default_max_order = 0, max_order = {{"C", 6}}.
+  int default_max_order = 6;
+  std::map<std::string, int> max_order;
+
+  // Per-point weights (row-major, >= 0; empty = all 1). A zero weight ignores the point.
+  Eigen::VectorXd point_weights;
+
+  // Bounds on the change of each parameter [parameter units] (empty = unbounded; use +-inf for
+  // single unbounded entries). lower <= 0 <= upper is required.
+  Eigen::VectorXd lower_delta;
+  Eigen::VectorXd upper_delta;
+
+  // Standard deviation of the probe noise [um]; > 0 selects the discrepancy principle, 0 GCV.
+  double probe_noise_um = 0.0;
+
+  // Correction-size scales per block name, overriding ParameterBlock::default_scale (> 0).
+  std::map<std::string, double> block_scales;
+
+  // Lower limit of the Tikhonov level lambda, relative to the largest singular value of the
+  // scaled S. Keeps directions whose flank effect is below ~1e-4 of the strongest out of the
+  // solution however the rule decides.
+  double min_relative_regularisation = 1e-4;
+
+  // Singular values of the scaled S above this fraction of the largest count toward its
+  // numerical rank (reported, and used for "best reachable").
+  double relative_rank_tolerance = 1e-6;
+
+  // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
+  int max_num_iterations = 20;
+  // Rework mode: re-linearisations of the constrained problem on the exact model.
+  int max_rework_passes = 4;
+  // Rework mode: predicted added material above this [um] counts as a violation.
+  double rework_tolerance_um = 1e-6;
+
+  // Outlier test (see the file comment). 0 disables it.
+  double outlier_threshold = 5.0;
+  double outlier_min_um = 2.0;
+  // At most this fraction of the usable points may be dropped as outliers.
+  double max_outlier_fraction = 0.2;
+
+  // Particle swarm (solver "pso"), as published.
+  int pso_particles = 40;
+  int pso_generations = 200;
+  double pso_inertia = 0.7;
+  double pso_cognitive = 1.5;  // c1
+  double pso_social = 1.5;     // c2
+  double pso_box = 0.02;       // half width of the search box, published units
+  unsigned long long pso_seed = 2015;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct CorrectionInput {
+  const MachineModel* model = nullptr;
+  // The parameters the measured part was ground with (NumParameters entries).
+  Eigen::VectorXd current_parameters;
+  // The measured deviations [um], row-major, NaN = missing.
+  Eigen::VectorXd measured_um;
+  // The target modification [um], row-major (e.g. EvaluateTargetModifications).
+  Eigen::VectorXd target_um;
+  // The roll range used [rad]. When roll_min_rad >= roll_max_rad (the default) it is taken
+  // from the model's contact roll angles at current_parameters over the reached points.
+  double roll_min_rad = 0.0;
+  double roll_max_rad = 0.0;
+  // Optional: the model's Jacobian at current_parameters [um per unit], when the caller has it
+  // (e.g. the same machine state corrected many times); otherwise evaluated here.
+  Eigen::MatrixXd jacobian_um;
+};
+
+enum class CorrectionStatus {
+  kConverged,      // "converged"
+  kNotConverged,   // "not_converged": the message says why; the result may still be usable
+  kInvalidInput,   // the options or input were rejected; nothing was computed
+};
+const char* CorrectionStatusName(CorrectionStatus status);
+
+struct BlockCorrectionSize {
+  std::string name;
+  double size = 0.0;  // sqrt(mean (dC/s)^2) or |dp|/s
+};
+
+struct CorrectionSummary {
+  CorrectionStatus status = CorrectionStatus::kInvalidInput;
+  std::string message;
+  CorrectionSolver solver = CorrectionSolver::kRegularised;
+  CorrectionMode mode = CorrectionMode::kNextPart;
+
+  RegularisationRule rule = RegularisationRule::kNone;
+  double regularisation_level = 0.0;  // lambda (in units of the scaled S)
+  double effective_dof = 0.0;         // sum of filter factors (the rank actually used)
+
+  int num_points_used = 0;
+  int num_free_parameters = 0;
+  int rank = 0;                       // numerical rank of the scaled, weighted S (free columns)
+  double condition_number = 0.0;      // over that rank
+  Eigen::VectorXd singular_values;    // of the scaled, weighted S, descending
+
+  double roll_min_rad = 0.0;
+  double roll_max_rad = 0.0;
+
+  double initial_rms_um = 0.0;        // of e over the points used
+  double initial_max_um = 0.0;
+  double residual_rms_um = 0.0;       // predicted (exact model) over the points used
+  double residual_max_um = 0.0;
+  double best_reachable_rms_um = 0.0; // |e projected off the range of the weighted S| (rms)
+  double linear_residual_rms_um = 0.0;// predicted by the linear model before refinement
+  double max_added_material_um = 0.0; // largest predicted change > 0 (rework: must be <= tol)
+
+  double correction_size = 0.0;
+  std::vector<BlockCorrectionSize> block_sizes;
+
+  std::vector<int> outlier_indices;   // grid points dropped as gross outliers
+  std::vector<int> missing_indices;   // grid points without a usable measurement or contact
+
+  int iterations = 0;                 // Ceres iterations, rework passes or PSO generations
+  double elapsed_ms = 0.0;
+
+  bool IsSolutionUsable() const {
+    return status == CorrectionStatus::kConverged || status == CorrectionStatus::kNotConverged;
+  }
+  std::string BriefReport() const;
+};
+
+struct CorrectionResult {
+  Eigen::VectorXd parameters;             // new parameters (monomial, as the machine takes them)
+  Eigen::VectorXd delta;                  // parameters - current
+  Eigen::VectorXd predicted_residual_um;  // e + exact change, NaN where no measurement/contact
+  Eigen::VectorXd predicted_change_um;    // exact d(new) - d(current), NaN where not reached
+  CorrectionSummary summary;
+};
+
+CorrectionResult ComputeCorrection(const CorrectionOptions& options, const CorrectionInput& input);
+
+// The correction size of `delta` (see the file comment) over the roll range, overall; per-block
+// sizes go to `block_sizes` if non-null. `block_scales` as in CorrectionOptions.
+double CorrectionSize(const std::vector<ParameterBlock>& blocks,
+                      const Eigen::VectorXd& delta,
+                      double roll_min_rad,
+                      double roll_max_rad,
+                      const std::map<std::string, double>& block_scales = {},
+                      std::vector<BlockCorrectionSize>* block_sizes = nullptr);
+
+// The change of parameters, block by block, whose orthonormal Legendre coordinates over the
+// roll range (scaled as in the file comment) are `coordinates`, one entry per coefficient of each
+// block; the inverse of CorrectionCoordinates. CorrectionSize(delta) == |coordinates|.
+Eigen::VectorXd DeltaFromCorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
+                                               const Eigen::VectorXd& coordinates,
+                                               double roll_min_rad,
+                                               double roll_max_rad,
+                                               const std::map<std::string, double>& block_scales = {});
+Eigen::VectorXd CorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
+                                      const Eigen::VectorXd& delta,
+                                      double roll_min_rad,
+                                      double roll_max_rad,
+                                      const std::map<std::string, double>& block_scales = {});
+
+// The best residual any change of the free parameters can reach in the linear model: e projected
+// off the range of W^1/2 S (columns `free`, rank by `relative_rank_tolerance` after unit column
+// scaling), as a per-point residual (NaN where weight is 0 or e is NaN).
+Eigen::VectorXd BestReachableResidual(const Eigen::MatrixXd& jacobian_um,
+                                      const Eigen::VectorXd& error_um,
+                                      const Eigen::VectorXd& weights,
+                                      const std::vector<int>& free,
+                                      double relative_rank_tolerance = 1e-6);
+
+// Several measured teeth of one flank combined point by point: the mean of the finite values at
+// each point, NaN where no tooth delivered the point. All grids must have the same size;
+// `counts` (optional) receives how many teeth each point averaged.
+Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen::VectorXi* counts = nullptr);
+
+}  // namespace gearloop
+
+#endif  // GEARLOOP_ENGINE_CORRECTION_H_
