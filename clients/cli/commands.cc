@@ -1,0 +1,1120 @@
+// clients/cli/commands.cc: one function per subcommand. Each reads its files, sends one or a few
+// requests, and prints either a table for a person or (--json) the server's JSON for a script.
+// Diagnostics go to stderr, results to stdout, so `gearloop show 7 --grid residual > r.csv`
+// and `gearloop report 7 > job.html` work in pipelines.
+#include "clients/cli/commands.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "clients/cli/api_client.h"
+#include "clients/cli/csv_grid.h"
+#include "clients/cli/report.h"
+
+namespace gearloop {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+// --- Argument parsing ---------------------------------------------------------------------------
+
+// The options one subcommand takes: names that take a value, and flags.
+struct CommandSpec {
+  const char* name;
+  const char* usage;  // the full --help text
+  std::set<std::string> valued;
+  std::set<std::string> flags;
+  int min_positional;
+  int max_positional;
+};
+
+struct ParsedArgs {
+  std::vector<std::string> positional;
+  std::map<std::string, std::vector<std::string>> values;
+  std::set<std::string> flags;
+
+  bool Has(const std::string& name) const { return values.count(name) > 0 || flags.count(name) > 0; }
+  std::string Value(const std::string& name, const std::string& fallback = "") const {
+    auto it = values.find(name);
+    return it == values.end() ? fallback : it->second.back();
+  }
+};
+
+bool UsageError(const CommandSpec& spec, const std::string& message) {
+  std::cerr << "gearloop " << spec.name << ": " << message << "\n"
+            << "Try 'gearloop " << spec.name << " --help'.\n";
+  return false;
+}
+
+// Accepts "--name value" and "--name=value". Returns false after printing a usage error.
+bool ParseArgs(const CommandSpec& spec, const std::vector<std::string>& args, ParsedArgs* parsed) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    if (arg.size() > 2 && arg.compare(0, 2, "--") == 0) {
+      std::string name = arg;
+      std::optional<std::string> inline_value;
+      const size_t eq = arg.find('=');
+      if (eq != std::string::npos) {
+        name = arg.substr(0, eq);
+        inline_value = arg.substr(eq + 1);
+      }
+      if (spec.valued.count(name)) {
+        if (inline_value) {
+          parsed->values[name].push_back(*inline_value);
+        } else if (i + 1 < args.size()) {
+          parsed->values[name].push_back(args[++i]);
+        } else {
+          return UsageError(spec, "option " + name + " needs a value");
+        }
+      } else if (spec.flags.count(name) && !inline_value) {
+        parsed->flags.insert(name);
+      } else {
+        return UsageError(spec, "unknown option " + arg);
+      }
+    } else {
+      parsed->positional.push_back(arg);
+    }
+  }
+  const int n = static_cast<int>(parsed->positional.size());
+  if (n < spec.min_positional) return UsageError(spec, "missing argument");
+  if (n > spec.max_positional) return UsageError(spec, "unexpected argument '" + parsed->positional[n - 1] + "'");
+  return true;
+}
+
+bool ParseCount(const std::string& text, long long min, long long max, long long* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end != text.c_str() + text.size() || v < min || v > max) return false;
+  *value = v;
+  return true;
+}
+
+// --- Files -----------------------------------------------------------------------------------------
+
+bool ReadTextFile(const std::string& path, std::string* text, std::string* error) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    *error = path + ": cannot open file";
+    return false;
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  *text = buffer.str();
+  return true;
+}
+
+bool ReadJsonFile(const std::string& path, json* value, std::string* error) {
+  std::string text;
+  if (!ReadTextFile(path, &text, error)) return false;
+  try {
+    *value = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // nlohmann's message already says "at line L, column C".
+    *error = path + ": not valid JSON: " + e.what();
+    return false;
+  }
+  return true;
+}
+
+bool HasExtension(const std::string& path, const char* extension) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext == extension;
+}
+
+json CsvGridToJson(const CsvGrid& grid) {
+  json rows = json::array();
+  for (int r = 0; r < grid.rows; ++r) {
+    json row = json::array();
+    for (int c = 0; c < grid.columns; ++c) {
+      const auto& v = grid.at(r, c);
+      row.push_back(v ? json(*v) : json(nullptr));
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// A JSON array of rows (numbers or null) into a CsvGrid; false when it is not one.
+bool JsonToCsvGrid(const json& value, CsvGrid* grid) {
+  if (!value.is_array() || value.empty() || !value[0].is_array()) return false;
+  grid->rows = static_cast<int>(value.size());
+  grid->columns = static_cast<int>(value[0].size());
+  grid->values.clear();
+  for (const json& row : value) {
+    if (!row.is_array() || static_cast<int>(row.size()) != grid->columns) return false;
+    for (const json& v : row) {
+      if (v.is_number()) {
+        grid->values.emplace_back(v.get<double>());
+      } else if (v.is_null()) {
+        grid->values.emplace_back(std::nullopt);
+      } else {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// The grid shape a request asks for (grid.profile_points x grid.lead_points, default 5 x 9).
+void GridShape(const json& request, int* rows, int* columns) {
+  *rows = 5;
+  *columns = 9;
+  if (request.is_object() && request.contains("grid") && request["grid"].is_object()) {
+    const json& grid = request["grid"];
+    if (grid.contains("profile_points") && grid["profile_points"].is_number_integer()) {
+      *rows = grid["profile_points"].get<int>();
+    }
+    if (grid.contains("lead_points") && grid["lead_points"].is_number_integer()) {
+      *columns = grid["lead_points"].get<int>();
+    }
+  }
+}
+
+// Reads a measurement file into the API's measurement object.
+//   *.csv   one grid (clients/cli/csv_grid.h)
+//   *.json  {"deviations_um": grid} or {"teeth": [grid, ...]}, or either inside "measurement"
+//           (clients/FORMATS.md); other members (part, tooth, machine, ...) are ignored
+bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* measurement, std::string* error) {
+  if (HasExtension(path, ".csv")) {
+    std::string text;
+    if (!ReadTextFile(path, &text, error)) return false;
+    CsvGridOptions options;
+    options.rows = rows;
+    options.columns = columns;
+    CsvGrid grid;
+    CsvGridError csv_error;
+    if (!ParseCsvGrid(text, options, &grid, &csv_error)) {
+      *error = path + ": " + csv_error.ToString();
+      return false;
+    }
+    *measurement = {{"deviations_um", CsvGridToJson(grid)}};
+    return true;
+  }
+  json file;
+  if (!ReadJsonFile(path, &file, error)) return false;
+  if (file.is_object() && file.contains("measurement")) file = file["measurement"];
+  if (file.is_array()) file = {{"deviations_um", file}};
+  if (!file.is_object() || (!file.contains("deviations_um") && !file.contains("teeth"))) {
+    *error = path + ": a measurement file holds \"deviations_um\" (a grid of " + std::to_string(rows) + " rows x " +
+             std::to_string(columns) + " um values, null = missing) or \"teeth\" (a list of such grids)";
+    return false;
+  }
+  json out = json::object();
+  if (file.contains("deviations_um")) {
+    CsvGrid grid;
+    if (!JsonToCsvGrid(file["deviations_um"], &grid) || grid.rows != rows || grid.columns != columns) {
+      *error = path + ": deviations_um must be " + std::to_string(rows) + " rows of " + std::to_string(columns) +
+               " numbers or null";
+      return false;
+    }
+    out["deviations_um"] = file["deviations_um"];
+  }
+  if (file.contains("teeth")) out["teeth"] = file["teeth"];
+  *measurement = out;
+  return true;
+}
+
+// A target file: a complete grid (*.csv or JSON {"deviations_um"}) or JSON {"modifications"}.
+bool ReadTargetFile(const std::string& path, int rows, int columns, json* target, std::string* error) {
+  if (HasExtension(path, ".csv")) {
+    std::string text;
+    if (!ReadTextFile(path, &text, error)) return false;
+    CsvGridOptions options;
+    options.rows = rows;
+    options.columns = columns;
+    options.allow_missing = false;
+    CsvGrid grid;
+    CsvGridError csv_error;
+    if (!ParseCsvGrid(text, options, &grid, &csv_error)) {
+      *error = path + ": " + csv_error.ToString();
+      return false;
+    }
+    *target = {{"deviations_um", CsvGridToJson(grid)}};
+    return true;
+  }
+  json file;
+  if (!ReadJsonFile(path, &file, error)) return false;
+  if (file.is_object() && file.contains("target")) file = file["target"];
+  if (file.is_array()) file = {{"modifications", file}};
+  if (!file.is_object() || (!file.contains("deviations_um") && !file.contains("modifications"))) {
+    *error = path + ": a target file holds \"deviations_um\" (a complete grid) or \"modifications\" (a list)";
+    return false;
+  }
+  *target = file;
+  return true;
+}
+
+bool WriteTextFile(const std::string& path, const std::string& text, std::string* error) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out) {
+    *error = path + ": cannot write file";
+    return false;
+  }
+  return true;
+}
+
+// --- Output ------------------------------------------------------------------------------------
+
+std::string Fixed(const json& value, int digits = 3) {
+  if (!value.is_number()) return "-";
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value.get<double>();
+  return out.str();
+}
+
+std::string Text(const json& value) {
+  if (value.is_string()) return value.get<std::string>();
+  if (value.is_null()) return "-";
+  return value.dump();
+}
+
+std::string Member(const json& object, const char* key) {
+  if (!object.is_object() || !object.contains(key)) return "-";
+  return Text(object[key]);
+}
+
+// A grid as a table with the tip at the top, the way the flank is drawn (and the dashboard
+// shows it): profile rows down the side, lead columns across.
+void PrintGrid(const std::string& title, const json& grid) {
+  CsvGrid g;
+  if (!JsonToCsvGrid(grid, &g)) return;
+  std::cout << title << " [um] (tip at top, lead from x < 0 to x > 0)\n";
+  std::cout << std::setw(10) << "";
+  for (int c = 0; c < g.columns; ++c) std::cout << std::setw(8) << ("L" + std::to_string(c + 1));
+  std::cout << "\n";
+  for (int r = g.rows - 1; r >= 0; --r) {
+    std::string label = "row " + std::to_string(r + 1);
+    if (r == g.rows - 1) label += " tip";
+    if (r == 0) label += " rt";
+    std::cout << std::left << std::setw(10) << label << std::right;
+    for (int c = 0; c < g.columns; ++c) {
+      const auto& v = g.at(r, c);
+      std::ostringstream cell;
+      if (v) {
+        cell << std::fixed << std::setprecision(2) << *v;
+      } else {
+        cell << "-";
+      }
+      std::cout << std::setw(8) << cell.str();
+    }
+    std::cout << "\n";
+  }
+}
+
+void PrintJson(const json& value) { std::cout << value.dump(2) << "\n"; }
+
+// Maps an answer to an exit code and prints its error. Returns -1 when the answer is fine.
+int CheckAnswer(const ApiResponse& answer) {
+  if (!answer.transport_error.empty()) {
+    std::cerr << "gearloop: " << answer.transport_error << "\n";
+    return kExitTransport;
+  }
+  if (answer.IsApiError()) {
+    std::cerr << "gearloop: server refused the request: " << answer.ErrorText() << "\n";
+    return kExitApiError;
+  }
+  if (!answer.ok() || !answer.body.is_object()) {
+    std::cerr << "gearloop: unexpected answer " << answer.status << " from the server\n";
+    return kExitTransport;
+  }
+  return -1;
+}
+
+int InputError(const std::string& message) {
+  std::cerr << "gearloop: " << message << "\n";
+  return kExitInput;
+}
+
+void PrintCorrectionSummary(const json& answer) {
+  const json& result = answer.contains("result") ? answer["result"] : json::object();
+  std::cout << "job " << Member(answer, "id") << " (" << Member(answer, "kind") << ")  status "
+            << Member(result, "status");
+  if (result.contains("message") && result["message"].is_string() && !result["message"].get<std::string>().empty()) {
+    std::cout << " - " << result["message"].get<std::string>();
+  }
+  std::cout << "\n";
+  if (answer.contains("parent_job_id") && !answer["parent_job_id"].is_null()) {
+    std::cout << "  replay of job " << Text(answer["parent_job_id"]) << "\n";
+  }
+  if (answer.contains("settings_source_job_id") && !answer["settings_source_job_id"].is_null()) {
+    std::cout << "  ground with the settings of job " << Text(answer["settings_source_job_id"]) << "\n";
+  }
+  std::cout << "  deviation before     rms " << Fixed(result.value("initial_rms_um", json())) << " um, max "
+            << Fixed(result.value("initial_max_um", json())) << " um\n"
+            << "  predicted residual   rms " << Fixed(result.value("residual_rms_um", json())) << " um, max "
+            << Fixed(result.value("residual_max_um", json())) << " um\n"
+            << "  best reachable       rms " << Fixed(result.value("best_reachable_rms_um", json())) << " um\n"
+            << "  solver " << Member(result, "solver") << ", mode " << Member(result, "mode") << ", rank "
+            << Member(result, "rank") << ", condition " << Fixed(result.value("condition_number", json()), 1)
+            << ", " << Member(result, "iterations") << " iterations, " << Fixed(result.value("elapsed_ms", json()), 1)
+            << " ms\n";
+  if (result.contains("missing") && result["missing"].is_array() && !result["missing"].empty()) {
+    std::cout << "  " << result["missing"].size() << " missing points left out\n";
+  }
+  if (result.contains("outliers") && result["outliers"].is_array() && !result["outliers"].empty()) {
+    std::cout << "  " << result["outliers"].size() << " points rejected as outliers\n";
+  }
+  if (result.contains("predicted_residual_um")) PrintGrid("predicted residual", result["predicted_residual_um"]);
+}
+
+bool IsConverged(const json& answer) {
+  if (!answer.contains("result") || !answer["result"].is_object()) return false;
+  return answer["result"].value("status", "") == "converged";
+}
+
+// Sends a correction request; prints; exit code.
+int SendCorrection(ApiClient* client, const std::string& path, const json& body, const GlobalOptions& global) {
+  const ApiResponse answer = client->Post(path, body);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    PrintCorrectionSummary(answer.body);
+  }
+  return IsConverged(answer.body) ? kExitOk : kExitNotConverged;
+}
+
+// --- Subcommands ---------------------------------------------------------------------------------
+
+const CommandSpec kHealth{"health",
+                          "usage: gearloop health\n\n"
+                          "Asks the server whether it is up (GET /healthz) and prints its version.\n"
+                          "Exit 0 when it answers \"ok\", 2 when it cannot be reached.\n",
+                          {},
+                          {},
+                          0,
+                          0};
+
+int Health(const ParsedArgs&, ApiClient* client, const GlobalOptions& global) {
+  const ApiResponse answer = client->Get("/healthz");
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    std::cout << "server " << Member(answer.body, "status") << ", version " << Member(answer.body, "version") << "\n";
+  }
+  return answer.body.value("status", "") == "ok" ? kExitOk : kExitTransport;
+}
+
+const CommandSpec kSubmit{
+    "submit",
+    "usage: gearloop submit REQUEST.json MEASUREMENT.(csv|json) [options]\n\n"
+    "Computes a correction for a measured flank and stores it as a job (POST /api/v1/corrections).\n"
+    "REQUEST.json holds the setup: gear, wheel, machine, grid, flank, and optionally settings\n"
+    "(what the part was ground with; default nominal), target and options. MEASUREMENT is a CSV\n"
+    "grid (5 rows x 9 columns, row 1 = root side, empty or null = missing) or a JSON measurement\n"
+    "file (clients/FORMATS.md). It replaces any measurement in REQUEST.json.\n\n"
+    "options:\n"
+    "  --target FILE         wanted topography: CSV grid (complete) or JSON {modifications:[...]}\n"
+    "  --options FILE        JSON object of solver options, merged over REQUEST.json's\n"
+    "  --settings-from ID    the part was ground with the corrected settings of job ID\n"
+    "  --residual-csv FILE   write the predicted residual grid as CSV\n"
+    "  --settings-out FILE   write the new machine settings as JSON\n\n"
+    "Exit 0 converged, 5 stored but not converged, 3 refused (the message names the field).\n",
+    {"--target", "--options", "--settings-from", "--residual-csv", "--settings-out"},
+    {},
+    2,
+    2};
+
+// Builds a correction request from the files; returns -1 when done, or an exit code.
+int BuildCorrectionRequest(const std::string& request_path,
+                           const std::string& measurement_path,
+                           const ParsedArgs& args,
+                           json* request) {
+  std::string error;
+  if (!ReadJsonFile(request_path, request, &error)) return InputError(error);
+  if (!request->is_object()) return InputError(request_path + ": the request must be a JSON object");
+  int rows = 5;
+  int columns = 9;
+  GridShape(*request, &rows, &columns);
+  json measurement;
+  if (!ReadMeasurementFile(measurement_path, rows, columns, &measurement, &error)) return InputError(error);
+  (*request)["measurement"] = measurement;
+  if (args.Has("--target")) {
+    json target;
+    if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error)) return InputError(error);
+    (*request)["target"] = target;
+  }
+  if (args.Has("--options")) {
+    json options;
+    if (!ReadJsonFile(args.Value("--options"), &options, &error)) return InputError(error);
+    if (!options.is_object()) return InputError(args.Value("--options") + ": options must be a JSON object");
+    if (!request->contains("options") || !(*request)["options"].is_object()) (*request)["options"] = json::object();
+    (*request)["options"].merge_patch(options);
+  }
+  if (args.Has("--settings-from")) {
+    long long id = 0;
+    if (!ParseCount(args.Value("--settings-from"), 1, (1LL << 53), &id)) {
+      std::cerr << "gearloop submit: --settings-from takes a job id\n";
+      return kExitUsage;
+    }
+    (*request)["settings_source_job_id"] = id;
+  }
+  return -1;
+}
+
+int Submit(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  json request;
+  const int built = BuildCorrectionRequest(args.positional[0], args.positional[1], args, &request);
+  if (built >= 0) return built;
+  const ApiResponse answer = client->Post("/api/v1/corrections", request);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  const json& result = answer.body.contains("result") ? answer.body["result"] : json::object();
+  std::string error;
+  if (args.Has("--residual-csv") && result.contains("predicted_residual_um")) {
+    CsvGrid grid;
+    if (JsonToCsvGrid(result["predicted_residual_um"], &grid) &&
+        !WriteTextFile(args.Value("--residual-csv"), FormatCsvGrid(grid, true), &error)) {
+      return InputError(error);
+    }
+  }
+  if (args.Has("--settings-out") && result.contains("settings")) {
+    if (!WriteTextFile(args.Value("--settings-out"), result["settings"].dump(2) + "\n", &error)) return InputError(error);
+  }
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    PrintCorrectionSummary(answer.body);
+  }
+  return IsConverged(answer.body) ? kExitOk : kExitNotConverged;
+}
+
+const CommandSpec kList{"list",
+                        "usage: gearloop list [options]\n\n"
+                        "Lists stored jobs, newest first (GET /api/v1/corrections).\n\n"
+                        "options:\n"
+                        "  --limit N        jobs per page (default 20)\n"
+                        "  --offset N       skip the N newest\n"
+                        "  --kind K         correction | replay | batch_item | closed_loop\n"
+                        "  --status S       converged | not_converged | ...\n"
+                        "  --flank F        left | right\n"
+                        "  --teeth N        only gears with N teeth\n",
+                        {"--limit", "--offset", "--kind", "--status", "--flank", "--teeth"},
+                        {},
+                        0,
+                        0};
+
+std::string UrlEncode(const std::string& text) {
+  static const char* kHex = "0123456789ABCDEF";
+  std::string out;
+  for (unsigned char c : text) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+      out += static_cast<char>(c);
+    } else {
+      out += '%';
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  return out;
+}
+
+int List(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  std::string query;
+  for (const char* key : {"limit", "offset", "kind", "status", "flank", "teeth"}) {
+    const std::string option = std::string("--") + key;
+    if (!args.Has(option)) continue;
+    query += (query.empty() ? "?" : "&") + std::string(key) + "=" + UrlEncode(args.Value(option));
+  }
+  const ApiResponse answer = client->Get("/api/v1/corrections" + query);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+    return kExitOk;
+  }
+  const json jobs = answer.body.value("jobs", json::array());
+  std::cout << std::left << std::setw(6) << "id" << std::setw(22) << "created (UTC)" << std::setw(12) << "kind"
+            << std::setw(15) << "status" << std::setw(14) << "gear" << std::setw(7) << "flank" << std::right
+            << std::setw(10) << "rms um" << std::setw(8) << "parent" << "\n";
+  for (const json& job : jobs) {
+    std::string gear = "-";
+    if (job.contains("gear") && job["gear"].is_object()) {
+      gear = Member(job["gear"], "teeth") + "z m" + Member(job["gear"], "normal_module_mm");
+    }
+    std::string parent = "-";
+    if (job.contains("parent_job_id") && !job["parent_job_id"].is_null()) parent = Text(job["parent_job_id"]);
+    if (parent == "-" && job.contains("settings_source_job_id") && !job["settings_source_job_id"].is_null()) {
+      parent = "<" + Text(job["settings_source_job_id"]);
+    }
+    std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(22) << Member(job, "created_utc")
+              << std::setw(12) << Member(job, "kind") << std::setw(15) << Member(job, "status") << std::setw(14)
+              << gear << std::setw(7) << Member(job, "flank") << std::right << std::setw(10)
+              << Fixed(job.value("residual_rms_um", json())) << std::setw(8) << parent << "\n";
+  }
+  std::cout << jobs.size() << " of " << Member(answer.body, "total") << " jobs\n";
+  return kExitOk;
+}
+
+const CommandSpec kShow{"show",
+                        "usage: gearloop show ID [--grid NAME] [--header]\n\n"
+                        "Shows one stored job (GET /api/v1/corrections/ID): the result summary and the\n"
+                        "predicted residual. With --grid, prints only that grid as CSV instead:\n"
+                        "  measured | target | residual | change\n"
+                        "(--header adds the L1..L9 header line.)\n",
+                        {"--grid"},
+                        {"--header"},
+                        1,
+                        1};
+
+bool ParseJobId(const std::string& text, long long* id) { return ParseCount(text, 1, (1LL << 53), id); }
+
+// The measured grid of a stored job: the result's own copy when the server sends one, else the
+// request's grid, else the point-by-point mean of the request's teeth.
+json MeasuredGrid(const json& job) {
+  const json result = job.value("result", json::object());
+  if (result.contains("measured_um")) return result["measured_um"];
+  const json request = job.value("request", json::object());
+  const json measurement = request.value("measurement", json::object());
+  if (measurement.contains("deviations_um")) return measurement["deviations_um"];
+  if (!measurement.contains("teeth") || !measurement["teeth"].is_array()) return json();
+  CsvGrid sum;
+  std::vector<int> count;
+  for (const json& tooth : measurement["teeth"]) {
+    CsvGrid grid;
+    if (!JsonToCsvGrid(tooth, &grid)) return json();
+    if (sum.values.empty()) {
+      sum = grid;
+      for (auto& v : sum.values) v = v ? std::optional<double>(0.0) : std::nullopt;
+      count.assign(sum.values.size(), 0);
+    }
+    if (grid.values.size() != sum.values.size()) return json();
+    for (size_t i = 0; i < grid.values.size(); ++i) {
+      if (!grid.values[i]) continue;
+      sum.values[i] = sum.values[i].value_or(0.0) + *grid.values[i];
+      ++count[i];
+    }
+  }
+  for (size_t i = 0; i < sum.values.size(); ++i) {
+    if (count[i] > 0) {
+      sum.values[i] = *sum.values[i] / count[i];
+    } else {
+      sum.values[i] = std::nullopt;
+    }
+  }
+  return CsvGridToJson(sum);
+}
+
+// The target grid: the result's copy when sent, the request's grid, or (for a target given as
+// modifications) recovered from measured + change - residual, where all three are known.
+json TargetGrid(const json& job) {
+  const json result = job.value("result", json::object());
+  if (result.contains("target_um")) return result["target_um"];
+  const json request = job.value("request", json::object());
+  const json target = request.value("target", json());
+  if (target.is_object() && target.contains("deviations_um")) return target["deviations_um"];
+  CsvGrid measured;
+  CsvGrid change;
+  CsvGrid residual;
+  if (!JsonToCsvGrid(MeasuredGrid(job), &measured) ||
+      !JsonToCsvGrid(result.value("predicted_change_um", json()), &change) ||
+      !JsonToCsvGrid(result.value("predicted_residual_um", json()), &residual) ||
+      measured.values.size() != change.values.size() || measured.values.size() != residual.values.size()) {
+    return json();
+  }
+  if (!target.is_object()) {  // no target: the designed flank is the exact involute
+    for (auto& v : measured.values) v = 0.0;
+    return CsvGridToJson(measured);
+  }
+  CsvGrid out = measured;
+  for (size_t i = 0; i < out.values.size(); ++i) {
+    if (measured.values[i] && change.values[i] && residual.values[i]) {
+      out.values[i] = *measured.values[i] + *change.values[i] - *residual.values[i];
+    } else {
+      out.values[i] = std::nullopt;
+    }
+  }
+  return CsvGridToJson(out);
+}
+
+int Show(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  long long id = 0;
+  if (!ParseJobId(args.positional[0], &id)) {
+    std::cerr << "gearloop show: '" << args.positional[0] << "' is not a job id\n";
+    return kExitUsage;
+  }
+  std::string grid_name = args.Value("--grid");
+  if (!grid_name.empty() && grid_name != "measured" && grid_name != "target" && grid_name != "residual" &&
+      grid_name != "change") {
+    std::cerr << "gearloop show: --grid takes measured, target, residual or change\n";
+    return kExitUsage;
+  }
+  const ApiResponse answer = client->Get("/api/v1/corrections/" + std::to_string(id));
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  const json& job = answer.body;
+  const json result = job.value("result", json::object());
+  if (!grid_name.empty()) {
+    json grid;
+    if (grid_name == "residual") grid = result.value("predicted_residual_um", json());
+    if (grid_name == "change") grid = result.value("predicted_change_um", json());
+    if (grid_name == "measured") grid = MeasuredGrid(job);
+    if (grid_name == "target") grid = TargetGrid(job);
+    CsvGrid csv;
+    if (!JsonToCsvGrid(grid, &csv)) {
+      std::cerr << "gearloop show: job " << id << " has no " << grid_name << " grid\n";
+      return kExitApiError;
+    }
+    std::cout << FormatCsvGrid(csv, args.Has("--header"));
+    return kExitOk;
+  }
+  if (global.json) {
+    PrintJson(job);
+    return kExitOk;
+  }
+  std::cout << "created " << Member(job, "created_utc") << ", server " << Member(job, "server_version") << "\n";
+  const json request = job.value("request", json::object());
+  if (request.contains("gear")) {
+    const json& gear = request["gear"];
+    std::cout << "gear " << Member(gear, "teeth") << " teeth, mn " << Member(gear, "normal_module_mm") << " mm, alpha "
+              << Member(gear, "normal_pressure_angle_deg") << " deg, beta " << Member(gear, "helix_angle_deg")
+              << " deg " << Member(gear, "hand") << ", flank " << Member(request, "flank") << "\n";
+  }
+  const json measured = MeasuredGrid(job);
+  if (!measured.is_null()) PrintGrid("measured", measured);
+  PrintCorrectionSummary(job);
+  return kExitOk;
+}
+
+const CommandSpec kReplay{"replay",
+                          "usage: gearloop replay ID [--options FILE] [--set NAME=VALUE ...] [--target FILE]\n\n"
+                          "Re-runs the stored measurement of job ID with changed options or target\n"
+                          "(POST /api/v1/corrections/ID/replay); the new job is linked to its parent.\n\n"
+                          "options:\n"
+                          "  --options FILE     JSON object merged over the stored options (null removes)\n"
+                          "  --set NAME=VALUE   one option; VALUE is read as JSON when it parses\n"
+                          "                     (--set solver=pso --set max_num_iterations=100)\n"
+                          "  --target FILE      a new target: CSV grid or JSON {modifications:[...]}\n",
+                          {"--options", "--set", "--target"},
+                          {},
+                          1,
+                          1};
+
+int Replay(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  long long id = 0;
+  if (!ParseJobId(args.positional[0], &id)) {
+    std::cerr << "gearloop replay: '" << args.positional[0] << "' is not a job id\n";
+    return kExitUsage;
+  }
+  json changes = json::object();
+  std::string error;
+  if (args.Has("--options")) {
+    json options;
+    if (!ReadJsonFile(args.Value("--options"), &options, &error)) return InputError(error);
+    if (!options.is_object()) return InputError(args.Value("--options") + ": options must be a JSON object");
+    changes["options"] = options;
+  }
+  auto set = args.values.find("--set");
+  if (set != args.values.end()) {
+    if (!changes.contains("options")) changes["options"] = json::object();
+    for (const std::string& assignment : set->second) {
+      const size_t eq = assignment.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        std::cerr << "gearloop replay: --set takes NAME=VALUE, got '" << assignment << "'\n";
+        return kExitUsage;
+      }
+      const std::string text = assignment.substr(eq + 1);
+      json value = json::parse(text, nullptr, /*allow_exceptions=*/false);
+      if (value.is_discarded()) value = text;
+      changes["options"][assignment.substr(0, eq)] = value;
+    }
+  }
+  if (args.Has("--target")) {
+    // The grid shape of the stored job decides how the CSV is read.
+    const ApiResponse parent = client->Get("/api/v1/corrections/" + std::to_string(id));
+    const int failure = CheckAnswer(parent);
+    if (failure >= 0) return failure;
+    int rows = 5;
+    int columns = 9;
+    GridShape(parent.body.value("request", json::object()), &rows, &columns);
+    json target;
+    if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error)) return InputError(error);
+    changes["target"] = target;
+  }
+  return SendCorrection(client, "/api/v1/corrections/" + std::to_string(id) + "/replay", changes, global);
+}
+
+const CommandSpec kBatch{
+    "batch",
+    "usage: gearloop batch REQUEST.json FOLDER [options]\n\n"
+    "Sends every measurement file in FOLDER (*.csv and *.json, in name order) as one batch of\n"
+    "corrections with the setup of REQUEST.json (POST /api/v1/batches), shows a progress bar\n"
+    "while the server works (GET /api/v1/batches/ID), then a summary table per file.\n\n"
+    "options:\n"
+    "  --target FILE     the same target for every item (else REQUEST.json's)\n"
+    "  --options FILE    solver options merged over REQUEST.json's\n"
+    "  --no-wait         print the batch id and return at once\n"
+    "  --poll-ms N       progress polling interval (default 250)\n\n"
+    "Exit 0 all items converged, 5 some failed or did not converge, 4 a file is invalid\n"
+    "(nothing is sent then).\n",
+    {"--target", "--options", "--poll-ms", "--settings-from"},
+    {"--no-wait"},
+    2,
+    2};
+
+void DrawProgress(int done, int failed, int total, bool final_line) {
+  const int width = 30;
+  const int finished = done + failed;
+  const int filled = total > 0 ? finished * width / total : width;
+  std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, '.') << "] " << finished << "/"
+            << total << " done";
+  if (failed > 0) std::cerr << ", " << failed << " failed";
+  std::cerr << (final_line ? "\n" : "   ") << std::flush;
+}
+
+int Batch(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  const std::string folder = args.positional[1];
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return InputError(folder + ": not a folder");
+  std::vector<std::string> files;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string path = entry.path().string();
+    if (HasExtension(path, ".csv") || HasExtension(path, ".json")) files.push_back(path);
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) return InputError(folder + ": no *.csv or *.json measurement files");
+
+  json items = json::array();
+  for (const std::string& file : files) {
+    json request;
+    const int built = BuildCorrectionRequest(args.positional[0], file, args, &request);
+    if (built >= 0) return built;
+    items.push_back(request);
+  }
+  const ApiResponse created = client->Post("/api/v1/batches", {{"items", items}});
+  int failure = CheckAnswer(created);
+  if (failure >= 0) return failure;
+  const std::string batch_id = Text(created.body["id"]);
+  if (args.Has("--no-wait")) {
+    if (global.json) {
+      PrintJson(created.body);
+    } else {
+      std::cout << "batch " << batch_id << " accepted with " << files.size() << " items\n";
+    }
+    return kExitOk;
+  }
+  long long poll_ms = 250;
+  if (args.Has("--poll-ms") && !ParseCount(args.Value("--poll-ms"), 10, 60000, &poll_ms)) {
+    std::cerr << "gearloop batch: --poll-ms takes 10..60000\n";
+    return kExitUsage;
+  }
+  const bool progress = !global.json && isatty(STDERR_FILENO);
+  ApiResponse state;
+  while (true) {
+    state = client->Get("/api/v1/batches/" + batch_id);
+    failure = CheckAnswer(state);
+    if (failure >= 0) return failure;
+    const int total = state.body.value("total", 0);
+    const int done = state.body.value("done", 0);
+    const int failed = state.body.value("failed", 0);
+    const bool finished = state.body.value("status", "") != "running";
+    if (progress) DrawProgress(done, failed, total, finished);
+    if (finished) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
+  }
+  // One row per file: its job's outcome or the reason the server refused it.
+  json rows = json::array();
+  bool all_good = true;
+  for (const json& item : state.body.value("items", json::array())) {
+    const int index = item.value("index", -1);
+    json row = {{"file", index >= 0 && index < static_cast<int>(files.size()) ? files[index] : "?"},
+                {"state", item.value("state", "")}};
+    if (item.contains("job_id")) {
+      row["job_id"] = item["job_id"];
+      const ApiResponse job = client->Get("/api/v1/corrections/" + Text(item["job_id"]));
+      if (job.ok() && job.body.is_object()) {
+        const json result = job.body.value("result", json::object());
+        row["status"] = result.value("status", "");
+        row["initial_rms_um"] = result.value("initial_rms_um", json());
+        row["residual_rms_um"] = result.value("residual_rms_um", json());
+        row["residual_max_um"] = result.value("residual_max_um", json());
+        if (row["status"] != "converged") all_good = false;
+      }
+    } else {
+      all_good = false;
+      if (item.contains("error")) row["error"] = item["error"];
+    }
+    rows.push_back(row);
+  }
+  if (global.json) {
+    PrintJson({{"batch", state.body}, {"summary", rows}});
+  } else {
+    std::cout << "batch " << batch_id << ": " << Member(state.body, "done") << " done, "
+              << Member(state.body, "failed") << " failed of " << Member(state.body, "total") << "\n";
+    std::cout << std::left << std::setw(28) << "file" << std::setw(6) << "job" << std::setw(15) << "status"
+              << std::right << std::setw(11) << "before um" << std::setw(11) << "rms um" << std::setw(11)
+              << "max um" << "\n";
+    for (const json& row : rows) {
+      std::string file = fs::path(row["file"].get<std::string>()).filename().string();
+      if (file.size() > 27) file = file.substr(0, 24) + "...";
+      std::cout << std::left << std::setw(28) << file << std::setw(6) << Member(row, "job_id");
+      if (row.contains("error")) {
+        std::cout << "failed: " << Member(row["error"], "code") << " at " << Member(row["error"], "field") << ": "
+                  << Member(row["error"], "message") << "\n";
+        continue;
+      }
+      std::cout << std::setw(15) << Member(row, "status") << std::right << std::setw(11)
+                << Fixed(row.value("initial_rms_um", json())) << std::setw(11)
+                << Fixed(row.value("residual_rms_um", json())) << std::setw(11)
+                << Fixed(row.value("residual_max_um", json())) << "\n";
+    }
+  }
+  return all_good ? kExitOk : kExitNotConverged;
+}
+
+const CommandSpec kSimulate{
+    "simulate",
+    "usage: gearloop simulate SCENARIO.json [--csv FILE] [--seed N] [--noise UM]\n\n"
+    "Simulates the measuring machine (POST /api/v1/simulations/measurement): the flank a machine\n"
+    "with hidden errors grinds from the commanded settings, as the CMM reports it. SCENARIO.json\n"
+    "holds the setup (gear, wheel, machine, grid, flank), settings, hidden_errors or\n"
+    "random_hidden_errors, noise_um, seed, missing_probability, ...\n\n"
+    "options:\n"
+    "  --csv FILE     write the simulated measurement as a CSV grid (input for `submit`)\n"
+    "  --seed N       override the seed\n"
+    "  --noise UM     override noise_um\n",
+    {"--csv", "--seed", "--noise"},
+    {},
+    1,
+    1};
+
+int Simulate(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  json scenario;
+  std::string error;
+  if (!ReadJsonFile(args.positional[0], &scenario, &error)) return InputError(error);
+  if (!scenario.is_object()) return InputError(args.positional[0] + ": the scenario must be a JSON object");
+  if (args.Has("--seed")) {
+    long long seed = 0;
+    if (!ParseCount(args.Value("--seed"), 0, (1LL << 53), &seed)) {
+      std::cerr << "gearloop simulate: --seed takes a non-negative integer\n";
+      return kExitUsage;
+    }
+    scenario["seed"] = seed;
+  }
+  if (args.Has("--noise")) {
+    char* end = nullptr;
+    const std::string text = args.Value("--noise");
+    const double noise = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || !(noise >= 0.0)) {
+      std::cerr << "gearloop simulate: --noise takes a non-negative number of um\n";
+      return kExitUsage;
+    }
+    scenario["noise_um"] = noise;
+  }
+  const ApiResponse answer = client->Post("/api/v1/simulations/measurement", scenario);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  json grid;
+  if (answer.body.contains("measurement") && answer.body["measurement"].is_object()) {
+    grid = answer.body["measurement"].value("deviations_um", json());
+  }
+  if (args.Has("--csv")) {
+    CsvGrid csv;
+    if (!JsonToCsvGrid(grid, &csv)) {
+      std::cerr << "gearloop simulate: the answer holds no measurement grid\n";
+      return kExitTransport;
+    }
+    if (!WriteTextFile(args.Value("--csv"), FormatCsvGrid(csv, true), &error)) return InputError(error);
+  }
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    PrintGrid("simulated measurement", grid);
+    if (answer.body.contains("missing") && answer.body["missing"].is_array()) {
+      std::cout << answer.body["missing"].size() << " missing points, ";
+    }
+    if (answer.body.contains("outliers") && answer.body["outliers"].is_array()) {
+      std::cout << answer.body["outliers"].size() << " outliers";
+    }
+    std::cout << "\n";
+  }
+  return kExitOk;
+}
+
+const CommandSpec kClosedLoop{
+    "closed-loop",
+    "usage: gearloop closed-loop SCENARIO.json [--corrections N] [--store]\n\n"
+    "Runs a simulated closed loop on the server (POST /api/v1/simulations/closed-loop): grind\n"
+    "with hidden machine errors, measure, correct, grind again, N times; prints the true and\n"
+    "measured deviation of each part. SCENARIO.json: as for `simulate`, plus target, options.\n\n"
+    "options:\n"
+    "  --corrections N   number of corrections (1..20)\n"
+    "  --store           keep each correction as a job (linked revision after revision)\n",
+    {"--corrections"},
+    {"--store"},
+    1,
+    1};
+
+int ClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+  json scenario;
+  std::string error;
+  if (!ReadJsonFile(args.positional[0], &scenario, &error)) return InputError(error);
+  if (!scenario.is_object()) return InputError(args.positional[0] + ": the scenario must be a JSON object");
+  if (args.Has("--corrections")) {
+    long long n = 0;
+    if (!ParseCount(args.Value("--corrections"), 1, 1000, &n)) {
+      std::cerr << "gearloop closed-loop: --corrections takes a positive integer\n";
+      return kExitUsage;
+    }
+    scenario["corrections"] = n;
+  }
+  if (args.Has("--store")) scenario["store"] = true;
+  const ApiResponse answer = client->Post("/api/v1/simulations/closed-loop", scenario);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    std::cout << std::setw(5) << "part" << std::setw(12) << "true rms" << std::setw(12) << "true max" << std::setw(14)
+              << "measured rms" << std::setw(15) << "correction" << std::setw(6) << "job" << "\n";
+    for (const json& it : answer.body.value("iterations", json::array())) {
+      std::string correction = "-";
+      if (it.contains("correction") && it["correction"].is_object()) {
+        correction = it["correction"].value("status", "yes");
+      }
+      std::cout << std::setw(5) << Member(it, "part") << std::setw(12) << Fixed(it.value("true_rms_um", json()))
+                << std::setw(12) << Fixed(it.value("true_max_um", json())) << std::setw(14)
+                << Fixed(it.value("measured_rms_um", json())) << std::setw(15) << correction << std::setw(6)
+                << Member(it, "job_id") << "\n";
+    }
+    std::cout << "(um) " << Member(answer.body, "message") << "\n";
+  }
+  const json completed = answer.body.value("completed", json(true));
+  return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged : kExitOk;
+}
+
+const CommandSpec kReport{"report",
+                          "usage: gearloop report ID [-o FILE]\n\n"
+                          "Writes a self-contained printable HTML report of job ID (measured, target and\n"
+                          "predicted residual topographies, axis corrections over the roll range, the\n"
+                          "convergence along its lineage) to stdout or FILE. No network needed to view it.\n",
+                          {"--output"},
+                          {},
+                          1,
+                          1};
+
+int Report(const ParsedArgs& args, ApiClient* client, const GlobalOptions&) {
+  long long id = 0;
+  if (!ParseJobId(args.positional[0], &id)) {
+    std::cerr << "gearloop report: '" << args.positional[0] << "' is not a job id\n";
+    return kExitUsage;
+  }
+  const ApiResponse job = client->Get("/api/v1/corrections/" + std::to_string(id));
+  int failure = CheckAnswer(job);
+  if (failure >= 0) return failure;
+  // The lineage gives the convergence plot; an older server without the route still gets a
+  // report, with this job alone.
+  json lineage = json::array({job.body});
+  const ApiResponse chain = client->Get("/api/v1/corrections/" + std::to_string(id) + "/lineage");
+  if (chain.ok() && chain.body.is_object() && chain.body.contains("jobs")) lineage = chain.body["jobs"];
+  std::string html;
+  std::string error;
+  if (!RenderJobReport(job.body, lineage, &html, &error)) {
+    std::cerr << "gearloop report: " << error << "\n";
+    return kExitInput;
+  }
+  if (args.Has("--output")) {
+    if (!WriteTextFile(args.Value("--output"), html, &error)) return InputError(error);
+    std::cerr << "wrote " << args.Value("--output") << "\n";
+  } else {
+    std::cout << html;
+  }
+  return kExitOk;
+}
+
+struct Command {
+  const CommandSpec* spec;
+  int (*run)(const ParsedArgs&, ApiClient*, const GlobalOptions&);
+  const char* summary;
+};
+
+const std::vector<Command>& Commands() {
+  static const std::vector<Command> commands = {
+      {&kSubmit, Submit, "compute and store a correction from a request and a measurement file"},
+      {&kList, List, "list stored jobs, newest first"},
+      {&kShow, Show, "show one job, or export one of its grids as CSV"},
+      {&kReplay, Replay, "re-run a stored measurement with changed options or target"},
+      {&kBatch, Batch, "correct every measurement file of a folder as one batch"},
+      {&kSimulate, Simulate, "simulate a CMM measurement of a machine with hidden errors"},
+      {&kClosedLoop, ClosedLoop, "simulate grind-measure-correct loops"},
+      {&kReport, Report, "write a printable HTML report of a job"},
+      {&kHealth, Health, "check that the server is up"},
+  };
+  return commands;
+}
+
+}  // namespace
+
+std::string MainHelp() {
+  std::ostringstream out;
+  out << "usage: gearloop [--server URL] [--token T] [--json] [--timeout S] COMMAND [ARGS]\n\n"
+         "Command-line client of the gearloop server: closed-loop correction of gear grinding.\n\n"
+         "commands:\n";
+  for (const Command& c : Commands()) out << "  " << std::left << std::setw(13) << c.spec->name << c.summary << "\n";
+  out << "\nglobal options (anywhere on the line):\n"
+         "  --server URL   server base URL (default $GEARLOOP_SERVER or http://127.0.0.1:8080)\n"
+         "  --token T      send \"Authorization: Bearer T\" (default $GEARLOOP_TOKEN)\n"
+         "  --json         print the server's JSON instead of tables\n"
+         "  --timeout S    seconds for connecting and each read (default 120)\n"
+         "  --help         this text; `gearloop COMMAND --help` for a command\n"
+         "  --version      the client's version\n\n"
+         "exit codes:\n"
+         "  0  done, and the outcome is good\n"
+         "  1  wrong arguments or options\n"
+         "  2  server not reachable, timed out, answered 5xx or not the API\n"
+         "  3  the server refused the request (4xx; the message names the field)\n"
+         "  4  a local file could not be read or is invalid (the message names line and column)\n"
+         "  5  done, but a correction did not converge or batch items failed\n\n"
+         "files: CSV grids and JSON measurement files are described in clients/FORMATS.md.\n";
+  return out.str();
+}
+
+int RunCommand(const std::string& name, const std::vector<std::string>& args, const GlobalOptions& global) {
+  for (const Command& command : Commands()) {
+    if (name != command.spec->name) continue;
+    // "-o" is the short form of --output (report).
+    std::vector<std::string> expanded;
+    for (const std::string& arg : args) {
+      if (arg == "--help" || arg == "-h") {
+        std::cout << command.spec->usage;
+        return kExitOk;
+      }
+      expanded.push_back(arg == "-o" ? "--output" : arg);
+    }
+    ParsedArgs parsed;
+    if (!ParseArgs(*command.spec, expanded, &parsed)) return kExitUsage;
+    ApiClient client(global.server, global.token, global.timeout_seconds);
+    std::string error;
+    if (!client.IsValid(&error)) {
+      std::cerr << "gearloop: " << error << "\n";
+      return kExitUsage;
+    }
+    return command.run(parsed, &client, global);
+  }
+  std::cerr << "gearloop: unknown command '" << name << "'\nTry 'gearloop --help'.\n";
+  return kExitUsage;
+}
+
+}  // namespace gearloop

@@ -1,0 +1,207 @@
+// clients/web/app.js: the dashboard. Lists the job history (GET /api/v1/corrections), shows the
+// selected job (#job=ID in the address, so a view can be bookmarked) with its topographies, axis
+// corrections and the convergence of its lineage, and can run a simulated closed loop on the
+// job's setup. Everything goes through the same HTTP API as the other clients.
+"use strict";
+
+(function () {
+  const P = GearloopPlots;
+  const PAGE = 25;
+  const state = { offset: 0, total: 0, selected: null };
+  const $ = (id) => document.getElementById(id);
+
+  function token() {
+    try {
+      return localStorage.getItem("gearloop.token") || "";
+    } catch (e) {
+      return "";
+    }
+  }
+
+  // fetch + JSON + the API's error body turned into an Error with code and field.
+  async function api(method, path, body) {
+    const headers = { Accept: "application/json" };
+    if (token()) headers.Authorization = "Bearer " + token();
+    if (body !== undefined) headers["Content-Type"] = "application/json";
+    const res = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+    const data = await res.json().catch(() => null);
+    if (!res.ok) {
+      const e = (data && data.error) || {};
+      const err = new Error(res.status + " " + (e.code || "error") + (e.field ? " at " + e.field : "") + ": " + (e.message || res.statusText));
+      err.status = res.status;
+      throw err;
+    }
+    return data;
+  }
+
+  function message(text, cls) {
+    return P.html("p", { class: cls || "error", text });
+  }
+
+  async function loadHealth() {
+    try {
+      const h = await api("GET", "/healthz");
+      $("health").textContent = "server " + h.status + " \u00b7 " + h.version;
+      $("health").className = "health ok";
+    } catch (e) {
+      $("health").textContent = "server unreachable";
+      $("health").className = "health bad";
+    }
+  }
+
+  async function loadJobs() {
+    const params = new URLSearchParams({ limit: PAGE, offset: state.offset });
+    if ($("filter-kind").value) params.set("kind", $("filter-kind").value);
+    if ($("filter-status").value) params.set("status", $("filter-status").value);
+    const body = $("jobs").querySelector("tbody");
+    try {
+      const page = await api("GET", "/api/v1/corrections?" + params.toString());
+      state.total = page.total;
+      body.textContent = "";
+      for (const job of page.jobs) {
+        const tr = P.html("tr", { "data-job-id": job.id, class: job.id === state.selected ? "selected" : "" }, [
+          P.html("td", { text: String(job.id) }),
+          P.html("td", { text: job.kind }),
+          P.html("td", { class: "status-" + job.status, text: job.status }),
+          P.html("td", { class: "num", text: P.fmt(job.residual_rms_um, 3) }),
+          P.html("td", { text: (job.created_utc || "").replace("T", " ").replace("Z", "") }),
+        ]);
+        tr.addEventListener("click", () => {
+          window.location.hash = "job=" + job.id;
+        });
+        body.appendChild(tr);
+      }
+      if (!page.jobs.length) body.appendChild(P.html("tr", {}, [P.html("td", { colspan: 5, text: "no jobs yet" })]));
+      const last = Math.min(state.offset + page.jobs.length, state.total);
+      $("page-info").textContent = (page.jobs.length ? state.offset + 1 : 0) + "\u2013" + last + " of " + state.total;
+      $("newer").disabled = state.offset === 0;
+      $("older").disabled = last >= state.total;
+      state.newest = page.jobs.length ? page.jobs[0].id : null;
+    } catch (e) {
+      body.textContent = "";
+      body.appendChild(P.html("tr", {}, [P.html("td", { colspan: 5, class: "error", text: e.message })]));
+    }
+  }
+
+  // Full records of the job's lineage (oldest first), at most the last 20.
+  async function lineage(id) {
+    try {
+      const chain = (await api("GET", "/api/v1/corrections/" + id + "/lineage")).jobs || [];
+      return await Promise.all(chain.slice(-20).map((j) => api("GET", "/api/v1/corrections/" + j.id)));
+    } catch (e) {
+      return [];
+    }
+  }
+
+  async function showJob(id) {
+    state.selected = id;
+    for (const tr of $("jobs").querySelectorAll("tbody tr")) {
+      tr.classList.toggle("selected", Number(tr.getAttribute("data-job-id")) === id);
+    }
+    const detail = $("detail");
+    detail.textContent = "";
+    detail.appendChild(message("Loading job " + id + "\u2026", "loading"));
+    try {
+      const job = await api("GET", "/api/v1/corrections/" + id);
+      const chain = await lineage(id);
+      detail.textContent = "";
+      const actions = P.html("div", { class: "actions" }, [
+        P.html("a", { href: "/jobs/" + id + "/report", target: "_blank", class: "button", text: "Printable report" }),
+      ]);
+      const simulate = P.html("button", { type: "button", class: "button", text: "Simulate a closed loop on this setup" });
+      actions.appendChild(simulate);
+      detail.appendChild(actions);
+      detail.appendChild(P.renderJob(job, chain.length ? chain : [job]));
+      const sim = P.html("section", { class: "simulation" });
+      detail.appendChild(sim);
+      simulate.addEventListener("click", () => runClosedLoop(job, sim, simulate));
+      document.body.setAttribute("data-job-shown", String(id));
+    } catch (e) {
+      detail.textContent = "";
+      detail.appendChild(message("Cannot load job " + id + ": " + e.message));
+    }
+  }
+
+  // A simulated closed loop with the job's gear, machine, grid, target and options: hidden
+  // machine errors drawn at random (fixed seed), probe noise 0.2 um, three corrections.
+  async function runClosedLoop(job, box, button) {
+    const req = job.request || {};
+    const scenario = {};
+    for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options"]) if (req[k] !== undefined) scenario[k] = req[k];
+    scenario.random_hidden_errors = { seed: 7 };
+    scenario.noise_um = 0.2;
+    scenario.seed = 11;
+    scenario.corrections = 3;
+    button.disabled = true;
+    box.textContent = "";
+    box.appendChild(message("Simulating grind \u2192 measure \u2192 correct \u2026", "loading"));
+    try {
+      const run = await api("POST", "/api/v1/simulations/closed-loop", scenario);
+      const its = run.iterations || [];
+      const x = its.map((it, i) => (typeof it.part === "number" ? it.part : i + 1));
+      box.textContent = "";
+      box.appendChild(P.html("h3", { text: "Simulated closed loop (hidden machine errors, seed 7)" }));
+      const chart = P.lineChart(
+        [
+          { name: "true rms", x, y: its.map((it) => it.true_rms_um), markers: true },
+          { name: "measured rms", x, y: its.map((it) => it.measured_rms_um), markers: true, dashed: true },
+          { name: "true max", x, y: its.map((it) => it.true_max_um), dashed: true },
+        ],
+        { title: "deviation from target per ground part", xLabel: "part", yLabel: "\u00b5m", xTicks: "integer", width: 560 }
+      );
+      chart.classList.add("closed-loop");
+      box.appendChild(chart);
+      if (run.message) box.appendChild(message(run.message, "note"));
+    } catch (e) {
+      box.textContent = "";
+      box.appendChild(message("Simulation refused: " + e.message));
+    } finally {
+      button.disabled = false;
+    }
+  }
+
+  // #job=ID shows that job; without one the newest job is shown.
+  function route() {
+    const m = /job=(\d+)/.exec(window.location.hash);
+    if (m) showJob(Number(m[1]));
+    else if (state.newest !== null && state.newest !== undefined) showJob(state.newest);
+  }
+
+  function init() {
+    $("token").value = token();
+    $("token").addEventListener("change", () => {
+      try {
+        localStorage.setItem("gearloop.token", $("token").value);
+      } catch (e) {
+        /* private mode: the token lives for this page only */
+      }
+      loadJobs();
+    });
+    $("refresh").addEventListener("click", loadJobs);
+    $("filter-kind").addEventListener("change", () => {
+      state.offset = 0;
+      loadJobs();
+    });
+    $("filter-status").addEventListener("change", () => {
+      state.offset = 0;
+      loadJobs();
+    });
+    $("newer").addEventListener("click", () => {
+      state.offset = Math.max(0, state.offset - PAGE);
+      loadJobs();
+    });
+    $("older").addEventListener("click", () => {
+      state.offset += PAGE;
+      loadJobs();
+    });
+    window.addEventListener("hashchange", route);
+    loadHealth();
+    loadJobs().then(route);
+    // The history follows new jobs from the other clients.
+    setInterval(() => {
+      if (!document.hidden) loadJobs();
+    }, 15000);
+  }
+
+  init();
+})();

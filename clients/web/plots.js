@@ -1,0 +1,413 @@
+// clients/web/plots.js: SVG plots of a correction job, shared by the dashboard (app.js) and the
+// printable report (report.js, also inlined by `gearloop report`). No framework, no network.
+//
+//   const view = GearloopPlots.renderJob(job, lineage);   // a <section> element
+//   document.body.appendChild(view);
+//
+// Grids follow the API (api/openapi.yaml): an array of rows, row 0 at the root side, each row
+// from x < 0 to x > 0, in um, positive = material left on, null = no value. They are drawn as a
+// person looks at a flank chart: profile vertical with the tip at the top, lead horizontal.
+"use strict";
+
+(function (global) {
+  const SVG_NS = "http://www.w3.org/2000/svg";
+
+  // Creates an SVG element with attributes and children (strings become text nodes).
+  function svg(tag, attrs, children) {
+    const node = document.createElementNS(SVG_NS, tag);
+    for (const [k, v] of Object.entries(attrs || {})) node.setAttribute(k, String(v));
+    for (const child of children || []) {
+      node.appendChild(typeof child === "string" ? document.createTextNode(child) : child);
+    }
+    return node;
+  }
+
+  // Creates an HTML element the same way.
+  function html(tag, attrs, children) {
+    const node = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (k === "text") node.textContent = v;
+      else node.setAttribute(k, String(v));
+    }
+    for (const child of children || []) {
+      if (child === null || child === undefined) continue;
+      node.appendChild(typeof child === "string" ? document.createTextNode(child) : child);
+    }
+    return node;
+  }
+
+  function isNum(v) {
+    return typeof v === "number" && Number.isFinite(v);
+  }
+
+  function fmt(v, digits) {
+    return isNum(v) ? v.toFixed(digits === undefined ? 2 : digits) : "\u2013";
+  }
+
+  // --- Colours: a diverging scale, blue = material removed (< 0), red = material left on (> 0),
+  // white = on the designed flank. Symmetric about 0 so the sign reads at a glance.
+  function colour(v, maxAbs) {
+    if (!isNum(v)) return "#d9d9d9";
+    const t = Math.max(-1, Math.min(1, maxAbs > 0 ? v / maxAbs : 0));
+    const blue = [33, 102, 172];
+    const red = [178, 24, 43];
+    const end = t < 0 ? blue : red;
+    const a = Math.abs(t);
+    const c = [0, 1, 2].map((i) => Math.round(255 + (end[i] - 255) * a));
+    return "rgb(" + c.join(",") + ")";
+  }
+
+  // Black text on light cells, white on dark ones (the numbers must stay readable).
+  function textColour(v, maxAbs) {
+    if (!isNum(v)) return "#555";
+    return Math.abs(v) / (maxAbs || 1) > 0.6 ? "#fff" : "#111";
+  }
+
+  // A "nice" step for about `count` ticks over [lo, hi].
+  function niceTicks(lo, hi, count) {
+    if (!(hi > lo)) {
+      const pad = Math.abs(lo) > 0 ? Math.abs(lo) * 0.1 : 1;
+      lo -= pad;
+      hi += pad;
+    }
+    const raw = (hi - lo) / Math.max(1, count);
+    const mag = Math.pow(10, Math.floor(Math.log10(raw)));
+    const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => s >= raw) || 10 * mag;
+    const ticks = [];
+    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) {
+      ticks.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+    }
+    return { lo: Math.min(lo, ticks[0]), hi: Math.max(hi, ticks[ticks.length - 1]), ticks, step };
+  }
+
+  function tickLabel(v, step) {
+    const digits = Math.max(0, Math.min(6, -Math.floor(Math.log10(step) + 1e-9)));
+    return v.toFixed(digits);
+  }
+
+  function gridMaxAbs(grids) {
+    let m = 0;
+    for (const g of grids) {
+      for (const row of g || []) for (const v of row || []) if (isNum(v)) m = Math.max(m, Math.abs(v));
+    }
+    return m > 0 ? m : 1;
+  }
+
+  // A topography as a colour map with the value written in each cell.
+  //   opts.title, opts.maxAbs (shared scale), opts.subtitle
+  function heatmap(grid, opts) {
+    opts = opts || {};
+    const rows = (grid || []).length;
+    const cols = rows ? grid[0].length : 0;
+    const cw = 54;
+    const ch = 30;
+    const left = 58;
+    const top = 34;
+    const barW = 14;
+    const width = left + cols * cw + 70;
+    const height = top + rows * ch + 46;
+    const maxAbs = opts.maxAbs || gridMaxAbs([grid]);
+    const root = svg("svg", {
+      class: "heatmap",
+      viewBox: "0 0 " + width + " " + height,
+      width: width,
+      height: height,
+      role: "img",
+      "aria-label": (opts.title || "topography") + " in micrometres",
+    });
+    root.appendChild(svg("text", { x: left, y: 16, class: "plot-title" }, [opts.title || ""]));
+    if (opts.subtitle) {
+      root.appendChild(svg("text", { x: left, y: 29, class: "plot-subtitle" }, [opts.subtitle]));
+    }
+    for (let r = 0; r < rows; ++r) {
+      // Row rows-1 (tip) at the top.
+      const y = top + (rows - 1 - r) * ch;
+      const label = r === rows - 1 ? "tip " + (r + 1) : r === 0 ? "root 1" : String(r + 1);
+      root.appendChild(svg("text", { x: left - 6, y: y + ch / 2 + 4, class: "axis-label", "text-anchor": "end" }, [label]));
+      for (let c = 0; c < cols; ++c) {
+        const v = grid[r][c];
+        const x = left + c * cw;
+        const cell = svg("rect", {
+          x: x,
+          y: y,
+          width: cw - 1,
+          height: ch - 1,
+          fill: colour(v, maxAbs),
+          class: isNum(v) ? "cell" : "cell missing",
+          "data-row": r,
+          "data-column": c,
+        });
+        cell.appendChild(svg("title", {}, ["row " + (r + 1) + ", L" + (c + 1) + ": " + (isNum(v) ? v.toFixed(3) + " \u00b5m" : "no value")]));
+        root.appendChild(cell);
+        root.appendChild(
+          svg("text", { x: x + cw / 2, y: y + ch / 2 + 4, class: "cell-value", "text-anchor": "middle", fill: textColour(v, maxAbs) }, [
+            fmt(v, 2),
+          ])
+        );
+      }
+    }
+    for (let c = 0; c < cols; ++c) {
+      root.appendChild(
+        svg("text", { x: left + c * cw + cw / 2, y: top + rows * ch + 14, class: "axis-label", "text-anchor": "middle" }, ["L" + (c + 1)])
+      );
+    }
+    root.appendChild(
+      svg("text", { x: left + (cols * cw) / 2, y: top + rows * ch + 32, class: "axis-title", "text-anchor": "middle" }, [
+        "lead  (x < 0  \u2192  x > 0)",
+      ])
+    );
+    root.appendChild(
+      svg("text", { x: 12, y: top + (rows * ch) / 2, class: "axis-title", "text-anchor": "middle", transform: "rotate(-90 12 " + (top + (rows * ch) / 2) + ")" }, [
+        "profile",
+      ])
+    );
+    // Colour bar with ticks in um.
+    const bx = left + cols * cw + 12;
+    const steps = 40;
+    const bh = rows * ch;
+    for (let i = 0; i < steps; ++i) {
+      const v = maxAbs - ((i + 0.5) * 2 * maxAbs) / steps;
+      root.appendChild(svg("rect", { x: bx, y: top + (i * bh) / steps, width: barW, height: bh / steps + 0.5, fill: colour(v, maxAbs) }));
+    }
+    root.appendChild(svg("rect", { x: bx, y: top, width: barW, height: bh, fill: "none", stroke: "#888" }));
+    const scale = niceTicks(-maxAbs, maxAbs, 4);
+    for (const t of scale.ticks) {
+      if (Math.abs(t) > maxAbs * 1.0001) continue;
+      const ty = top + ((maxAbs - t) / (2 * maxAbs)) * bh;
+      root.appendChild(svg("line", { x1: bx + barW, x2: bx + barW + 4, y1: ty, y2: ty, stroke: "#444" }));
+      root.appendChild(svg("text", { x: bx + barW + 6, y: ty + 4, class: "tick-label" }, [tickLabel(t, scale.step)]));
+    }
+    root.appendChild(svg("text", { x: bx, y: top - 6, class: "tick-label" }, ["\u00b5m"]));
+    return root;
+  }
+
+  const PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b"];
+
+  // A line chart. series: [{name, x: [...], y: [...], colour?, dashed?, markers?}]
+  //   opts.title, opts.xLabel, opts.yLabel, opts.width, opts.height, opts.xTicks (integers only)
+  function lineChart(series, opts) {
+    opts = opts || {};
+    const width = opts.width || 460;
+    const height = opts.height || 260;
+    const m = { left: 62, right: 14, top: 30, bottom: 46 };
+    const pw = width - m.left - m.right;
+    const ph = height - m.top - m.bottom;
+    let xs = [];
+    let ys = [];
+    for (const s of series) {
+      xs = xs.concat(s.x.filter(isNum));
+      ys = ys.concat(s.y.filter(isNum));
+    }
+    const root = svg("svg", { class: "chart", viewBox: "0 0 " + width + " " + height, width: width, height: height, role: "img", "aria-label": opts.title || "chart" });
+    root.appendChild(svg("text", { x: m.left, y: 16, class: "plot-title" }, [opts.title || ""]));
+    if (!xs.length || !ys.length) {
+      root.appendChild(svg("text", { x: width / 2, y: height / 2, "text-anchor": "middle", class: "axis-label" }, ["no data"]));
+      return root;
+    }
+    const xr = niceTicks(Math.min(...xs), Math.max(...xs), 5);
+    const yr = niceTicks(Math.min(0, ...ys), Math.max(0, ...ys), 5);
+    if (opts.xTicks === "integer") {
+      xr.ticks = xr.ticks.filter((t) => Math.abs(t - Math.round(t)) < 1e-9);
+      xr.step = Math.max(1, xr.step);
+    }
+    const X = (v) => m.left + ((v - xr.lo) / (xr.hi - xr.lo || 1)) * pw;
+    const Y = (v) => m.top + ph - ((v - yr.lo) / (yr.hi - yr.lo || 1)) * ph;
+    for (const t of yr.ticks) {
+      root.appendChild(svg("line", { x1: m.left, x2: m.left + pw, y1: Y(t), y2: Y(t), class: t === 0 ? "grid-zero" : "grid-line" }));
+      root.appendChild(svg("text", { x: m.left - 6, y: Y(t) + 4, "text-anchor": "end", class: "tick-label" }, [tickLabel(t, yr.step)]));
+    }
+    for (const t of xr.ticks) {
+      root.appendChild(svg("line", { x1: X(t), x2: X(t), y1: m.top + ph, y2: m.top + ph + 4, stroke: "#444" }));
+      root.appendChild(svg("text", { x: X(t), y: m.top + ph + 16, "text-anchor": "middle", class: "tick-label" }, [tickLabel(t, xr.step)]));
+    }
+    root.appendChild(svg("rect", { x: m.left, y: m.top, width: pw, height: ph, fill: "none", stroke: "#888" }));
+    root.appendChild(svg("text", { x: m.left + pw / 2, y: height - 8, "text-anchor": "middle", class: "axis-title" }, [opts.xLabel || ""]));
+    const ym = m.top + ph / 2;
+    root.appendChild(svg("text", { x: 14, y: ym, "text-anchor": "middle", class: "axis-title", transform: "rotate(-90 14 " + ym + ")" }, [opts.yLabel || ""]));
+    let lx = m.left + 8;
+    series.forEach((s, i) => {
+      const col = s.colour || PALETTE[i % PALETTE.length];
+      const pts = [];
+      for (let k = 0; k < s.x.length; ++k) if (isNum(s.x[k]) && isNum(s.y[k])) pts.push([X(s.x[k]), Y(s.y[k])]);
+      if (pts.length) {
+        root.appendChild(
+          svg("polyline", {
+            points: pts.map((p) => p[0].toFixed(1) + "," + p[1].toFixed(1)).join(" "),
+            fill: "none",
+            stroke: col,
+            "stroke-width": 2,
+            "stroke-dasharray": s.dashed ? "5 4" : "none",
+            class: "series",
+            "data-name": s.name,
+          })
+        );
+        if (s.markers) for (const p of pts) root.appendChild(svg("circle", { cx: p[0], cy: p[1], r: 3.5, fill: col }));
+      }
+      // Legend along the top of the plot area.
+      root.appendChild(svg("line", { x1: lx, x2: lx + 16, y1: m.top + 10, y2: m.top + 10, stroke: col, "stroke-width": 2, "stroke-dasharray": s.dashed ? "5 4" : "none" }));
+      const label = svg("text", { x: lx + 20, y: m.top + 14, class: "legend" }, [s.name]);
+      root.appendChild(label);
+      lx += 28 + 7 * s.name.length;
+    });
+    return root;
+  }
+
+  // --- Job data -------------------------------------------------------------------------------
+
+  function measuredGrid(job) {
+    const result = job.result || {};
+    if (result.measured_um) return result.measured_um;
+    const m = (job.request || {}).measurement || {};
+    if (m.deviations_um) return m.deviations_um;
+    if (!Array.isArray(m.teeth) || !m.teeth.length) return null;
+    // The point-by-point mean of the teeth, as the server averages them.
+    return m.teeth[0].map((row, r) =>
+      row.map((_, c) => {
+        const vals = m.teeth.map((t) => t[r][c]).filter(isNum);
+        return vals.length ? vals.reduce((a, b) => a + b, 0) / vals.length : null;
+      })
+    );
+  }
+
+  // The designed topography: the server's grid when sent; the request's grid; for a target
+  // given as modifications, measured + predicted change - predicted residual; zero without one.
+  function targetGrid(job) {
+    const result = job.result || {};
+    if (result.target_um) return result.target_um;
+    const target = (job.request || {}).target;
+    if (target && target.deviations_um) return target.deviations_um;
+    const meas = measuredGrid(job);
+    const change = result.predicted_change_um;
+    const resid = result.predicted_residual_um;
+    if (!meas) return null;
+    if (!target) return meas.map((row) => row.map(() => 0));
+    if (!change || !resid) return null;
+    return meas.map((row, r) =>
+      row.map((v, c) => (isNum(v) && isNum(change[r][c]) && isNum(resid[r][c]) ? v + change[r][c] - resid[r][c] : null))
+    );
+  }
+
+  const AXES = ["X", "Y", "Z", "A", "B", "C"];
+
+  // The change of each axis motion over the roll range: sum_k delta_k * phi^k.
+  function axisCurves(delta, rollRangeDeg) {
+    const axes = (delta || {}).axes || {};
+    let lo = -10;
+    let hi = 10;
+    if (Array.isArray(rollRangeDeg) && isNum(rollRangeDeg[0]) && isNum(rollRangeDeg[1]) && rollRangeDeg[1] > rollRangeDeg[0]) {
+      lo = rollRangeDeg[0];
+      hi = rollRangeDeg[1];
+    }
+    const n = 60;
+    const degs = [];
+    for (let i = 0; i <= n; ++i) degs.push(lo + ((hi - lo) * i) / n);
+    const curve = (coeffs, scale) =>
+      degs.map((d) => {
+        const phi = (d * Math.PI) / 180;
+        let v = 0;
+        let p = 1;
+        for (const c of coeffs || []) {
+          v += c * p;
+          p *= phi;
+        }
+        return v * scale;
+      });
+    const linear = ["X", "Y", "Z"].map((a) => ({ name: a, x: degs, y: curve(axes[a], 1000) }));
+    const rotary = ["A", "B", "C"].map((a, i) => ({ name: a, x: degs, y: curve(axes[a], 1e6), colour: PALETTE[i + 3] }));
+    const box = html("div", { class: "chart-row" });
+    box.appendChild(lineChart(linear, { title: "linear axes: change X, Y, Z", xLabel: "roll angle \u03c6\u2081 [deg]", yLabel: "\u0394 [\u00b5m]" }));
+    box.appendChild(lineChart(rotary, { title: "rotary axes: change A, B, C", xLabel: "roll angle \u03c6\u2081 [deg]", yLabel: "\u0394 [\u00b5rad]" }));
+    return box;
+  }
+
+  // Residual along a chain of jobs (each ground with the settings of the one before it).
+  function convergence(lineage) {
+    const jobs = (lineage || []).slice().sort((a, b) => a.id - b.id);
+    const x = jobs.map((_, i) => i + 1);
+    const series = [
+      { name: "measured rms", x: x, y: jobs.map((j) => (j.result ? j.result.initial_rms_um : j.initial_rms_um)), markers: true },
+      { name: "predicted residual rms", x: x, y: jobs.map((j) => (j.result ? j.result.residual_rms_um : j.residual_rms_um)), markers: true, dashed: true },
+      { name: "best reachable", x: x, y: jobs.map((j) => (j.result ? j.result.best_reachable_rms_um : j.best_reachable_rms_um)), dashed: true },
+    ].filter((s) => s.y.some(isNum));
+    const chart = lineChart(series, {
+      title: "closed loop: deviation per correction (jobs " + jobs.map((j) => j.id).join(", ") + ")",
+      xLabel: "correction in the loop",
+      yLabel: "rms [\u00b5m]",
+      xTicks: "integer",
+      width: 560,
+    });
+    chart.classList.add("convergence");
+    return chart;
+  }
+
+  function summaryTable(job) {
+    const r = job.result || {};
+    const req = job.request || {};
+    const gear = req.gear || job.gear || {};
+    const rows = [
+      ["job", job.id + " (" + (job.kind || "correction") + ")"],
+      ["created", job.created_utc || "\u2013"],
+      ["gear", (gear.teeth || "?") + " teeth, m\u2099 " + (gear.normal_module_mm || "?") + " mm, \u03b1\u2099 " + fmt(gear.normal_pressure_angle_deg, 1) + "\u00b0, \u03b2 " + fmt(gear.helix_angle_deg, 1) + "\u00b0 " + (gear.hand || "")],
+      ["flank", req.flank || job.flank || "right"],
+      ["status", (r.status || job.status || "\u2013") + (r.message ? " \u2014 " + r.message : "")],
+      ["measured rms / max", fmt(r.initial_rms_um, 3) + " / " + fmt(r.initial_max_um, 3) + " \u00b5m"],
+      ["predicted residual rms / max", fmt(r.residual_rms_um, 3) + " / " + fmt(r.residual_max_um, 3) + " \u00b5m"],
+      ["best reachable rms", fmt(r.best_reachable_rms_um, 3) + " \u00b5m"],
+      ["solver, mode", (r.solver || "\u2013") + ", " + (r.mode || "\u2013")],
+      ["rank, condition", (r.rank === undefined ? "\u2013" : r.rank) + ", " + fmt(r.condition_number, 1)],
+      ["regularisation", r.regularisation ? r.regularisation.rule + " " + fmt(r.regularisation.level, 4) : "\u2013"],
+      ["iterations, time", (r.iterations === undefined ? "\u2013" : r.iterations) + ", " + fmt(r.elapsed_ms, 1) + " ms"],
+    ];
+    if (job.parent_job_id) rows.push(["replay of job", String(job.parent_job_id)]);
+    if (job.settings_source_job_id) rows.push(["ground with settings of job", String(job.settings_source_job_id)]);
+    const table = html("table", { class: "summary" });
+    for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));
+    return table;
+  }
+
+  function deltaTable(delta) {
+    const axes = (delta || {}).axes || {};
+    const table = html("table", { class: "delta" });
+    const head = html("tr", {}, [html("th", { text: "axis" })]);
+    for (let k = 0; k < 7; ++k) head.appendChild(html("th", { text: "\u00d7 \u03c6^" + k }));
+    table.appendChild(head);
+    for (const a of AXES) {
+      const tr = html("tr", {}, [html("th", { text: a + (a < "D" ? " [mm]" : " [rad]") })]);
+      for (let k = 0; k < 7; ++k) {
+        const v = (axes[a] || [])[k];
+        tr.appendChild(html("td", { text: isNum(v) ? v.toExponential(3) : "0" }));
+      }
+      table.appendChild(tr);
+    }
+    const w = (delta || {}).wheel || {};
+    const wheel = html("p", { class: "wheel-delta", text: "wheel: cone angle " + fmt(w.cone_angle_deg, 6) + "\u00b0, parabola " + (isNum(w.parabola_coefficient_per_mm) ? w.parabola_coefficient_per_mm.toExponential(3) : "0") + " /mm, vertex " + fmt(w.parabola_vertex_mm, 4) + " mm" });
+    return html("div", {}, [table, wheel]);
+  }
+
+  // The whole view of one job: summary, three topographies on one colour scale, the axis
+  // corrections and the convergence of its lineage.
+  function renderJob(job, lineage) {
+    const r = job.result || {};
+    const measured = measuredGrid(job);
+    const target = targetGrid(job);
+    const residual = r.predicted_residual_um || null;
+    const maxAbs = gridMaxAbs([measured, target, residual]);
+    const section = html("section", { class: "job-view", "data-job-id": job.id });
+    section.appendChild(html("h2", { text: "Job " + job.id }));
+    section.appendChild(summaryTable(job));
+    section.appendChild(html("h3", { text: "Topographies (\u00b5m, + = material left on; one colour scale)" }));
+    const maps = html("div", { class: "chart-row maps" });
+    if (measured) maps.appendChild(heatmap(measured, { title: "measured", maxAbs: maxAbs }));
+    if (target) maps.appendChild(heatmap(target, { title: "target", maxAbs: maxAbs }));
+    if (residual) maps.appendChild(heatmap(residual, { title: "predicted residual", maxAbs: maxAbs }));
+    section.appendChild(maps);
+    section.appendChild(html("h3", { text: "Axis corrections over the roll range" }));
+    section.appendChild(axisCurves(r.delta, r.roll_range_deg));
+    section.appendChild(deltaTable(r.delta));
+    section.appendChild(html("h3", { text: "Convergence" }));
+    section.appendChild(convergence(lineage && lineage.length ? lineage : [job]));
+    return section;
+  }
+
+  global.GearloopPlots = { heatmap, lineChart, axisCurves, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
+})(window);
