@@ -1,0 +1,364 @@
+#include "server/correction_codec.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "engine/flank_grid.h"
+#include "engine/flat_wheel_grinder.h"
+#include "engine/target_modification.h"
+
+namespace gearloop {
+namespace {
+
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+
+bool ReadIntegerInRange(const nlohmann::json& object, const std::string& path, const char* key, long long min,
+                        long long max, int* value, ApiError* error) {
+  long long v = *value;
+  bool found = false;
+  if (!ReadInteger(object, path, key, false, &v, error, &found)) return false;
+  if (!found) return true;
+  if (v < min || v > max) {
+    const std::string field = JoinPath(path, key);
+    *error = InvalidValue(field, field + " must lie in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+    return false;
+  }
+  *value = static_cast<int>(v);
+  return true;
+}
+
+bool ReadNamedMap(const nlohmann::json& object, const std::string& path, const char* key, bool integers,
+                  std::map<std::string, double>* out, ApiError* error) {
+  if (!object.contains(key)) return true;
+  const std::string field = JoinPath(path, key);
+  const nlohmann::json& value = object.at(key);
+  if (!value.is_object()) {
+    *error = InvalidRequest(field, field + " must be an object of block name -> number");
+    return false;
+  }
+  for (const auto& item : value.items()) {
+    const std::string item_field = JoinPath(field, item.key());
+    if (!item.value().is_number() || (integers && !item.value().is_number_integer())) {
+      *error = InvalidRequest(item_field, item_field + (integers ? " must be an integer" : " must be a number"));
+      return false;
+    }
+    const double number = item.value().get<double>();
+    if (!std::isfinite(number)) {
+      *error = InvalidValue(item_field, item_field + " must be finite");
+      return false;
+    }
+    (*out)[item.key()] = number;
+  }
+  return true;
+}
+
+bool ParseModification(const nlohmann::json& value, const std::string& path, TargetModification* modification,
+                       ApiError* error) {
+  if (!value.is_object()) {
+    *error = InvalidRequest(path, path + " must be an object {kind, amount_um, ...}");
+    return false;
+  }
+  std::string kind;
+  if (!ReadString(value, path, "kind", true, &kind, error)) return false;
+  if (!ParseModificationKind(kind, &modification->kind)) {
+    *error = InvalidValue(JoinPath(path, "kind"), "unknown modification kind \"" + kind + "\"");
+    return false;
+  }
+  std::string shape = "linear";
+  if (!ReadNumber(value, path, "amount_um", true, &modification->amount_um, error) ||
+      !ReadNumber(value, path, "length_fraction", false, &modification->length_fraction, error) ||
+      !ReadString(value, path, "shape", false, &shape, error) ||
+      !ReadNumber(value, path, "second_amount_um", false, &modification->second_amount_um, error) ||
+      !ReadNumber(value, path, "second_length_fraction", false, &modification->second_length_fraction, error) ||
+      !ReadNumber(value, path, "amount_gradient_um", false, &modification->amount_gradient_um, error) ||
+      !ReadNumber(value, path, "second_amount_gradient_um", false, &modification->second_amount_gradient_um,
+                  error)) {
+    return false;
+  }
+  if (shape == "linear") {
+    modification->shape = ReliefShape::kLinear;
+  } else if (shape == "parabolic") {
+    modification->shape = ReliefShape::kParabolic;
+  } else {
+    *error = InvalidValue(JoinPath(path, "shape"), "shape must be \"linear\" or \"parabolic\"");
+    return false;
+  }
+  ValidationIssue issue;
+  if (!ValidateTargetModification(*modification, &issue)) {
+    *error = InvalidValue(JoinPath(path, issue.field), issue.message);
+    return false;
+  }
+  return true;
+}
+
+// The measurement: one grid or several teeth averaged point by point.
+bool ParseMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
+                      ApiError* error) {
+  if (!body.contains("measurement")) {
+    *error = InvalidRequest("measurement", "missing required field measurement");
+    return false;
+  }
+  const nlohmann::json& measurement = body.at("measurement");
+  if (!measurement.is_object()) {
+    *error = InvalidRequest("measurement", "measurement must be an object {\"deviations_um\": grid}");
+    return false;
+  }
+  std::vector<bool> present;
+  if (measurement.contains("deviations_um")) {
+    if (!ParseGridValues(measurement.at("deviations_um"), "measurement.deviations_um", rows, columns,
+                         /*allow_null=*/true, measured_um, &present, error)) {
+      return false;
+    }
+    for (int i = 0; i < measured_um->size(); ++i) {
+      if (!present[i]) (*measured_um)(i) = std::numeric_limits<double>::quiet_NaN();
+    }
+    return true;
+  }
+  if (measurement.contains("teeth")) {
+    const nlohmann::json& teeth = measurement.at("teeth");
+    if (!teeth.is_array() || teeth.empty() || teeth.size() > 1000) {
+      *error = InvalidRequest("measurement.teeth", "measurement.teeth must be an array of 1 to 1000 grids");
+      return false;
+    }
+    std::vector<Eigen::VectorXd> grids;
+    for (size_t t = 0; t < teeth.size(); ++t) {
+      Eigen::VectorXd grid;
+      const std::string path = "measurement.teeth[" + std::to_string(t) + "]";
+      if (!ParseGridValues(teeth[t], path, rows, columns, true, &grid, &present, error)) return false;
+      for (int i = 0; i < grid.size(); ++i) {
+        if (!present[i]) grid(i) = std::numeric_limits<double>::quiet_NaN();
+      }
+      grids.push_back(grid);
+    }
+    *measured_um = AverageTeeth(grids);
+    return true;
+  }
+  *error = InvalidRequest("measurement.deviations_um", "missing required field measurement.deviations_um");
+  return false;
+}
+
+nlohmann::json PointList(const std::vector<int>& indices, int columns) {
+  nlohmann::json list = nlohmann::json::array();
+  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+  return list;
+}
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setup, int rows, int columns,
+                 Eigen::VectorXd* target_um, ApiError* error) {
+  target_um->setZero(rows * columns);
+  if (!body.contains("target") || body.at("target").is_null()) return true;
+  const nlohmann::json& target = body.at("target");
+  if (!target.is_object()) {
+    *error = InvalidRequest("target", "target must be an object {\"deviations_um\": grid} or {\"modifications\": [...]}");
+    return false;
+  }
+  if (target.contains("deviations_um")) {
+    std::vector<bool> present;
+    return ParseGridValues(target.at("deviations_um"), "target.deviations_um", rows, columns, /*allow_null=*/false,
+                           target_um, &present, error);
+  }
+  if (target.contains("modifications")) {
+    const nlohmann::json& list = target.at("modifications");
+    if (!list.is_array() || list.size() > 100) {
+      *error = InvalidRequest("target.modifications", "target.modifications must be an array of at most 100 modifications");
+      return false;
+    }
+    std::vector<TargetModification> modifications(list.size());
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (!ParseModification(list[i], "target.modifications[" + std::to_string(i) + "]", &modifications[i], error)) {
+        return false;
+      }
+    }
+    const FlankGrid grid = BuildFlankGrid(setup);
+    *target_um = EvaluateTargetModifications(modifications, grid, setup.gear, setup.flank);
+    return true;
+  }
+  *error = InvalidRequest("target", "target needs \"deviations_um\" or \"modifications\"");
+  return false;
+}
+
+nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) {
+  nlohmann::json block_sizes = nlohmann::json::object();
+  for (const BlockCorrectionSize& block : s.block_sizes) block_sizes[block.name] = FiniteOrNull(block.size);
+  nlohmann::json singular_values = nlohmann::json::array();
+  for (int i = 0; i < s.singular_values.size(); ++i) singular_values.push_back(FiniteOrNull(s.singular_values(i)));
+  return {
+      {"status", CorrectionStatusName(s.status)},
+      {"message", s.message},
+      {"initial_rms_um", FiniteOrNull(s.initial_rms_um)},
+      {"initial_max_um", FiniteOrNull(s.initial_max_um)},
+      {"residual_rms_um", FiniteOrNull(s.residual_rms_um)},
+      {"residual_max_um", FiniteOrNull(s.residual_max_um)},
+      {"linear_residual_rms_um", FiniteOrNull(s.linear_residual_rms_um)},
+      {"best_reachable_rms_um", FiniteOrNull(s.best_reachable_rms_um)},
+      {"max_added_material_um", FiniteOrNull(s.max_added_material_um)},
+      {"rank", s.rank},
+      {"condition_number", FiniteOrNull(s.condition_number)},
+      {"singular_values", singular_values},
+      {"regularisation",
+       {{"rule", RegularisationRuleName(s.rule)},
+        {"level", FiniteOrNull(s.regularisation_level)},
+        {"truncation_rank", s.truncation_rank}}},
+      {"solver", CorrectionSolverName(s.solver)},
+      {"mode", CorrectionModeName(s.mode)},
+      {"iterations", s.iterations},
+      {"elapsed_ms", s.elapsed_ms},
+      {"points_used", s.num_points_used},
+      {"free_parameters", s.num_free_parameters},
+      {"roll_range_deg", {s.roll_min_rad * kDegPerRad, s.roll_max_rad * kDegPerRad}},
+      {"correction_size", FiniteOrNull(s.correction_size)},
+      {"block_sizes", block_sizes},
+      {"outliers", PointList(s.outlier_indices, columns)},
+      {"missing", PointList(s.missing_indices, columns)},
+  };
+}
+
+bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, CorrectionOptions* options,
+                            ApiError* error) {
+  CorrectionOptions o;
+  if (body.contains("options") && !body.at("options").is_null()) {
+    const nlohmann::json& j = body.at("options");
+    const std::string path = "options";
+    if (!j.is_object()) {
+      *error = InvalidRequest(path, "options must be an object");
+      return false;
+    }
+    std::string solver;
+    bool found = false;
+    if (!ReadString(j, path, "solver", false, &solver, error, &found)) return false;
+    if (found && !ParseCorrectionSolver(solver, &o.solver)) {
+      *error = InvalidValue("options.solver", "options.solver must be \"regularised\", \"pso\" or \"lsq-plain\"");
+      return false;
+    }
+    std::string mode;
+    if (!ReadString(j, path, "mode", false, &mode, error, &found)) return false;
+    if (found && !ParseCorrectionMode(mode, &o.mode)) {
+      *error = InvalidValue("options.mode", "options.mode must be \"next-part\" or \"rework\"");
+      return false;
+    }
+    if (!ReadIntegerInRange(j, path, "default_max_order", -1, 6, &o.default_max_order, error)) return false;
+    std::map<std::string, double> orders;
+    if (!ReadNamedMap(j, path, "max_order", /*integers=*/true, &orders, error)) return false;
+    for (const auto& [name, order] : orders) {
+      if (order < -1 || order > 6) {
+        *error = InvalidValue("options.max_order." + name, "a maximum order lies in [-1, 6]");
+        return false;
+      }
+      o.max_order[name] = static_cast<int>(order);
+    }
+    if (!ReadNamedMap(j, path, "block_scales", false, &o.block_scales, error)) return false;
+    if (j.contains("point_weights")) {
+      std::vector<bool> present;
+      if (!ParseGridValues(j.at("point_weights"), "options.point_weights", rows, columns, false, &o.point_weights,
+                           &present, error)) {
+        return false;
+      }
+    }
+    if (!ReadNumber(j, path, "probe_noise_um", false, &o.probe_noise_um, error) ||
+        !ReadNumber(j, path, "min_flank_effect_um", false, &o.min_flank_effect_um, error) ||
+        !ReadIntegerInRange(j, path, "max_num_iterations", 0, 200, &o.max_num_iterations, error) ||
+        !ReadIntegerInRange(j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||
+        !ReadNumber(j, path, "rework_tolerance_um", false, &o.rework_tolerance_um, error) ||
+        !ReadNumber(j, path, "outlier_threshold", false, &o.outlier_threshold, error) ||
+        !ReadNumber(j, path, "outlier_min_um", false, &o.outlier_min_um, error) ||
+        !ReadNumber(j, path, "max_outlier_fraction", false, &o.max_outlier_fraction, error) ||
+        !ReadIntegerInRange(j, path, "pso_particles", 1, 200, &o.pso_particles, error) ||
+        !ReadIntegerInRange(j, path, "pso_generations", 1, 2000, &o.pso_generations, error)) {
+      return false;
+    }
+    long long seed = static_cast<long long>(o.pso_seed);
+    if (!ReadInteger(j, path, "pso_seed", false, &seed, error)) return false;
+    if (seed < 0) {
+      *error = InvalidValue("options.pso_seed", "options.pso_seed must not be negative");
+      return false;
+    }
+    o.pso_seed = static_cast<unsigned long long>(seed);
+  }
+  std::string message;
+  if (!o.IsValid(&message)) {
+    *error = InvalidValue("options", message);
+    return false;
+  }
+  *options = o;
+  return true;
+}
+
+bool ParseCorrectionRequest(const nlohmann::json& body, CorrectionRequest* request, ApiError* error) {
+  CorrectionRequest r;
+  if (!ParseGrindingSetup(body, &r.setup, error)) return false;
+  const int rows = r.setup.grid.profile_points;
+  const int columns = r.setup.grid.lead_points;
+  if (body.contains("settings") && !body.at("settings").is_null()) {
+    if (!ParseMachineSettings(body.at("settings"), "settings", &r.settings, error)) return false;
+  } else {
+    r.settings = NominalSettings(r.setup);
+  }
+  if (!ParseMeasurement(body, rows, columns, &r.measured_um, error) ||
+      !ParseCorrectionTarget(body, r.setup, rows, columns, &r.target_um, error) ||
+      !ParseCorrectionOptions(body, rows, columns, &r.options, error)) {
+    return false;
+  }
+  if (body.contains("settings_source_job_id") && !body.at("settings_source_job_id").is_null()) {
+    long long id = 0;
+    if (!ReadInteger(body, "", "settings_source_job_id", true, &id, error)) return false;
+    if (id <= 0) {
+      *error = InvalidValue("settings_source_job_id", "settings_source_job_id must name a stored job (id >= 1)");
+      return false;
+    }
+    r.settings_source_job_id = id;
+  }
+  *request = std::move(r);
+  return true;
+}
+
+bool RunCorrection(const CorrectionRequest& request, CorrectionRun* run, ApiError* error) {
+  const auto start = std::chrono::steady_clock::now();
+  FlatWheelGrinder grinder(request.setup);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = request.settings.ToVector();
+  input.measured_um = request.measured_um;
+  input.target_um = request.target_um;
+  run->result = ComputeCorrection(request.options, input);
+  run->solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const CorrectionSummary& s = run->result.summary;
+  if (s.status == CorrectionStatus::kInvalidInput) {
+    *error = InvalidValue("measurement", "the correction cannot be computed: " + s.message);
+    return false;
+  }
+  const int rows = grinder.GridRows();
+  const int columns = grinder.GridColumns();
+  run->new_settings = MachineSettings::FromVector(run->result.parameters);
+  MachineSettings delta = MachineSettings::FromVector(run->result.delta);
+
+  run->result_json = CorrectionSummaryToJson(s, columns);
+  run->result_json["settings"] = MachineSettingsToJson(run->new_settings);
+  run->result_json["delta"] = MachineSettingsToJson(delta);
+  run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
+  run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
+
+  JobRecord& job = run->job;
+  job.status = CorrectionStatusName(s.status);
+  job.gear_teeth = request.setup.gear.teeth;
+  job.gear_normal_module_mm = request.setup.gear.normal_module_mm;
+  job.gear_helix_angle_deg = RoundTo1e9(std::fabs(request.setup.gear.helix_angle_rad) * kDegPerRad);
+  job.gear_hand = HandName(request.setup.gear);
+  job.flank = FlankName(request.setup.flank);
+  job.result_json = run->result_json.dump();
+  if (std::isfinite(s.residual_rms_um)) job.residual_rms_um = s.residual_rms_um;
+  if (std::isfinite(s.best_reachable_rms_um)) job.best_reachable_rms_um = s.best_reachable_rms_um;
+  job.rank = s.rank;
+  job.elapsed_ms = run->solve_seconds * 1e3;
+  job.settings_source_job_id = request.settings_source_job_id;
+  return true;
+}
+
+}  // namespace gearloop

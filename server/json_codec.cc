@@ -1,0 +1,557 @@
+#include "server/json_codec.h"
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace gearloop {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRadPerDeg = kPi / 180.0;
+
+const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
+
+std::string TypeName(const nlohmann::json& value) {
+  if (value.is_null()) return "null";
+  if (value.is_boolean()) return "a boolean";
+  if (value.is_number()) return "a number";
+  if (value.is_string()) return "a string";
+  if (value.is_array()) return "an array";
+  return "an object";
+}
+
+// Depth of nesting of arrays and objects, counted without parsing (strings skipped), so a
+// hostile "[[[[..." never reaches the parser.
+int JsonNestingDepth(const std::string& text) {
+  int depth = 0;
+  int max_depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') {
+        ++i;
+      } else if (c == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      ++depth;
+      if (depth > max_depth) max_depth = depth;
+      if (max_depth > kMaxJsonDepth) return max_depth;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return max_depth;
+}
+
+bool NumberFromJson(const nlohmann::json& value, const std::string& path, double* out, ApiError* error) {
+  if (!value.is_number()) {
+    *error = InvalidRequest(path, path + " must be a number, got " + TypeName(value));
+    return false;
+  }
+  const double number = value.get<double>();
+  if (!std::isfinite(number)) {
+    *error = InvalidValue(path, path + " must be a finite number");
+    return false;
+  }
+  *out = number;
+  return true;
+}
+
+bool ReadRange(const nlohmann::json& object,
+               const std::string& path,
+               const char* key,
+               double* begin,
+               double* end,
+               ApiError* error) {
+  const std::string field = JoinPath(path, key);
+  if (!object.contains(key)) return true;  // defaults stay
+  const nlohmann::json& value = object.at(key);
+  if (!value.is_array() || value.size() != 2) {
+    *error = InvalidRequest(field, field + " must be an array of two numbers [begin, end]");
+    return false;
+  }
+  return NumberFromJson(value[0], field + "[0]", begin, error) &&
+         NumberFromJson(value[1], field + "[1]", end, error);
+}
+
+bool RequireObject(const nlohmann::json& request, const std::string& path, const char* key, bool required,
+                   const nlohmann::json** out, ApiError* error) {
+  const std::string field = JoinPath(path, key);
+  *out = nullptr;
+  if (!request.contains(key)) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  const nlohmann::json& value = request.at(key);
+  if (!value.is_object()) {
+    *error = InvalidRequest(field, field + " must be an object, got " + TypeName(value));
+    return false;
+  }
+  *out = &value;
+  return true;
+}
+
+}  // namespace
+
+std::string JoinPath(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+ApiError InvalidRequest(const std::string& field, const std::string& message) {
+  return ApiError{400, "invalid_request", message, field};
+}
+
+ApiError InvalidValue(const std::string& field, const std::string& message) {
+  return ApiError{422, "invalid_value", message, field};
+}
+
+nlohmann::json ErrorBody(const ApiError& error) {
+  return {{"error", {{"code", error.code}, {"message", error.message}, {"field", error.field}}}};
+}
+
+bool ParseJsonBody(const std::string& text, nlohmann::json* body, ApiError* error) {
+  if (JsonNestingDepth(text) > kMaxJsonDepth) {
+    *error = ApiError{400, "invalid_json",
+                      "the body nests arrays or objects deeper than " + std::to_string(kMaxJsonDepth) + " levels", ""};
+    return false;
+  }
+  // Parse without exceptions; nlohmann refuses NaN, Infinity and invalid UTF-8 in strings.
+  nlohmann::json parsed = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (parsed.is_discarded()) {
+    // Parse again with exceptions only for the message (position of the fault).
+    std::string message = "the body is not valid JSON";
+    try {
+      nlohmann::json unused = nlohmann::json::parse(text);
+      (void)unused;
+    } catch (const nlohmann::json::exception& e) {
+      message += std::string(": ") + e.what();
+    }
+    *error = ApiError{400, "invalid_json", message, ""};
+    return false;
+  }
+  if (!parsed.is_object()) {
+    *error = InvalidRequest("", "the body must be a JSON object, got " + TypeName(parsed));
+    return false;
+  }
+  *body = std::move(parsed);
+  return true;
+}
+
+bool ReadNumber(const nlohmann::json& object, const std::string& path, const char* key, bool required, double* value,
+                ApiError* error, bool* found) {
+  const std::string field = JoinPath(path, key);
+  const bool present = object.contains(key);
+  if (found != nullptr) *found = present;
+  if (!present) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  return NumberFromJson(object.at(key), field, value, error);
+}
+
+bool ReadInteger(const nlohmann::json& object, const std::string& path, const char* key, bool required,
+                 long long* value, ApiError* error, bool* found) {
+  const std::string field = JoinPath(path, key);
+  const bool present = object.contains(key);
+  if (found != nullptr) *found = present;
+  if (!present) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  const nlohmann::json& v = object.at(key);
+  if (v.is_number_integer()) {
+    // Unsigned values above the signed range arrive as number_unsigned.
+    if (v.is_number_unsigned() && v.get<unsigned long long>() > 1000000000ULL) {
+      *error = InvalidValue(field, field + " is far too large");
+      return false;
+    }
+    *value = v.get<long long>();
+    return true;
+  }
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    // 37.0 is 37; 37.5 is not a count.
+    if (std::isfinite(d) && d == std::floor(d) && std::fabs(d) <= 1e9) {
+      *value = static_cast<long long>(d);
+      return true;
+    }
+    *error = InvalidRequest(field, field + " must be an integer");
+    return false;
+  }
+  *error = InvalidRequest(field, field + " must be an integer, got " + TypeName(v));
+  return false;
+}
+
+bool ReadString(const nlohmann::json& object, const std::string& path, const char* key, bool required,
+                std::string* value, ApiError* error, bool* found) {
+  const std::string field = JoinPath(path, key);
+  const bool present = object.contains(key);
+  if (found != nullptr) *found = present;
+  if (!present) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  const nlohmann::json& v = object.at(key);
+  if (!v.is_string()) {
+    *error = InvalidRequest(field, field + " must be a string, got " + TypeName(v));
+    return false;
+  }
+  *value = v.get<std::string>();
+  return true;
+}
+
+bool ReadBool(const nlohmann::json& object, const std::string& path, const char* key, bool required, bool* value,
+              ApiError* error, bool* found) {
+  const std::string field = JoinPath(path, key);
+  const bool present = object.contains(key);
+  if (found != nullptr) *found = present;
+  if (!present) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  const nlohmann::json& v = object.at(key);
+  if (!v.is_boolean()) {
+    *error = InvalidRequest(field, field + " must be true or false, got " + TypeName(v));
+    return false;
+  }
+  *value = v.get<bool>();
+  return true;
+}
+
+std::string ApiFieldPath(const std::string& engine_field) {
+  static const std::map<std::string, std::string> kRenames = {
+      {"gear.normal_pressure_angle_rad", "gear.normal_pressure_angle_deg"},
+      {"gear.helix_angle_rad", "gear.helix_angle_deg"},
+      {"grid.profile_begin", "grid.profile_range[0]"},
+      {"grid.profile_end", "grid.profile_range[1]"},
+      {"grid.lead_begin", "grid.lead_range[0]"},
+      {"grid.lead_end", "grid.lead_range[1]"},
+      {"wheel.cone_angle_rad", "settings.wheel.cone_angle_deg"},
+      {"settings.wheel.cone_angle_rad", "settings.wheel.cone_angle_deg"},
+  };
+  const auto it = kRenames.find(engine_field);
+  if (it != kRenames.end()) return it->second;
+  // Any other *_rad field of the engine is *_deg in the API.
+  const std::string suffix = "_rad";
+  if (engine_field.size() > suffix.size() &&
+      engine_field.compare(engine_field.size() - suffix.size(), suffix.size(), suffix) == 0) {
+    return engine_field.substr(0, engine_field.size() - suffix.size()) + "_deg";
+  }
+  return engine_field;
+}
+
+bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, ApiError* error) {
+  GrindingSetup s;
+  const nlohmann::json* gear = nullptr;
+  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error)) return false;
+  long long teeth = 0;
+  double pressure_angle_deg = 0.0;
+  double helix_angle_deg = 0.0;
+  if (!ReadInteger(*gear, "gear", "teeth", true, &teeth, error) ||
+      !ReadNumber(*gear, "gear", "normal_module_mm", true, &s.gear.normal_module_mm, error) ||
+      !ReadNumber(*gear, "gear", "normal_pressure_angle_deg", true, &pressure_angle_deg, error) ||
+      !ReadNumber(*gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
+      !ReadNumber(*gear, "gear", "face_width_mm", true, &s.gear.face_width_mm, error) ||
+      !ReadNumber(*gear, "gear", "tip_radius_mm", true, &s.gear.tip_radius_mm, error) ||
+      !ReadNumber(*gear, "gear", "root_radius_mm", true, &s.gear.root_radius_mm, error)) {
+    return false;
+  }
+  if (teeth < -1000000 || teeth > 1000000) {
+    *error = InvalidValue("gear.teeth", "gear.teeth is out of range, got " + std::to_string(teeth));
+    return false;
+  }
+  s.gear.teeth = static_cast<int>(teeth);
+  if (helix_angle_deg < 0.0) {
+    *error = InvalidValue("gear.helix_angle_deg",
+                          "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
+                              nlohmann::json(helix_angle_deg).dump());
+    return false;
+  }
+  std::string hand;
+  bool hand_found = false;
+  if (!ReadString(*gear, "gear", "hand", false, &hand, error, &hand_found)) return false;
+  double sign = 0.0;
+  if (hand_found) {
+    if (hand == "left") {
+      sign = 1.0;
+    } else if (hand == "right") {
+      sign = -1.0;
+    } else {
+      *error = InvalidValue("gear.hand", "gear.hand must be \"left\" or \"right\"");
+      return false;
+    }
+  } else if (helix_angle_deg != 0.0) {
+    *error = InvalidRequest("gear.hand", "missing required field gear.hand (a helical gear needs \"left\" or \"right\")");
+    return false;
+  }
+  s.gear.normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
+  // MODEL.md §1: beta > 0 is a left-hand helix.
+  s.gear.helix_angle_rad = sign * helix_angle_deg * kRadPerDeg;
+
+  const nlohmann::json* wheel = nullptr;
+  if (!RequireObject(request, "", "wheel", true, &wheel, error) ||
+      !ReadNumber(*wheel, "wheel", "radius_mm", true, &s.wheel.radius_mm, error)) {
+    return false;
+  }
+
+  const nlohmann::json* machine = nullptr;
+  if (!RequireObject(request, "", "machine", false, &machine, error)) return false;
+  if (machine != nullptr) {
+    std::string kind;
+    bool kind_found = false;
+    if (!ReadString(*machine, "machine", "kind", false, &kind, error, &kind_found)) return false;
+    if (kind_found && kind != "flat-wheel-grinder") {
+      *error = InvalidValue("machine.kind", "machine.kind \"" + kind + "\" is not known; this server has \"flat-wheel-grinder\"");
+      return false;
+    }
+    if (!ReadNumber(*machine, "machine", "k1_mm", false, &s.machine.k1_mm, error) ||
+        !ReadNumber(*machine, "machine", "k2_mm", false, &s.machine.k2_mm, error) ||
+        !ReadNumber(*machine, "machine", "traverse_mm_per_rad", false, &s.machine.traverse_mm_per_rad, error)) {
+      return false;
+    }
+  }
+
+  const nlohmann::json* grid = nullptr;
+  if (!RequireObject(request, "", "grid", false, &grid, error)) return false;
+  if (grid != nullptr) {
+    long long profile_points = s.grid.profile_points;
+    long long lead_points = s.grid.lead_points;
+    if (!ReadInteger(*grid, "grid", "profile_points", false, &profile_points, error) ||
+        !ReadInteger(*grid, "grid", "lead_points", false, &lead_points, error) ||
+        !ReadRange(*grid, "grid", "profile_range", &s.grid.profile_begin, &s.grid.profile_end, error) ||
+        !ReadRange(*grid, "grid", "lead_range", &s.grid.lead_begin, &s.grid.lead_end, error)) {
+      return false;
+    }
+    // Bounded before the narrowing; the engine checks the real limits.
+    if (profile_points < 0 || profile_points > 10000) {
+      *error = InvalidValue("grid.profile_points", "grid.profile_points is out of range");
+      return false;
+    }
+    if (lead_points < 0 || lead_points > 10000) {
+      *error = InvalidValue("grid.lead_points", "grid.lead_points is out of range");
+      return false;
+    }
+    s.grid.profile_points = static_cast<int>(profile_points);
+    s.grid.lead_points = static_cast<int>(lead_points);
+  }
+
+  std::string flank = "right";
+  if (!ReadString(request, "", "flank", false, &flank, error)) return false;
+  if (flank == "right") {
+    s.flank = Flank::kRight;
+  } else if (flank == "left") {
+    s.flank = Flank::kLeft;
+  } else {
+    *error = InvalidValue("flank", "flank must be \"left\" or \"right\"");
+    return false;
+  }
+
+  ValidationIssue issue;
+  if (!ValidateSetup(s, &issue)) {
+    *error = InvalidValue(ApiFieldPath(issue.field), issue.message);
+    return false;
+  }
+  *setup = s;
+  return true;
+}
+
+bool ParseMachineSettings(const nlohmann::json& settings, const std::string& path, MachineSettings* result,
+                          ApiError* error) {
+  if (!settings.is_object()) {
+    *error = InvalidRequest(path, path + " must be an object, got " + TypeName(settings));
+    return false;
+  }
+  MachineSettings s;
+  const nlohmann::json* axes = nullptr;
+  if (!RequireObject(settings, path, "axes", true, &axes, error)) return false;
+  const std::string axes_path = JoinPath(path, "axes");
+  for (int i = 0; i < kNumAxes; ++i) {
+    const std::string field = JoinPath(axes_path, kAxisNames[i]);
+    if (!axes->contains(kAxisNames[i])) {
+      *error = InvalidRequest(field, "missing required field " + field);
+      return false;
+    }
+    const nlohmann::json& coefficients = axes->at(kAxisNames[i]);
+    if (!coefficients.is_array() || coefficients.empty() ||
+        coefficients.size() > static_cast<size_t>(kCoefficientsPerAxis)) {
+      *error = InvalidRequest(field, field + " must be an array of 1 to 7 numbers (coefficient k multiplies roll^k)");
+      return false;
+    }
+    for (size_t k = 0; k < coefficients.size(); ++k) {
+      if (!NumberFromJson(coefficients[k], field + "[" + std::to_string(k) + "]", &s.axes[i][k], error)) return false;
+      if (std::fabs(s.axes[i][k]) > 1e6) {
+        *error = InvalidValue(field + "[" + std::to_string(k) + "]", "axis coefficient is implausibly large");
+        return false;
+      }
+    }
+  }
+  for (const auto& item : axes->items()) {
+    bool known = false;
+    for (const char* name : kAxisNames) known = known || item.key() == name;
+    if (!known) {
+      *error = InvalidRequest(JoinPath(axes_path, item.key()), "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
+      return false;
+    }
+  }
+  const nlohmann::json* wheel = nullptr;
+  if (!RequireObject(settings, path, "wheel", false, &wheel, error)) return false;
+  if (wheel != nullptr) {
+    const std::string wheel_path = JoinPath(path, "wheel");
+    double cone_angle_deg = 0.0;
+    if (!ReadNumber(*wheel, wheel_path, "cone_angle_deg", false, &cone_angle_deg, error) ||
+        !ReadNumber(*wheel, wheel_path, "parabola_coefficient_per_mm", false, &s.wheel.parabola_coefficient_per_mm,
+                    error) ||
+        !ReadNumber(*wheel, wheel_path, "parabola_vertex_mm", false, &s.wheel.parabola_vertex_mm, error)) {
+      return false;
+    }
+    if (std::fabs(cone_angle_deg) >= 45.0) {
+      *error = InvalidValue(JoinPath(wheel_path, "cone_angle_deg"), "the wheel cone angle must lie within (-45, 45) deg");
+      return false;
+    }
+    if (std::fabs(s.wheel.parabola_coefficient_per_mm) > 1.0) {
+      *error = InvalidValue(JoinPath(wheel_path, "parabola_coefficient_per_mm"),
+                            "the parabola coefficient must lie within [-1, 1] 1/mm");
+      return false;
+    }
+    if (std::fabs(s.wheel.parabola_vertex_mm) > 1e4) {
+      *error = InvalidValue(JoinPath(wheel_path, "parabola_vertex_mm"), "the parabola vertex must lie within 1e4 mm");
+      return false;
+    }
+    s.wheel.cone_angle_rad = cone_angle_deg * kRadPerDeg;
+  }
+  *result = s;
+  return true;
+}
+
+nlohmann::json MachineSettingsToJson(const MachineSettings& settings) {
+  nlohmann::json axes = nlohmann::json::object();
+  for (int i = 0; i < kNumAxes; ++i) {
+    nlohmann::json coefficients = nlohmann::json::array();
+    for (int k = 0; k < kCoefficientsPerAxis; ++k) coefficients.push_back(settings.axes[i][k]);
+    axes[kAxisNames[i]] = coefficients;
+  }
+  return {{"axes", axes},
+          {"wheel",
+           {{"cone_angle_deg", settings.wheel.cone_angle_rad / kRadPerDeg},
+            {"parabola_coefficient_per_mm", settings.wheel.parabola_coefficient_per_mm},
+            {"parabola_vertex_mm", settings.wheel.parabola_vertex_mm}}}};
+}
+
+bool ParseGridValues(const nlohmann::json& value, const std::string& path, int rows, int columns, bool allow_null,
+                     Eigen::VectorXd* values, std::vector<bool>* present, ApiError* error) {
+  if (!value.is_array() || static_cast<int>(value.size()) != rows) {
+    *error = InvalidRequest(path, path + " must be an array of " + std::to_string(rows) + " rows (the grid's profile_points)");
+    return false;
+  }
+  values->setZero(rows * columns);
+  present->assign(rows * columns, true);
+  for (int r = 0; r < rows; ++r) {
+    const std::string row_path = path + "[" + std::to_string(r) + "]";
+    const nlohmann::json& row = value[r];
+    if (!row.is_array() || static_cast<int>(row.size()) != columns) {
+      *error = InvalidRequest(row_path, row_path + " must be an array of " + std::to_string(columns) +
+                                            " numbers (the grid's lead_points)");
+      return false;
+    }
+    for (int c = 0; c < columns; ++c) {
+      const std::string entry_path = row_path + "[" + std::to_string(c) + "]";
+      const nlohmann::json& entry = row[c];
+      if (entry.is_null()) {
+        if (!allow_null) {
+          *error = InvalidRequest(entry_path, entry_path + " must be a number, got null");
+          return false;
+        }
+        (*present)[r * columns + c] = false;
+        continue;
+      }
+      double number = 0.0;
+      if (!NumberFromJson(entry, entry_path, &number, error)) return false;
+      if (std::fabs(number) > 1e6) {
+        *error = InvalidValue(entry_path, entry_path + " is beyond 1 m of deviation; deviations are in micrometres");
+        return false;
+      }
+      (*values)(r * columns + c) = number;
+    }
+  }
+  return true;
+}
+
+nlohmann::json GridToJson(const Eigen::VectorXd& values, const std::vector<bool>& present, int rows, int columns) {
+  nlohmann::json grid = nlohmann::json::array();
+  for (int r = 0; r < rows; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < columns; ++c) {
+      const int i = r * columns + c;
+      const bool ok = (present.empty() || present[i]) && i < values.size() && std::isfinite(values(i));
+      row.push_back(ok ? nlohmann::json(values(i)) : nlohmann::json(nullptr));
+    }
+    grid.push_back(row);
+  }
+  return grid;
+}
+
+double RoundTo1e9(double value) { return std::round(value * 1e9) / 1e9; }
+
+const char* FlankName(Flank flank) { return flank == Flank::kLeft ? "left" : "right"; }
+
+std::string HandName(const GearData& gear) {
+  if (gear.helix_angle_rad > 0.0) return "left";
+  if (gear.helix_angle_rad < 0.0) return "right";
+  return "";
+}
+
+nlohmann::json GearToJson(const GearData& gear) {
+  nlohmann::json j = {{"teeth", gear.teeth},
+                      {"normal_module_mm", gear.normal_module_mm},
+                      {"normal_pressure_angle_deg", RoundTo1e9(gear.normal_pressure_angle_rad / kRadPerDeg)},
+                      {"helix_angle_deg", RoundTo1e9(std::fabs(gear.helix_angle_rad) / kRadPerDeg)},
+                      {"face_width_mm", gear.face_width_mm},
+                      {"tip_radius_mm", gear.tip_radius_mm},
+                      {"root_radius_mm", gear.root_radius_mm}};
+  const std::string hand = HandName(gear);
+  if (!hand.empty()) j["hand"] = hand;
+  return j;
+}
+
+nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& evaluation) {
+  std::vector<bool> present(grid.NumPoints());
+  nlohmann::json not_reached = nlohmann::json::array();
+  nlohmann::json points = nlohmann::json::array();
+  int reached = 0;
+  for (int i = 0; i < grid.NumPoints(); ++i) {
+    const FlankGridPoint& p = grid.points[i];
+    present[i] = evaluation.status[i] == PointStatus::kOk;
+    if (present[i]) {
+      ++reached;
+    } else {
+      not_reached.push_back({{"row", p.row}, {"column", p.column}, {"status", PointStatusName(evaluation.status[i])}});
+    }
+    points.push_back({{"row", p.row},
+                      {"column", p.column},
+                      {"roll_length_mm", p.roll_length_mm},
+                      {"radius_mm", p.radius_mm},
+                      {"x_mm", p.x_mm},
+                      {"position_mm", {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()}},
+                      {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}}});
+  }
+  return {{"rows", grid.rows},
+          {"columns", grid.columns},
+          {"deviations_um", GridToJson(evaluation.deviations_um, present, grid.rows, grid.columns)},
+          {"not_reached", not_reached},
+          {"reached", reached},
+          {"points", points}};
+}
+
+}  // namespace gearloop

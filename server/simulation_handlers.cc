@@ -1,0 +1,365 @@
+#include "server/simulation_handlers.h"
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "engine/flat_wheel_grinder.h"
+#include "engine/machine_settings.h"
+#include "engine/measurement_simulator.h"
+#include "server/correction_codec.h"
+
+namespace gearloop {
+namespace {
+
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
+
+// Hidden errors given coefficient by coefficient; every part optional.
+bool ParseHiddenErrors(const nlohmann::json& value, Eigen::VectorXd* errors, ApiError* error) {
+  const std::string path = "hidden_errors";
+  errors->setZero(kNumGrinderParameters);
+  if (!value.is_object()) {
+    *error = InvalidRequest(path, "hidden_errors must be an object {\"axes\": {...}, \"wheel\": {...}}");
+    return false;
+  }
+  if (value.contains("axes")) {
+    const nlohmann::json& axes = value.at("axes");
+    if (!axes.is_object()) {
+      *error = InvalidRequest("hidden_errors.axes", "hidden_errors.axes must be an object of axis -> coefficients");
+      return false;
+    }
+    for (const auto& item : axes.items()) {
+      int axis = -1;
+      for (int i = 0; i < kNumAxes; ++i) {
+        if (item.key() == kAxisNames[i]) axis = i;
+      }
+      const std::string field = "hidden_errors.axes." + item.key();
+      if (axis < 0) {
+        *error = InvalidRequest(field, "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
+        return false;
+      }
+      const nlohmann::json& coefficients = item.value();
+      if (!coefficients.is_array() || coefficients.size() > static_cast<size_t>(kCoefficientsPerAxis)) {
+        *error = InvalidRequest(field, field + " must be an array of at most 7 numbers");
+        return false;
+      }
+      for (size_t k = 0; k < coefficients.size(); ++k) {
+        const std::string entry = field + "[" + std::to_string(k) + "]";
+        if (!coefficients[k].is_number()) {
+          *error = InvalidRequest(entry, entry + " must be a number");
+          return false;
+        }
+        const double v = coefficients[k].get<double>();
+        if (!std::isfinite(v) || std::fabs(v) > 1e3) {
+          *error = InvalidValue(entry, entry + " must be finite and at most 1e3 in size");
+          return false;
+        }
+        (*errors)(ParameterIndex(static_cast<Axis>(axis), static_cast<int>(k))) = v;
+      }
+    }
+  }
+  if (value.contains("wheel")) {
+    const nlohmann::json& wheel = value.at("wheel");
+    if (!wheel.is_object()) {
+      *error = InvalidRequest("hidden_errors.wheel", "hidden_errors.wheel must be an object");
+      return false;
+    }
+    double cone_deg = 0.0, parabola = 0.0, vertex = 0.0;
+    if (!ReadNumber(wheel, "hidden_errors.wheel", "cone_angle_deg", false, &cone_deg, error) ||
+        !ReadNumber(wheel, "hidden_errors.wheel", "parabola_coefficient_per_mm", false, &parabola, error) ||
+        !ReadNumber(wheel, "hidden_errors.wheel", "parabola_vertex_mm", false, &vertex, error)) {
+      return false;
+    }
+    if (std::fabs(cone_deg) > 10.0 || std::fabs(parabola) > 1.0 || std::fabs(vertex) > 1e3) {
+      *error = InvalidValue("hidden_errors.wheel", "hidden wheel errors are implausibly large");
+      return false;
+    }
+    (*errors)(kConeAngleIndex) = cone_deg * kRadPerDeg;
+    (*errors)(kParabolaCoefficientIndex) = parabola;
+    (*errors)(kParabolaVertexIndex) = vertex;
+  }
+  return true;
+}
+
+bool ParseRandomHiddenErrors(const nlohmann::json& value, const FlatWheelGrinder& grinder, Eigen::VectorXd* errors,
+                             ApiError* error) {
+  const std::string path = "random_hidden_errors";
+  if (!value.is_object()) {
+    *error = InvalidRequest(path, path + " must be an object {block_size, max_order, wheel_size, seed}");
+    return false;
+  }
+  double block_size = 1.0, wheel_size = 0.0;
+  long long max_order = 2, seed = 1;
+  if (!ReadNumber(value, path, "block_size", false, &block_size, error) ||
+      !ReadInteger(value, path, "max_order", false, &max_order, error) ||
+      !ReadNumber(value, path, "wheel_size", false, &wheel_size, error) ||
+      !ReadInteger(value, path, "seed", false, &seed, error)) {
+    return false;
+  }
+  if (block_size < 0.0 || block_size > 1e4) {
+    *error = InvalidValue(path + ".block_size", "block_size must lie in [0, 1e4]");
+    return false;
+  }
+  if (wheel_size < 0.0 || wheel_size > 1e3) {
+    *error = InvalidValue(path + ".wheel_size", "wheel_size must lie in [0, 1e3]");
+    return false;
+  }
+  if (max_order < 0 || max_order > kAxisPolynomialDegree) {
+    *error = InvalidValue(path + ".max_order", "max_order must lie in [0, 6]");
+    return false;
+  }
+  if (seed < 0) {
+    *error = InvalidValue(path + ".seed", "seed must not be negative");
+    return false;
+  }
+  std::vector<std::string> fixed;
+  if (value.contains("fixed_blocks")) {
+    const nlohmann::json& list = value.at("fixed_blocks");
+    if (!list.is_array()) {
+      *error = InvalidRequest(path + ".fixed_blocks", "fixed_blocks must be an array of block names");
+      return false;
+    }
+    for (const nlohmann::json& name : list) {
+      if (!name.is_string()) {
+        *error = InvalidRequest(path + ".fixed_blocks", "fixed_blocks must be an array of block names");
+        return false;
+      }
+      fixed.push_back(name.get<std::string>());
+    }
+  }
+  *errors = RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), block_size,
+                               static_cast<int>(max_order), wheel_size, static_cast<std::uint64_t>(seed), fixed);
+  return true;
+}
+
+bool ParsePointList(const nlohmann::json& body, const char* key, int rows, int columns, std::vector<int>* indices,
+                    ApiError* error) {
+  if (!body.contains(key)) return true;
+  const nlohmann::json& list = body.at(key);
+  if (!list.is_array()) {
+    *error = InvalidRequest(key, std::string(key) + " must be an array of [row, column] pairs");
+    return false;
+  }
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string field = std::string(key) + "[" + std::to_string(i) + "]";
+    const nlohmann::json& pair = list[i];
+    if (!pair.is_array() || pair.size() != 2 || !pair[0].is_number_integer() || !pair[1].is_number_integer()) {
+      *error = InvalidRequest(field, field + " must be a [row, column] pair of integers");
+      return false;
+    }
+    const long long row = pair[0].get<long long>();
+    const long long column = pair[1].get<long long>();
+    if (row < 0 || row >= rows || column < 0 || column >= columns) {
+      *error = InvalidValue(field, field + " lies outside the grid");
+      return false;
+    }
+    indices->push_back(static_cast<int>(row * columns + column));
+  }
+  return true;
+}
+
+// Everything the two simulations share.
+struct SimulationSetup {
+  GrindingSetup setup;
+  MachineSettings commanded;
+  Eigen::VectorXd hidden_errors;
+  MeasurementSimulationOptions measurement;
+};
+
+bool ParseSimulationSetup(const nlohmann::json& body, std::unique_ptr<FlatWheelGrinder>* grinder,
+                          SimulationSetup* sim, ApiError* error) {
+  if (!ParseGrindingSetup(body, &sim->setup, error)) return false;
+  if (body.contains("settings") && !body.at("settings").is_null()) {
+    if (!ParseMachineSettings(body.at("settings"), "settings", &sim->commanded, error)) return false;
+  } else {
+    sim->commanded = NominalSettings(sim->setup);
+  }
+  *grinder = std::make_unique<FlatWheelGrinder>(sim->setup);
+  const int rows = sim->setup.grid.profile_points;
+  const int columns = sim->setup.grid.lead_points;
+  sim->hidden_errors.setZero(kNumGrinderParameters);
+  if (body.contains("hidden_errors") && body.contains("random_hidden_errors")) {
+    *error = InvalidRequest("random_hidden_errors", "give hidden_errors or random_hidden_errors, not both");
+    return false;
+  }
+  if (body.contains("hidden_errors") && !ParseHiddenErrors(body.at("hidden_errors"), &sim->hidden_errors, error)) {
+    return false;
+  }
+  if (body.contains("random_hidden_errors") &&
+      !ParseRandomHiddenErrors(body.at("random_hidden_errors"), **grinder, &sim->hidden_errors, error)) {
+    return false;
+  }
+  MeasurementSimulationOptions& m = sim->measurement;
+  long long seed = 1, teeth = 1;
+  if (!ReadNumber(body, "", "noise_um", false, &m.probe_noise_um, error) ||
+      !ReadInteger(body, "", "seed", false, &seed, error) ||
+      !ReadNumber(body, "", "outlier_probability", false, &m.outlier_probability, error) ||
+      !ReadNumber(body, "", "outlier_size_um", false, &m.outlier_size_um, error) ||
+      !ReadNumber(body, "", "missing_probability", false, &m.missing_probability, error) ||
+      !ReadInteger(body, "", "teeth", false, &teeth, error) ||
+      !ParsePointList(body, "outlier_points", rows, columns, &m.outlier_points, error) ||
+      !ParsePointList(body, "missing_points", rows, columns, &m.missing_points, error)) {
+    return false;
+  }
+  if (seed < 0) {
+    *error = InvalidValue("seed", "seed must not be negative");
+    return false;
+  }
+  if (teeth < 1 || teeth > 50) {
+    *error = InvalidValue("teeth", "teeth (measured per flank) must lie in [1, 50]");
+    return false;
+  }
+  if (m.probe_noise_um < 0.0 || m.probe_noise_um > 1e3) {
+    *error = InvalidValue("noise_um", "noise_um must lie in [0, 1000]");
+    return false;
+  }
+  if (std::fabs(m.outlier_size_um) > 1e4) {
+    *error = InvalidValue("outlier_size_um", "outlier_size_um must lie within 1e4");
+    return false;
+  }
+  m.seed = static_cast<std::uint64_t>(seed);
+  m.teeth = static_cast<int>(teeth);
+  std::string message;
+  if (!m.IsValid(&message)) {
+    // The simulator's messages name the C++ field; the API names are the same but for noise.
+    std::string field = message.substr(0, message.find(' '));
+    if (field == "probe_noise_um") field = "noise_um";
+    *error = InvalidValue(field, message);
+    return false;
+  }
+  return true;
+}
+
+nlohmann::json PointsJson(const std::vector<int>& indices, int columns) {
+  nlohmann::json list = nlohmann::json::array();
+  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+  return list;
+}
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
+  std::unique_ptr<FlatWheelGrinder> grinder;
+  SimulationSetup sim;
+  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
+  const int rows = grinder->GridRows();
+  const int columns = grinder->GridColumns();
+  const SimulatedMeasurement cmm =
+      SimulateMeasurement(*grinder, sim.commanded.ToVector(), sim.hidden_errors, sim.measurement);
+  nlohmann::json not_reached = nlohmann::json::array();
+  for (size_t i = 0; i < cmm.status.size(); ++i) {
+    if (cmm.status[i] != PointStatus::kOk) {
+      not_reached.push_back({{"row", static_cast<int>(i) / columns},
+                             {"column", static_cast<int>(i) % columns},
+                             {"status", PointStatusName(cmm.status[i])}});
+    }
+  }
+  *answer = {{"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
+             {"true_deviations_um", GridToJson(cmm.true_deviations_um, {}, rows, columns)},
+             {"outliers", PointsJson(cmm.outlier_indices, columns)},
+             {"missing", PointsJson(cmm.missing_indices, columns)},
+             {"not_reached", not_reached},
+             {"hidden_errors", MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors))},
+             {"settings", MachineSettingsToJson(sim.commanded)}};
+  if (cmm.teeth_um.size() > 1) {
+    nlohmann::json teeth = nlohmann::json::array();
+    for (const Eigen::VectorXd& tooth : cmm.teeth_um) teeth.push_back(GridToJson(tooth, {}, rows, columns));
+    (*answer)["measurement"]["teeth"] = teeth;
+  }
+  return true;
+}
+
+bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError* error) {
+  std::unique_ptr<FlatWheelGrinder> grinder;
+  SimulationSetup sim;
+  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
+  const int rows = grinder->GridRows();
+  const int columns = grinder->GridColumns();
+  Eigen::VectorXd target_um;
+  if (!ParseCorrectionTarget(body, sim.setup, rows, columns, &target_um, error)) return false;
+  long long corrections = 3;
+  if (!ReadInteger(body, "", "corrections", false, &corrections, error)) return false;
+  if (corrections < 1 || corrections > 20) {
+    *error = InvalidValue("corrections", "corrections must lie in [1, 20]");
+    return false;
+  }
+  // The solver knows the probe's noise unless told otherwise.
+  nlohmann::json options_body = body.contains("options") ? body.at("options") : nlohmann::json::object();
+  if (options_body.is_object() && !options_body.contains("probe_noise_um")) {
+    options_body["probe_noise_um"] = sim.measurement.probe_noise_um;
+  }
+  ClosedLoopOptions loop;
+  loop.corrections = static_cast<int>(corrections);
+  loop.measurement = sim.measurement;
+  if (!ParseCorrectionOptions({{"options", options_body}}, rows, columns, &loop.correction, error)) return false;
+
+  const ClosedLoopResult result =
+      SimulateClosedLoop(*grinder, sim.commanded.ToVector(), sim.hidden_errors, target_um, loop);
+
+  nlohmann::json iterations = nlohmann::json::array();
+  run->jobs.clear();
+  for (size_t k = 0; k < result.iterations.size(); ++k) {
+    const ClosedLoopIteration& it = result.iterations[k];
+    const MachineSettings commanded = MachineSettings::FromVector(it.commanded_parameters);
+    nlohmann::json item = {{"part", it.part},
+                           {"settings", MachineSettingsToJson(commanded)},
+                           {"true_rms_um", FiniteOrNull(it.true_rms_um)},
+                           {"true_max_um", FiniteOrNull(it.true_max_um)},
+                           {"measured_rms_um", FiniteOrNull(it.measured_rms_um)},
+                           {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
+                           {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
+                                                       : nlohmann::json(nullptr)}};
+    iterations.push_back(item);
+    if (!it.corrected || !it.correction.IsSolutionUsable()) continue;
+
+    // A stored job per correction: the request as a client would have sent it (so it can be
+    // replayed), with the measurement the simulated machine reported for this part (the loop
+    // advances the seed by one per part, so it is reproduced exactly).
+    MeasurementSimulationOptions m = sim.measurement;
+    m.seed += k;
+    const SimulatedMeasurement cmm = SimulateMeasurement(*grinder, it.commanded_parameters, sim.hidden_errors, m);
+    nlohmann::json request = nlohmann::json::object();
+    for (const char* key : {"gear", "wheel", "machine", "grid", "flank"}) {
+      if (body.contains(key)) request[key] = body.at(key);
+    }
+    request["settings"] = MachineSettingsToJson(commanded);
+    request["measurement"] = {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}};
+    request["target"] = {{"deviations_um", GridToJson(target_um, {}, rows, columns)}};
+    request["options"] = options_body;
+    nlohmann::json result_json = CorrectionSummaryToJson(it.correction, columns);
+    if (k + 1 < result.iterations.size()) {
+      const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
+      result_json["settings"] = MachineSettingsToJson(MachineSettings::FromVector(next));
+      result_json["delta"] = MachineSettingsToJson(MachineSettings::FromVector(next - it.commanded_parameters));
+    }
+    JobRecord job;
+    job.status = CorrectionStatusName(it.correction.status);
+    job.gear_teeth = sim.setup.gear.teeth;
+    job.gear_normal_module_mm = sim.setup.gear.normal_module_mm;
+    job.gear_helix_angle_deg = RoundTo1e9(std::fabs(sim.setup.gear.helix_angle_rad) / kRadPerDeg);
+    job.gear_hand = HandName(sim.setup.gear);
+    job.flank = FlankName(sim.setup.flank);
+    job.request_json = request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    job.result_json = result_json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (std::isfinite(it.correction.residual_rms_um)) job.residual_rms_um = it.correction.residual_rms_um;
+    if (std::isfinite(it.correction.best_reachable_rms_um)) job.best_reachable_rms_um = it.correction.best_reachable_rms_um;
+    job.rank = it.correction.rank;
+    job.elapsed_ms = it.correction.elapsed_ms;
+    run->jobs.push_back(job);
+    item["job_index"] = static_cast<int>(run->jobs.size()) - 1;
+    iterations.back() = item;
+  }
+  run->answer = {{"completed", result.completed},
+                 {"message", result.message},
+                 {"hidden_errors", MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors))},
+                 {"iterations", iterations}};
+  return true;
+}
+
+}  // namespace gearloop
