@@ -85,7 +85,7 @@ Eigen::MatrixXd CoordinateMap(const std::vector<ParameterBlock>& blocks,
 }
 
 // ---------------------------------------------------------------------------------------------
-// Tikhonov regularisation in the SVD of A.
+// Singular value decomposition of the scaled, weighted S.
 
 struct Svd {
   Eigen::MatrixXd u;        // n x p
@@ -94,43 +94,18 @@ struct Svd {
   int rank = 0;
 };
 
-Svd ComputeSvd(const Eigen::MatrixXd& a, double relative_rank_tolerance) {
+// Thin SVD of A; the numerical rank counts singular values >= rank_threshold (and > 0).
+Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   Svd s;
   if (a.rows() == 0 || a.cols() == 0) return s;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
   s.u = svd.matrixU();
   s.sigma = svd.singularValues();
   s.v = svd.matrixV();
-  const double largest = s.sigma.size() > 0 ? s.sigma(0) : 0.0;
   for (int i = 0; i < s.sigma.size(); ++i) {
-    if (s.sigma(i) > relative_rank_tolerance * largest && s.sigma(i) > 0.0) ++s.rank;
+    if (s.sigma(i) >= rank_threshold && s.sigma(i) > 0.0) ++s.rank;
   }
   return s;
-}
-
-// |in-range part of (A y_lambda - b)|^2 for beta = U^T b over the rank.
-double InRangeResidual2(const Svd& s, const Eigen::VectorXd& beta, double lambda) {
-  double r2 = 0.0;
-  const double l2 = lambda * lambda;
-  for (int i = 0; i < s.rank; ++i) {
-    const double f = l2 / (s.sigma(i) * s.sigma(i) + l2);
-    r2 += f * f * beta(i) * beta(i);
-  }
-  return r2;
-}
-
-double DegreesOfFreedom(const Svd& s, double lambda) {
-  double dof = 0.0;
-  for (int i = 0; i < s.rank; ++i) dof += s.sigma(i) * s.sigma(i) / (s.sigma(i) * s.sigma(i) + lambda * lambda);
-  return dof;
-}
-
-Eigen::VectorXd TikhonovSolution(const Svd& s, const Eigen::VectorXd& beta, double lambda) {
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(s.v.rows());
-  for (int i = 0; i < s.rank; ++i) {
-    y += s.sigma(i) * beta(i) / (s.sigma(i) * s.sigma(i) + lambda * lambda) * s.v.col(i);
-  }
-  return y;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -212,7 +187,7 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
 
 // ---------------------------------------------------------------------------------------------
 // Ceres refinement on the exact model: parameters v, delta = P v, residuals
-//   sqrt(w_i) (e_i + d_i(zeta_c + P v) - d0_i)  over the used points,  lambda R v.
+//   sqrt(w_i) (e_i + d_i(zeta_c + P v) - d0_i)  over the used points,  R v.
 class ExactModelCost : public ceres::CostFunction {
  public:
   ExactModelCost(const MachineModel& model,
@@ -300,13 +275,13 @@ struct NamedEnum {
 // Everything one regularised linear solve produces.
 struct LinearSolve {
   Svd svd;
-  Eigen::VectorXd beta;
-  double lambda = 0.0;
-  double dof = 0.0;
+  Eigen::VectorXd beta;       // U' b
+  int k = 0;                  // directions eligible (the numerical rank)
+  double lambda = 0.0;        // Tikhonov level
+  double dof = 0.0;           // sum of the filter factors
   Eigen::VectorXd y;          // free coordinates
   Eigen::VectorXd residual;   // weighted residual A y - b over the used rows
   Eigen::VectorXd best;       // weighted residual off the range over the used rows
-  double noise_in_range = 0.0;
 };
 
 }  // namespace
@@ -385,15 +360,12 @@ bool CorrectionOptions::IsValid(std::string* error) const {
       return fail("bounds on the change of parameter " + std::to_string(j) + " must satisfy lower <= 0 <= upper");
     }
   }
-  if (!(probe_noise_um >= 0.0) || !std::isfinite(probe_noise_um)) return fail("probe_noise_um must be finite and >= 0");
+  if (!std::isfinite(probe_noise_um)) return fail("probe_noise_um must be finite (negative = unknown)");
   for (const auto& [name, scale] : block_scales) {
     if (!(scale > 0.0) || !std::isfinite(scale)) return fail("block_scales[" + name + "] must be > 0");
   }
-  if (!(min_relative_regularisation > 0.0 && min_relative_regularisation < 1.0)) {
-    return fail("min_relative_regularisation must lie in (0, 1)");
-  }
-  if (!(relative_rank_tolerance > 0.0 && relative_rank_tolerance < 1.0)) {
-    return fail("relative_rank_tolerance must lie in (0, 1)");
+  if (!(min_flank_effect_um > 0.0) || !std::isfinite(min_flank_effect_um)) {
+    return fail("min_flank_effect_um must be finite and > 0");
   }
   if (max_num_iterations < 0) return fail("max_num_iterations must be >= 0");
   if (max_rework_passes < 1) return fail("max_rework_passes must be >= 1");
@@ -465,38 +437,6 @@ double CorrectionSize(const std::vector<ParameterBlock>& blocks,
     if (block_sizes != nullptr) block_sizes->push_back({b.name, std::sqrt(s2)});
   }
   return std::sqrt(total2);
-}
-
-Eigen::VectorXd BestReachableResidual(const Eigen::MatrixXd& jacobian_um,
-                                      const Eigen::VectorXd& error_um,
-                                      const Eigen::VectorXd& weights,
-                                      const std::vector<int>& free,
-                                      double relative_rank_tolerance) {
-  const int n = static_cast<int>(error_um.size());
-  std::vector<int> rows;
-  for (int i = 0; i < n; ++i) {
-    const double w = weights.size() > 0 ? weights(i) : 1.0;
-    if (w > 0.0 && std::isfinite(error_um(i))) rows.push_back(i);
-  }
-  Eigen::MatrixXd a(rows.size(), free.size());
-  Eigen::VectorXd b(rows.size());
-  for (size_t r = 0; r < rows.size(); ++r) {
-    const double sw = std::sqrt(weights.size() > 0 ? weights(rows[r]) : 1.0);
-    for (size_t c = 0; c < free.size(); ++c) a(r, c) = sw * jacobian_um(rows[r], free[c]);
-    b(r) = sw * error_um(rows[r]);
-  }
-  for (int c = 0; c < a.cols(); ++c) {
-    const double norm = a.col(c).norm();
-    if (norm > 0.0) a.col(c) /= norm;
-  }
-  const Svd s = ComputeSvd(a, relative_rank_tolerance);
-  Eigen::VectorXd off = b;
-  for (int i = 0; i < s.rank; ++i) off -= s.u.col(i) * s.u.col(i).dot(b);
-  Eigen::VectorXd out = Eigen::VectorXd::Constant(n, kNaN);
-  for (size_t r = 0; r < rows.size(); ++r) {
-    out(rows[r]) = off(r) / std::sqrt(weights.size() > 0 ? weights(rows[r]) : 1.0);
-  }
-  return out;
 }
 
 Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen::VectorXi* counts) {
@@ -636,66 +576,92 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
     for (int j : free) has_bounds = has_bounds || std::isfinite(lower(j)) || std::isfinite(upper(j));
   }
 
-  // The linear, regularised solve on a set of rows.
-  auto linear_solve = [&](const std::vector<int>& rows, double forced_lambda) {
+  // The regularised linear solve on a set of rows: Tikhonov in the reachable directions of
+  // A = W^1/2 S T with lambda chosen by the rule.
+  auto linear_solve = [&](const std::vector<int>& rows) {
     LinearSolve ls;
     Eigen::MatrixXd a(rows.size(), nf);
     Eigen::VectorXd b(rows.size());
+    double weight_sum = 0.0;
     for (size_t r = 0; r < rows.size(); ++r) {
       const double sw = std::sqrt(weights(rows[r]));
       a.row(r) = sw * st.row(rows[r]);
       b(r) = -sw * e(rows[r]);
+      weight_sum += weights(rows[r]);
     }
-    ls.svd = ComputeSvd(a, options.relative_rank_tolerance);
+    // A direction with singular value sigma changes the flank by sigma / sqrt(sum w) um rms per
+    // unit of correction size; below min_flank_effect_um it is not counted as reachable.
+    ls.svd = ComputeSvd(a, options.min_flank_effect_um * std::sqrt(weight_sum));
+    const int rank = ls.svd.rank;
     ls.beta = ls.svd.u.transpose() * b;
     ls.best = b;
-    for (int i = 0; i < ls.svd.rank; ++i) ls.best -= ls.beta(i) * ls.svd.u.col(i);
+    for (int i = 0; i < rank; ++i) ls.best -= ls.beta(i) * ls.svd.u.col(i);
     const double out2 = ls.best.squaredNorm();
-    const double sigma1 = ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) : 0.0;
-    const double lambda_min = options.min_relative_regularisation * sigma1;
-    const double lambda_max = 1e6 * std::max(sigma1, 1e-300);
-    const double s2 = options.probe_noise_um * options.probe_noise_um;
-    for (int i = 0; i < ls.svd.rank; ++i) {
+    // noise2 = the probe noise expected inside the range, sigma^2 sum_{i<rank} sum_r w_r U_ri^2.
+    double noise2_total = 0.0;
+    const double s2 = options.probe_noise_um > 0.0 ? options.probe_noise_um * options.probe_noise_um : 0.0;
+    for (int i = 0; i < rank; ++i) {
       double v = 0.0;
       for (size_t r = 0; r < rows.size(); ++r) v += weights(rows[r]) * ls.svd.u(r, i) * ls.svd.u(r, i);
-      ls.noise_in_range += s2 * v;
+      noise2_total += s2 * v;
     }
-    if (forced_lambda >= 0.0) {
-      ls.lambda = forced_lambda;
-    } else if (options.probe_noise_um > 0.0) {
-      // Discrepancy principle on the part of b inside the range of A: the in-range residual
-      // grows monotonically with lambda; find where it equals the noise expected there.
-      if (InRangeResidual2(ls.svd, ls.beta, lambda_min) >= ls.noise_in_range) {
-        ls.lambda = lambda_min;
-      } else if (InRangeResidual2(ls.svd, ls.beta, lambda_max) <= ls.noise_in_range) {
-        ls.lambda = lambda_max;
+    // Filter factor f_i = sigma_i^2 / (sigma_i^2 + lambda^2); in-range residual and dof.
+    auto in_range2 = [&](double lambda) {
+      double r2 = 0.0;
+      for (int i = 0; i < rank; ++i) {
+        const double f = lambda * lambda / (ls.svd.sigma(i) * ls.svd.sigma(i) + lambda * lambda);
+        r2 += f * f * ls.beta(i) * ls.beta(i);
+      }
+      return r2;
+    };
+    auto dof = [&](double lambda) {
+      double d = 0.0;
+      for (int i = 0; i < rank; ++i) d += ls.svd.sigma(i) * ls.svd.sigma(i) / (ls.svd.sigma(i) * ls.svd.sigma(i) + lambda * lambda);
+      return d;
+    };
+    ls.k = rank;
+    const double sigma1 = rank > 0 ? ls.svd.sigma(0) : 0.0;
+    const double lambda_lo = 1e-8 * sigma1, lambda_hi = 1e4 * sigma1;
+    if (rank == 0) {
+      ls.lambda = 0.0;
+    } else if (options.probe_noise_um >= 0.0) {
+      // Discrepancy principle on the part of b inside the range of A (the part outside cannot
+      // be fitted by any correction): the in-range residual, increasing in lambda, equals the
+      // probe noise expected in those directions. sigma = 0: exact data, lambda = 0.
+      const double target = noise2_total;
+      if (target <= 0.0 || in_range2(lambda_lo) >= target) {
+        ls.lambda = 0.0;
+      } else if (in_range2(lambda_hi) <= target) {
+        ls.lambda = lambda_hi;  // everything in range is at the noise level: no correction
       } else {
-        double lo = std::log(lambda_min), hi = std::log(lambda_max);
-        for (int it = 0; it < 100; ++it) {
+        double lo = std::log(lambda_lo), hi = std::log(lambda_hi);
+        for (int it = 0; it < 80; ++it) {
           const double mid = 0.5 * (lo + hi);
-          if (InRangeResidual2(ls.svd, ls.beta, std::exp(mid)) < ls.noise_in_range) lo = mid; else hi = mid;
+          if (in_range2(std::exp(mid)) < target) lo = mid; else hi = mid;
         }
         ls.lambda = std::exp(0.5 * (lo + hi));
       }
     } else {
-      // Generalised cross-validation on a logarithmic grid of lambda from lambda_min to 10 sigma_1.
-      const int kGrid = 241;
-      const double lo = std::log(std::max(lambda_min, 1e-300)), hi = std::log(std::max(10.0 * sigma1, 1e-300));
-      double best_g = kInf;
-      ls.lambda = lambda_min;
-      for (int k = 0; k < kGrid; ++k) {
-        const double lambda = std::exp(lo + (hi - lo) * k / (kGrid - 1));
-        const double denom = std::max(static_cast<double>(rows.size()) - DegreesOfFreedom(ls.svd, lambda), 1e-9);
-        const double g = (InRangeResidual2(ls.svd, ls.beta, lambda) + out2) / (denom * denom);
-        if (g < best_g * (1.0 - 1e-12)) {
-          best_g = g;
+      // Generalised cross-validation: minimise |A y - b|^2 / (m - dof)^2 over a logarithmic grid.
+      const double m = static_cast<double>(rows.size());
+      double best_g = std::numeric_limits<double>::infinity();
+      const int kGrid = 193;
+      for (int g = 0; g < kGrid; ++g) {
+        const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
+        const double denom = std::max(m - dof(lambda), 0.5);
+        const double value = (in_range2(lambda) + out2) / (denom * denom);
+        if (value < best_g) {
+          best_g = value;
           ls.lambda = lambda;
         }
       }
     }
-    ls.lambda = std::max(ls.lambda, lambda_min);
-    ls.dof = DegreesOfFreedom(ls.svd, ls.lambda);
-    ls.y = TikhonovSolution(ls.svd, ls.beta, ls.lambda);
+    ls.dof = dof(ls.lambda);
+    ls.y = Eigen::VectorXd::Zero(nf);
+    for (int i = 0; i < rank; ++i) {
+      const double sg = ls.svd.sigma(i);
+      ls.y += sg * ls.beta(i) / (sg * sg + ls.lambda * ls.lambda) * ls.svd.v.col(i);
+    }
     ls.residual = a * ls.y - b;
     return ls;
   };
@@ -704,23 +670,24 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   if (options.outlier_threshold > 0.0 && options.solver == CorrectionSolver::kRegularised) {
     const int max_drop = static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
     for (int drop = 0; drop < max_drop; ++drop) {
-      const LinearSolve ls = linear_solve(used, -1.0);
-      // Leave-one-out residual r_i / (1 - h_ii) with the Tikhonov hat matrix U diag(f) U'.
+      const LinearSolve ls = linear_solve(used);
+      // Leave-one-out residual r_i / (1 - h_ii), h_ii from the hat matrix U_k U_k'.
       std::vector<double> loo(used.size());
       for (size_t r = 0; r < used.size(); ++r) {
         double h = 0.0;
-        for (int i = 0; i < ls.svd.rank; ++i) {
+        for (int i = 0; i < ls.k; ++i) {
           const double s2 = ls.svd.sigma(i) * ls.svd.sigma(i);
           h += s2 / (s2 + ls.lambda * ls.lambda) * ls.svd.u(r, i) * ls.svd.u(r, i);
         }
-        loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) / std::max(1.0 - h, 1e-3);
+        // Standardised residual: r_i / sqrt(1 - h_ii) has the spread of the noise.
+        loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) / std::sqrt(std::max(1.0 - h, 1e-6));
       }
       const double med = Median(loo);
       std::vector<double> dev(loo.size());
       for (size_t r = 0; r < loo.size(); ++r) dev[r] = std::abs(loo[r] - med);
       const double spread = 1.4826 * Median(dev);
       const size_t worst = std::max_element(dev.begin(), dev.end()) - dev.begin();
-      const double limit = std::max(options.outlier_threshold * std::max(spread, options.probe_noise_um),
+      const double limit = std::max(options.outlier_threshold * std::max(spread, std::max(options.probe_noise_um, 0.0)),
                                     options.outlier_min_um);
       if (dev[worst] <= limit) break;
       summary.outlier_indices.push_back(used[worst]);
@@ -731,7 +698,7 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   }
 
   // ---- the linear solve on the final rows (also reports rank and best reachable) ----------
-  const LinearSolve ls = linear_solve(used, -1.0);
+  const LinearSolve ls = linear_solve(used);
   summary.singular_values = ls.svd.sigma;
   summary.rank = ls.svd.rank;
   summary.condition_number = ls.svd.rank > 0 ? ls.svd.sigma(0) / ls.svd.sigma(ls.svd.rank - 1) : kInf;
@@ -751,65 +718,79 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   };
 
   if (options.solver == CorrectionSolver::kRegularised) {
-    summary.rule = options.probe_noise_um > 0.0 ? RegularisationRule::kDiscrepancyPrinciple
+    summary.rule = options.probe_noise_um >= 0.0 ? RegularisationRule::kDiscrepancyPrinciple
                                                 : RegularisationRule::kGeneralisedCrossValidation;
-    summary.regularisation_level = ls.lambda;
-    summary.effective_dof = ls.dof;
+    const int k = ls.k;
     const double lambda = ls.lambda;
+    summary.regularisation_level = lambda;
+    summary.effective_dof = ls.dof;
     const bool rework = options.mode == CorrectionMode::kRework;
-    Eigen::VectorXd y = ls.y;
+    // The kept subspace: y = V_k z, delta = T V_k z.
+    const Eigen::MatrixXd vk = ls.svd.v.leftCols(k);
+    const Eigen::MatrixXd tv = t_map * vk;  // np x k
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(k);
+    for (int i = 0; i < k; ++i) {
+      z(i) = ls.svd.sigma(i) * ls.beta(i) / (ls.svd.sigma(i) * ls.svd.sigma(i) + lambda * lambda);
+    }
 
-    // Linear constraints in y: bounds on delta = T y, and (rework) the change S T y <= -c.
-    auto build_qp = [&](const Eigen::MatrixXd& jac_k, const Eigen::VectorXd& change_k, const Eigen::VectorXd& y_k,
-                        Eigen::MatrixXd* hess, Eigen::VectorXd* grad, Eigen::MatrixXd* g_mat, Eigen::VectorXd* h_vec) {
-      const Eigen::MatrixXd st_k = jac_k * t_map;
-      Eigen::MatrixXd a(used.size(), nf);
+    // The QP in z at a linearisation (jac_k, exact change change_k at z_k): minimise the
+    // weighted predicted error, subject to bounds on delta and (rework) change <= 0.
+    auto solve_qp = [&](const Eigen::MatrixXd& jac_k, const Eigen::VectorXd& change_k, const Eigen::VectorXd& z_k,
+                        Eigen::VectorXd* z_out) {
+      const Eigen::MatrixXd stv = jac_k * tv;  // n x k
+      Eigen::MatrixXd a(used.size(), k);
       Eigen::VectorXd b(used.size());
       for (size_t r = 0; r < used.size(); ++r) {
         const int i = used[r];
         const double sw = std::sqrt(weights(i));
-        a.row(r) = sw * st_k.row(i);
-        b(r) = -sw * (e(i) + change_k(i) - st_k.row(i).dot(y_k));
+        a.row(r) = sw * stv.row(i);
+        b(r) = -sw * (e(i) + change_k(i) - stv.row(i).dot(z_k));
       }
-      *hess = a.transpose() * a + lambda * lambda * Eigen::MatrixXd::Identity(nf, nf);
-      *grad = a.transpose() * b;
+      const double ridge = 1e-12 * (ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) * ls.svd.sigma(0) : 1.0);
+      const Eigen::MatrixXd hess = a.transpose() * a + (ridge + lambda * lambda) * Eigen::MatrixXd::Identity(k, k);
+      const Eigen::VectorXd grad = a.transpose() * b;
       std::vector<Eigen::RowVectorXd> rows;
       std::vector<double> lims;
       if (rework) {
         for (int i : reached) {
-          rows.push_back(st_k.row(i));
-          lims.push_back(st_k.row(i).dot(y_k) - change_k(i));
+          rows.push_back(stv.row(i));
+          lims.push_back(stv.row(i).dot(z_k) - change_k(i));
         }
       }
       for (int c = 0; c < nf; ++c) {
         const int j = free[c];
         if (std::isfinite(upper(j))) {
-          rows.push_back(t_map.row(j));
+          rows.push_back(tv.row(j));
           lims.push_back(upper(j));
         }
         if (std::isfinite(lower(j))) {
-          rows.push_back(-t_map.row(j));
+          rows.push_back(-tv.row(j));
           lims.push_back(-lower(j));
         }
       }
-      g_mat->resize(rows.size(), nf);
-      h_vec->resize(rows.size());
+      Eigen::MatrixXd g_mat(rows.size(), k);
+      Eigen::VectorXd h_vec(rows.size());
       for (size_t r = 0; r < rows.size(); ++r) {
-        g_mat->row(r) = rows[r];
-        (*h_vec)(r) = lims[r];
+        g_mat.row(r) = rows[r];
+        h_vec(r) = lims[r];
       }
+      return SolveConvexQp(hess, grad, g_mat, h_vec, z_out);
     };
 
-    if (rework || has_bounds) {
-      Eigen::MatrixXd hess, g_mat;
-      Eigen::VectorXd grad, h_vec;
-      build_qp(jac, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(nf), &hess, &grad, &g_mat, &h_vec);
-      if (!SolveConvexQp(hess, grad, g_mat, h_vec, &y)) not_converged = "the constrained linear problem failed";
+    if (k > 0 && (rework || has_bounds)) {
+      Eigen::VectorXd z_new;
+      if (solve_qp(jac, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(k), &z_new)) {
+        z = z_new;
+      } else {
+        not_converged = "the constrained linear problem failed";
+      }
     }
-    delta = t_map * y;
+    delta = tv * z;
     summary.linear_residual_rms_um = linear_prediction_rms(delta);
 
-    if (rework) {
+    if (k == 0) {
+      // Nothing above the noise: no change.
+    } else if (rework) {
       // Sequential QP on the exact model: re-linearise at the current change and solve again.
       int pass = 0;
       for (; pass < options.max_rework_passes; ++pass) {
@@ -831,34 +812,45 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
           break;
         }
         if (pass > 0 && worst <= options.rework_tolerance_um) break;
-        Eigen::MatrixXd hess, g_mat;
-        Eigen::VectorXd grad, h_vec, y_new;
-        build_qp(ev.jacobian_um, change, y, &hess, &grad, &g_mat, &h_vec);
-        if (!SolveConvexQp(hess, grad, g_mat, h_vec, &y_new)) {
+        Eigen::VectorXd z_new;
+        if (!solve_qp(ev.jacobian_um, change, z, &z_new)) {
           not_converged = "the constrained linear problem failed";
           break;
         }
-        y = y_new;
-        delta = t_map * y;
+        z = z_new;
+        delta = tv * z;
       }
       summary.iterations = pass;
     } else if (options.max_num_iterations > 0) {
-      // Ceres refinement on the exact model with the same Tikhonov term. Without bounds the
-      // variables are the orthonormal coordinates y (well conditioned); with bounds they are
-      // the free monomial coefficients themselves (box bounds), and the term is lambda T_ff^-1 v.
+      // Ceres refinement on the exact model in the same kept subspace. Without bounds the
+      // variables are z (delta = T V_k z). With bounds they are the free monomial coefficients
+      // (box bounds), and leaving the subspace is penalised by sigma_1 |(I - V_k V_k') T_ff^-1 v|.
       Eigen::MatrixXd p, reg;
       Eigen::VectorXd v;
       if (has_bounds) {
         p = Eigen::MatrixXd::Zero(np, nf);
         for (int c = 0; c < nf; ++c) p(free[c], c) = 1.0;
-        reg = lambda * t_ff.inverse();
+        const Eigen::MatrixXd t_inv = t_ff.inverse();
+        reg.resize(nf + k, nf);
+        reg.topRows(nf) = ls.svd.sigma(0) * (Eigen::MatrixXd::Identity(nf, nf) - vk * vk.transpose()) * t_inv;
+        reg.bottomRows(k) = lambda * vk.transpose() * t_inv;
         v.resize(nf);
         for (int c = 0; c < nf; ++c) v(c) = std::clamp(delta(free[c]), lower(free[c]), upper(free[c]));
       } else {
-        p = t_map;
-        reg = lambda * Eigen::MatrixXd::Identity(nf, nf);
-        v = y;
+        p = tv;
+        reg = lambda * Eigen::MatrixXd::Identity(k, k);
+        v = z;
       }
+      // Ceres cannot start where the exact model loses a point: then start from no change (a
+      // valid point) and let the trust region find how far the linear step can be followed.
+      {
+        ModelEvaluation ev;
+        model.Evaluate(input.current_parameters + p * v, false, &ev);
+        bool start_ok = true;
+        for (int i : used) start_ok = start_ok && ev.status[i] == PointStatus::kOk;
+        if (!start_ok) v.setZero();
+      }
+      {
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       ceres::Problem problem(problem_options);
@@ -876,12 +868,14 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
       solver_options.logging_type = ceres::SILENT;
       solver_options.minimizer_progress_to_stdout = false;
       solver_options.num_threads = 1;
-      solver_options.function_tolerance = 1e-12;
-      solver_options.gradient_tolerance = 1e-14;
-      solver_options.parameter_tolerance = 1e-12;
+      solver_options.function_tolerance = 1e-10;
+      solver_options.gradient_tolerance = 1e-12;
+      solver_options.parameter_tolerance = 1e-10;
       ceres::Solver::Summary ceres_summary;
       const Eigen::VectorXd v0 = v;
       ceres::Solve(solver_options, &problem, &ceres_summary);
+      summary.refinement_initial_cost = ceres_summary.initial_cost;
+      summary.refinement_final_cost = ceres_summary.final_cost;
       summary.iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
       if (ceres_summary.termination_type == ceres::CONVERGENCE) {
         delta = p * v;
@@ -892,6 +886,7 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
         delta = p * v0;
         not_converged = "the exact-model refinement failed (" + ceres_summary.message +
                         "); the linear correction is reported";
+      }
       }
     }
   } else if (options.solver == CorrectionSolver::kPlainLeastSquares) {

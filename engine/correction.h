@@ -31,21 +31,30 @@
 //     range: dC(phi1) = s sum_k y_k sqrt(2k+1) P_k((phi1 - c) / h), c and h the centre and half
 //     width of the range, so that the correction size is exactly |y| (Euclidean). Scalar blocks:
 //     dp = s y. dzeta = T y.
-//  2. With W the point weights, A = W^1/2 S T over the usable points, b = -W^1/2 e, the Tikhonov
-//     problem  min |A y - b|^2 + lambda^2 |y|^2  is solved through the SVD of A.
-//  3. lambda by a stated rule: the discrepancy principle when the probe noise sigma > 0 (the
-//     residual of the part of b inside the range of A equals the noise expected there,
-//     sigma^2 sum_i sum_j w_j U_ji^2 over the numerical rank), generalised cross-validation
-//     (minimum of |A y - b|^2 / (n - dof)^2, dof = sum of the Tikhonov filter factors) when
-//     sigma = 0. lambda never falls below min_relative_regularisation times the largest
-//     singular value. Rule, lambda and dof are reported.
-//  4. y is converted back to the machine's monomial coefficients and refined by Ceres
-//     (Levenberg-Marquardt) on the exact nonlinear model, keeping the same lambda^2 |y|^2 term,
-//     within the per-coefficient bounds.
+//  2. With W the point weights, A = W^1/2 S T over the usable points and b = -W^1/2 e, the
+//     thin SVD A = U Sigma V' is taken. A direction counts toward the numerical rank when one
+//     unit of correction size moves the flank by at least min_flank_effect_um rms
+//     (sigma_i >= min_flank_effect_um sqrt(sum w)); the rest is the null space (MODEL.md §5) and
+//     never enters a correction. "Best reachable" is b projected off U over that rank.
+//  3. Tikhonov regularisation inside those directions: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i
+//     with f_i = sigma_i^2 / (sigma_i^2 + lambda^2), i.e. min |A y - b|^2 + lambda^2 |y|^2 over
+//     y in span(v_0..v_rank-1). lambda by a stated rule: the discrepancy principle when the probe
+//     noise sigma is known, >= 0 (the in-range residual sum_i (1 - f_i)^2 (u_i'b)^2 equals the
+//     noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2; sigma = 0 gives lambda = 0),
+//     generalised cross-validation (minimum of |A y - b|^2 / (m - dof)^2, dof = sum f_i, m the
+//     points used) when sigma is unknown (negative). GCV reads a systematic misfit (a target the
+//     model cannot reach) as noise and then corrects less; with exact data give sigma = 0.
+//     Rule, lambda and dof are reported.
+//  4. The change delta = T V_rank z is refined by Ceres (Levenberg-Marquardt) on the exact
+//     nonlinear model in the same subspace with the same lambda^2 |z|^2 term, starting from the
+//     linear answer (or from no change if the exact model loses a point there), within the
+//     per-coefficient bounds (then over the free monomials, with a penalty sigma_1 for leaving
+//     the subspace), and reported as the machine's monomial coefficients.
 //  Rework mode (material can only be removed): the exact predicted change d(zeta + dzeta) -
-//  d(zeta) must be <= 0 at every reached point. Steps 2-4 become a sequence of convex quadratic
-//  programs (same objective, the linearised change <= 0 as constraints, solved through the dual
-//  non-negative least squares of Lawson and Hanson), each re-linearised on the exact model.
+//  d(zeta) must be <= 0 at every reached point. Steps 3-4 become a sequence of convex quadratic
+//  programs in z (same objective, the linearised change <= 0 and the bounds as constraints,
+//  solved through their dual with the active-set method of Lawson and Hanson), each
+//  re-linearised on the exact model.
 //
 // Solver "pso" (the published method, Jiang 2015 / MODEL.md §6, kept for comparison): particle
 // swarm over the free coefficients, each within +-0.02 of the current value (mm, rad, and for the
@@ -89,8 +98,8 @@ const char* CorrectionModeName(CorrectionMode mode);
 bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode);
 
 enum class RegularisationRule {
-  kDiscrepancyPrinciple,          // "discrepancy-principle" (probe noise sigma > 0)
-  kGeneralisedCrossValidation,    // "gcv" (sigma = 0)
+  kDiscrepancyPrinciple,          // "discrepancy-principle" (probe noise sigma known, >= 0)
+  kGeneralisedCrossValidation,    // "gcv" (sigma unknown)
   kNone,                          // "none" (pso, lsq-plain)
 };
 const char* RegularisationRuleName(RegularisationRule rule);
@@ -116,20 +125,21 @@ struct CorrectionOptions {
   Eigen::VectorXd lower_delta;
   Eigen::VectorXd upper_delta;
 
-  // Standard deviation of the probe noise [um]; > 0 selects the discrepancy principle, 0 GCV.
-  double probe_noise_um = 0.0;
+  // Standard deviation of the probe noise [um]. Known (>= 0): the discrepancy principle chooses
+  // lambda (0 = exact measurements: lambda = 0, every reachable direction is fitted). Unknown
+  // (negative, the default): generalised cross-validation chooses it.
+  double probe_noise_um = -1.0;
 
   // Correction-size scales per block name, overriding ParameterBlock::default_scale (> 0).
   std::map<std::string, double> block_scales;
 
-  // Lower limit of the Tikhonov level lambda, relative to the largest singular value of the
-  // scaled S. Keeps directions whose flank effect is below ~1e-4 of the strongest out of the
-  // solution however the rule decides.
-  double min_relative_regularisation = 1e-4;
-
-  // Singular values of the scaled S above this fraction of the largest count toward its
-  // numerical rank (reported, and used for "best reachable").
-  double relative_rank_tolerance = 1e-6;
+  // A direction of the scaled S counts toward its numerical rank (and may be corrected) when one
+  // unit of correction size (1 um of axis motion with the default scales) moves the flank by at
+  // least this much, rms over the points [um]. 1e-3 refuses corrections that need more than
+  // ~1000 um of axis motion per um of flank; it sits in the gap between the genuine directions
+  // and the first-order null space, whose singular values leave zero as soon as the settings
+  // leave nominal.
+  double min_flank_effect_um = 1e-3;
 
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
   int max_num_iterations = 20;
@@ -192,8 +202,8 @@ struct CorrectionSummary {
   CorrectionMode mode = CorrectionMode::kNextPart;
 
   RegularisationRule rule = RegularisationRule::kNone;
-  double regularisation_level = 0.0;  // lambda (in units of the scaled S)
-  double effective_dof = 0.0;         // sum of filter factors (the rank actually used)
+  double regularisation_level = 0.0;  // lambda, in units of the scaled S (um per unit size)
+  double effective_dof = 0.0;         // sum of the Tikhonov filter factors (<= rank)
 
   int num_points_used = 0;
   int num_free_parameters = 0;
@@ -217,6 +227,10 @@ struct CorrectionSummary {
 
   std::vector<int> outlier_indices;   // grid points dropped as gross outliers
   std::vector<int> missing_indices;   // grid points without a usable measurement or contact
+
+  // Ceres cost 1/2 |residuals|^2 of the exact-model refinement before and after (0 if none).
+  double refinement_initial_cost = 0.0;
+  double refinement_final_cost = 0.0;
 
   int iterations = 0;                 // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;
@@ -259,15 +273,6 @@ Eigen::VectorXd CorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
                                       double roll_min_rad,
                                       double roll_max_rad,
                                       const std::map<std::string, double>& block_scales = {});
-
-// The best residual any change of the free parameters can reach in the linear model: e projected
-// off the range of W^1/2 S (columns `free`, rank by `relative_rank_tolerance` after unit column
-// scaling), as a per-point residual (NaN where weight is 0 or e is NaN).
-Eigen::VectorXd BestReachableResidual(const Eigen::MatrixXd& jacobian_um,
-                                      const Eigen::VectorXd& error_um,
-                                      const Eigen::VectorXd& weights,
-                                      const std::vector<int>& free,
-                                      double relative_rank_tolerance = 1e-6);
 
 // Several measured teeth of one flank combined point by point: the mean of the finite values at
 // each point, NaN where no tooth delivered the point. All grids must have the same size;
