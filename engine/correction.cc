@@ -724,6 +724,7 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
     const double lambda = ls.lambda;
     summary.regularisation_level = lambda;
     summary.effective_dof = ls.dof;
+    summary.truncation_rank = ls.k;
     const bool rework = options.mode == CorrectionMode::kRework;
     // The kept subspace: y = V_k z, delta = T V_k z.
     const Eigen::MatrixXd vk = ls.svd.v.leftCols(k);

@@ -204,6 +204,7 @@ struct CorrectionSummary {
   RegularisationRule rule = RegularisationRule::kNone;
   double regularisation_level = 0.0;  // lambda, in units of the scaled S (um per unit size)
   double effective_dof = 0.0;         // sum of the Tikhonov filter factors (<= rank)
+  int truncation_rank = 0;            // directions the regularised solve may use (= rank; 0 for pso, lsq-plain)
 
   int num_points_used = 0;
   int num_free_parameters = 0;
