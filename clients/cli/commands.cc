@@ -297,14 +297,14 @@ void PrintGrid(const std::string& title, const json& grid) {
   CsvGrid g;
   if (!JsonToCsvGrid(grid, &g)) return;
   std::cout << title << " [um] (tip at top, lead from x < 0 to x > 0)\n";
-  std::cout << std::setw(10) << "";
+  std::cout << std::setw(11) << "";
   for (int c = 0; c < g.columns; ++c) std::cout << std::setw(8) << ("L" + std::to_string(c + 1));
   std::cout << "\n";
   for (int r = g.rows - 1; r >= 0; --r) {
     std::string label = "row " + std::to_string(r + 1);
     if (r == g.rows - 1) label += " tip";
-    if (r == 0) label += " rt";
-    std::cout << std::left << std::setw(10) << label << std::right;
+    if (r == 0) label += " root";
+    std::cout << std::left << std::setw(11) << label << std::right;
     for (int c = 0; c < g.columns; ++c) {
       const auto& v = g.at(r, c);
       std::ostringstream cell;
@@ -545,7 +545,7 @@ int List(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global)
     return kExitOk;
   }
   const json jobs = answer.body.value("jobs", json::array());
-  std::cout << std::left << std::setw(6) << "id" << std::setw(22) << "created (UTC)" << std::setw(12) << "kind"
+  std::cout << std::left << std::setw(6) << "id" << std::setw(26) << "created (UTC)" << std::setw(12) << "kind"
             << std::setw(15) << "status" << std::setw(14) << "gear" << std::setw(7) << "flank" << std::right
             << std::setw(10) << "rms um" << std::setw(8) << "parent" << "\n";
   for (const json& job : jobs) {
@@ -558,7 +558,7 @@ int List(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global)
     if (parent == "-" && job.contains("settings_source_job_id") && !job["settings_source_job_id"].is_null()) {
       parent = "<" + Text(job["settings_source_job_id"]);
     }
-    std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(22) << Member(job, "created_utc")
+    std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(26) << Member(job, "created_utc")
               << std::setw(12) << Member(job, "kind") << std::setw(15) << Member(job, "status") << std::setw(14)
               << gear << std::setw(7) << Member(job, "flank") << std::right << std::setw(10)
               << Fixed(job.value("residual_rms_um", json())) << std::setw(8) << parent << "\n";
@@ -640,7 +640,9 @@ json TargetGrid(const json& job) {
   CsvGrid out = measured;
   for (size_t i = 0; i < out.values.size(); ++i) {
     if (measured.values[i] && change.values[i] && residual.values[i]) {
-      out.values[i] = *measured.values[i] + *change.values[i] - *residual.values[i];
+      // Rounded to 1e-6 um: the three grids are computed separately and their sum carries
+      // rounding noise far below anything a measuring machine resolves.
+      out.values[i] = std::round((*measured.values[i] + *change.values[i] - *residual.values[i]) * 1e6) / 1e6;
     } else {
       out.values[i] = std::nullopt;
     }
@@ -999,7 +1001,9 @@ int ClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOptions& g
                 << Fixed(it.value("measured_rms_um", json())) << std::setw(15) << correction << std::setw(6)
                 << Member(it, "job_id") << "\n";
     }
-    std::cout << "(um) " << Member(answer.body, "message") << "\n";
+    std::cout << "(deviations from the target in um; part 0 is ground before any correction)\n";
+    const std::string note = answer.body.value("message", "");
+    if (!note.empty()) std::cout << note << "\n";
   }
   const json completed = answer.body.value("completed", json(true));
   return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged : kExitOk;
@@ -1028,7 +1032,16 @@ int Report(const ParsedArgs& args, ApiClient* client, const GlobalOptions&) {
   // report, with this job alone.
   json lineage = json::array({job.body});
   const ApiResponse chain = client->Get("/api/v1/corrections/" + std::to_string(id) + "/lineage");
-  if (chain.ok() && chain.body.is_object() && chain.body.contains("jobs")) lineage = chain.body["jobs"];
+  if (chain.ok() && chain.body.is_object() && chain.body.contains("jobs") && chain.body["jobs"].is_array()) {
+    // The lineage lists summaries; the plot needs each job's measured rms, so fetch the last 20.
+    json full = json::array();
+    const json& jobs = chain.body["jobs"];
+    for (size_t i = jobs.size() > 20 ? jobs.size() - 20 : 0; i < jobs.size(); ++i) {
+      const ApiResponse one = client->Get("/api/v1/corrections/" + Text(jobs[i].value("id", json())));
+      if (one.ok() && one.body.is_object()) full.push_back(one.body);
+    }
+    if (!full.empty()) lineage = full;
+  }
   std::string html;
   std::string error;
   if (!RenderJobReport(job.body, lineage, &html, &error)) {

@@ -64,7 +64,7 @@
           P.html("td", { text: job.kind }),
           P.html("td", { class: "status-" + job.status, text: job.status }),
           P.html("td", { class: "num", text: P.fmt(job.residual_rms_um, 3) }),
-          P.html("td", { text: (job.created_utc || "").replace("T", " ").replace("Z", "") }),
+          P.html("td", { title: job.created_utc || "", text: (job.created_utc || "").slice(5, 19).replace("T", " ") }),
         ]);
         tr.addEventListener("click", () => {
           window.location.hash = "job=" + job.id;

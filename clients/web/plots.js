@@ -73,8 +73,12 @@
     const raw = (hi - lo) / Math.max(1, count);
     const mag = Math.pow(10, Math.floor(Math.log10(raw)));
     const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => s >= raw) || 10 * mag;
+    // Ticks cover [lo, hi] entirely, so no point sits on the frame.
     const ticks = [];
-    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) {
+    const first = Math.floor(lo / step + 1e-9);
+    const last = Math.ceil(hi / step - 1e-9);
+    for (let k = first; k <= last; ++k) {
+      const v = k * step;
       ticks.push(Math.abs(v) < step * 1e-9 ? 0 : v);
     }
     return { lo: Math.min(lo, ticks[0]), hi: Math.max(hi, ticks[ticks.length - 1]), ticks, step };
@@ -119,8 +123,8 @@
     if (opts.subtitle) {
       root.appendChild(svg("text", { x: left, y: 29, class: "plot-subtitle" }, [opts.subtitle]));
     }
-    for (let r = 0; r < rows; ++r) {
-      // Row rows-1 (tip) at the top.
+    for (let r = rows - 1; r >= 0; --r) {
+      // Row rows-1 (tip) at the top, drawn (and read by a screen reader) first.
       const y = top + (rows - 1 - r) * ch;
       const label = r === rows - 1 ? "tip " + (r + 1) : r === 0 ? "root 1" : String(r + 1);
       root.appendChild(svg("text", { x: left - 6, y: y + ch / 2 + 4, class: "axis-label", "text-anchor": "end" }, [label]));
@@ -372,7 +376,7 @@
     for (let k = 0; k < 7; ++k) head.appendChild(html("th", { text: "\u00d7 \u03c6^" + k }));
     table.appendChild(head);
     for (const a of AXES) {
-      const tr = html("tr", {}, [html("th", { text: a + (a < "D" ? " [mm]" : " [rad]") })]);
+      const tr = html("tr", {}, [html("th", { text: a + (["X", "Y", "Z"].includes(a) ? " [mm]" : " [rad]") })]);
       for (let k = 0; k < 7; ++k) {
         const v = (axes[a] || [])[k];
         tr.appendChild(html("td", { text: isNum(v) ? v.toExponential(3) : "0" }));
@@ -401,6 +405,8 @@
     if (target) maps.appendChild(heatmap(target, { title: "target", maxAbs: maxAbs }));
     if (residual) maps.appendChild(heatmap(residual, { title: "predicted residual", maxAbs: maxAbs }));
     section.appendChild(maps);
+    const absent = [["measured", measured], ["target", target], ["predicted residual", residual]].filter((e) => !e[1]).map((e) => e[0]);
+    if (absent.length) section.appendChild(html("p", { class: "note", text: "Not stored with this job: " + absent.join(", ") + "." }));
     section.appendChild(html("h3", { text: "Axis corrections over the roll range" }));
     section.appendChild(axisCurves(r.delta, r.roll_range_deg));
     section.appendChild(deltaTable(r.delta));

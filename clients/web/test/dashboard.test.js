@@ -1,0 +1,182 @@
+// clients/web/test/dashboard.test.js: the dashboard in Debian's headless Chromium against a real
+// gearloop-server holding real jobs. Checks that the page loads, lists the jobs, shows a job's
+// three topographies with readable numbers, the axis-correction and convergence plots, the
+// printable report and a simulated closed loop, with no console error; writes screenshots.
+//
+//   node dashboard.test.js /path/to/gearloop-server /path/to/output-dir
+"use strict";
+
+const { chromium } = require("playwright-core");
+const { spawn } = require("child_process");
+const fs = require("fs");
+const net = require("net");
+const os = require("os");
+const path = require("path");
+
+const REPO = path.resolve(__dirname, "..", "..", "..");
+const EXAMPLES = path.join(REPO, "clients", "examples");
+const serverBin = process.argv[2];
+const outDir = path.resolve(process.argv[3] || path.join(os.tmpdir(), "gearloop-web-test"));
+
+let passed = 0;
+let failed = 0;
+function check(name, ok, detail) {
+  if (ok) {
+    passed += 1;
+    console.log("ok   " + name);
+  } else {
+    failed += 1;
+    console.log("FAIL " + name + (detail ? ": " + detail : ""));
+  }
+}
+
+function freePort() {
+  return new Promise((resolve, reject) => {
+    const s = net.createServer();
+    s.once("error", reject);
+    s.listen(0, "127.0.0.1", () => {
+      const port = s.address().port;
+      s.close(() => resolve(port));
+    });
+  });
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+async function api(base, method, p, body) {
+  const res = await fetch(base + p, {
+    method,
+    headers: body ? { "Content-Type": "application/json" } : {},
+    body: body ? JSON.stringify(body) : undefined,
+  });
+  const data = await res.json();
+  if (!res.ok) throw new Error(method + " " + p + " -> " + res.status + " " + JSON.stringify(data));
+  return data;
+}
+
+async function startServer(tmp) {
+  const port = await freePort();
+  const log = fs.openSync(path.join(outDir, "server.log"), "a");
+  const child = spawn(serverBin, ["--host", "127.0.0.1", "--port", String(port), "--db", path.join(tmp, "jobs.sqlite")], {
+    stdio: ["ignore", log, log],
+  });
+  const base = "http://127.0.0.1:" + port;
+  for (let i = 0; i < 300; ++i) {
+    if (child.exitCode !== null) throw new Error("gearloop-server exited with " + child.exitCode);
+    try {
+      const r = await fetch(base + "/healthz");
+      if (r.ok) return { child, base };
+    } catch (e) {
+      /* not up yet */
+    }
+    await sleep(100);
+  }
+  child.kill("SIGTERM");
+  throw new Error("gearloop-server did not answer /healthz");
+}
+
+async function main() {
+  if (!serverBin || !fs.existsSync(serverBin)) throw new Error("usage: node dashboard.test.js GEARLOOP_SERVER_BIN [OUT_DIR]");
+  fs.mkdirSync(outDir, { recursive: true });
+  const tmp = fs.mkdtempSync(path.join(os.tmpdir(), "gearloop-web-"));
+  const { child, base } = await startServer(tmp);
+  let context = null;
+  try {
+    // Real jobs: a closed loop stored as a chain of settings revisions, then one correction of
+    // a measured part (the example files of clients/examples).
+    const scenario = JSON.parse(fs.readFileSync(path.join(EXAMPLES, "scenario.json"), "utf8"));
+    const loop = await api(base, "POST", "/api/v1/simulations/closed-loop", Object.assign({}, scenario, { corrections: 3, store: true }));
+    const chainIds = loop.iterations.map((it) => it.job_id).filter((id) => typeof id === "number");
+    const request = JSON.parse(fs.readFileSync(path.join(EXAMPLES, "request.json"), "utf8"));
+    const measurement = JSON.parse(fs.readFileSync(path.join(EXAMPLES, "measurement.json"), "utf8"));
+    request.measurement = { deviations_um: measurement.deviations_um };
+    const job = await api(base, "POST", "/api/v1/corrections", request);
+    check("server stored the jobs", job.id > 0 && chainIds.length >= 2, "chain " + JSON.stringify(chainIds));
+
+    const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), "gearloop-chromium-"));
+    context = await chromium.launchPersistentContext(userDataDir, {
+      executablePath: "/usr/bin/chromium",
+      headless: true,
+      args: [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--no-first-run",
+        "--disable-component-update",
+        "--disable-sync",
+        "--disable-quic",
+      ],
+      viewport: { width: 1500, height: 1000 },
+    });
+    const page = context.pages()[0] || (await context.newPage());
+    const consoleErrors = [];
+    page.on("console", (msg) => {
+      if (msg.type() === "error") consoleErrors.push(msg.text());
+    });
+    page.on("pageerror", (err) => consoleErrors.push("page error: " + err.message));
+    page.on("requestfailed", (req) => consoleErrors.push("request failed: " + req.url()));
+
+    // 1. The dashboard opens on the newest job.
+    await page.goto(base + "/", { waitUntil: "load" });
+    await page.waitForSelector("body[data-job-shown='" + job.id + "']", { timeout: 30000 });
+    const rows = await page.$$eval("#jobs tbody tr", (trs) => trs.map((tr) => tr.getAttribute("data-job-id")));
+    check("history lists every job", rows.length === chainIds.length + 1 && rows[0] === String(job.id), JSON.stringify(rows));
+    check("health shows the server version", /server ok/.test(await page.textContent("#health")));
+
+    const maps = await page.$$eval("svg.heatmap", (svgs) =>
+      svgs.map((s) => ({ title: s.querySelector(".plot-title").textContent, cells: s.querySelectorAll("rect.cell").length, values: Array.from(s.querySelectorAll(".cell-value")).map((t) => t.textContent) }))
+    );
+    check("three topographies", maps.map((m) => m.title).join(",") === "measured,target,predicted residual", JSON.stringify(maps.map((m) => m.title)));
+    check("45 cells in each", maps.every((m) => m.cells === 45 && m.values.length === 45));
+    // The tip row is drawn first (top); the measured tip corner at x > 0 is missing.
+    const tip = measurement.deviations_um[4];
+    const topRow = maps[0].values.slice(0, 9);
+    check("measured numbers readable, tip at top", topRow[0] === tip[0].toFixed(2) && topRow[8] === "\u2013", JSON.stringify(topRow));
+    const root = measurement.deviations_um[0];
+    check("root row at the bottom", maps[0].values.slice(36, 45).join() === root.map((v) => v.toFixed(2)).join(), JSON.stringify(maps[0].values.slice(36)));
+    const residual = job.result.predicted_residual_um;
+    check("predicted residual numbers", maps[2].values[36] === residual[0][0].toFixed(2), maps[2].values[36] + " vs " + residual[0][0]);
+    const curves = await page.$$eval("svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
+    check("axis corrections drawn as curves", ["X", "Y", "Z", "A", "B", "C"].every((a) => curves.includes(a)), JSON.stringify(curves));
+    check("convergence plot present", (await page.$$("svg.convergence")).length === 1);
+    await page.screenshot({ path: path.join(outDir, "dashboard.png"), fullPage: true });
+
+    // 2. A job of the closed-loop chain: the convergence plot has one point per correction.
+    const last = chainIds[chainIds.length - 1];
+    await page.click("#jobs tbody tr[data-job-id='" + last + "']");
+    await page.waitForSelector("body[data-job-shown='" + last + "']", { timeout: 30000 });
+    const points = await page.$$eval("svg.convergence circle", (cs) => cs.length);
+    check("convergence over the lineage", points >= chainIds.length, "markers " + points);
+    await page.screenshot({ path: path.join(outDir, "dashboard-closed-loop.png"), fullPage: true });
+
+    // 3. A simulated closed loop run from the page.
+    await page.click("text=Simulate a closed loop on this setup");
+    await page.waitForSelector("svg.closed-loop, section.simulation p.error", { timeout: 180000 });
+    check("simulated closed loop plotted", (await page.$$("svg.closed-loop")).length === 1, await page.textContent("section.simulation"));
+
+    // 4. The printable report of the measured job.
+    await page.goto(base + "/jobs/" + job.id + "/report", { waitUntil: "load" });
+    await page.waitForSelector("body[data-ready]", { timeout: 30000 });
+    check("report drawn", (await page.getAttribute("body", "data-ready")) === "true" && (await page.$$("svg.heatmap")).length === 3);
+    await page.screenshot({ path: path.join(outDir, "report.png"), fullPage: true });
+
+    // 5. Unknown pages stay 404 and the API is untouched by the static routes.
+    const missing = await fetch(base + "/static/nope.js");
+    check("unknown asset is 404", missing.status === 404);
+
+    check("no console errors", consoleErrors.length === 0, consoleErrors.join(" | "));
+  } finally {
+    if (context) await context.close();
+    child.kill("SIGTERM");
+  }
+  console.log("screenshots in " + outDir);
+  console.log(passed + " passed, " + failed + " failed");
+  process.exit(failed === 0 ? 0 : 1);
+}
+
+main().catch((e) => {
+  console.log("FAIL " + (e && e.stack ? e.stack : e));
+  console.log(passed + " passed, " + (failed + 1) + " failed");
+  process.exit(1);
+});

@@ -1,0 +1,186 @@
+"""Tests of the `gearloop` command-line client ($GEARLOOP_CLI_BIN) against a real gearloop-server:
+every subcommand, its exit code, and what it prints or writes."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+from pathlib import Path
+
+from gearloop_client import read_csv_grid
+from server_fixture import EXAMPLES, RunningServer, free_port
+
+CLI = os.environ.get("GEARLOOP_CLI_BIN", "")
+
+
+class CliTest(unittest.TestCase):
+    server: RunningServer
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        if not CLI or not os.path.exists(CLI):
+            raise RuntimeError("set GEARLOOP_CLI_BIN to the gearloop binary (ctest does)")
+        cls.server = RunningServer().__enter__()
+        cls.tmp = tempfile.TemporaryDirectory(prefix="gearloop-cli-")
+        cls.dir = Path(cls.tmp.name)
+
+    @classmethod
+    def tearDownClass(cls) -> None:
+        cls.server.__exit__(None, None, None)
+        cls.tmp.cleanup()
+
+    def run_cli(self, *args: str, server: str = "") -> subprocess.CompletedProcess:
+        env = dict(os.environ)
+        env.pop("GEARLOOP_TOKEN", None)
+        return subprocess.run([CLI, "--server", server or self.server.url, *args], capture_output=True, text=True,
+                              timeout=300, env=env)
+
+    def submit(self, *extra: str) -> dict:
+        done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv"), *extra)
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        job = json.loads(done.stdout)
+        # Exit 0 exactly when the correction converged.
+        self.assertEqual(done.returncode == 0, job["result"]["status"] == "converged")
+        return job
+
+    def test_help_and_usage_errors(self) -> None:
+        done = self.run_cli("--help")
+        self.assertEqual(done.returncode, 0)
+        for word in ("submit", "batch", "closed-loop", "report", "exit codes", "--token"):
+            self.assertIn(word, done.stdout)
+        for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health"):
+            sub = self.run_cli(command, "--help")
+            self.assertEqual(sub.returncode, 0, command)
+            self.assertIn("usage: gearloop " + command, sub.stdout)
+        self.assertEqual(self.run_cli("frobnicate").returncode, 1)
+        self.assertEqual(self.run_cli("show").returncode, 1)
+        self.assertEqual(self.run_cli("show", "abc").returncode, 1)
+        self.assertEqual(self.run_cli("list", "--bogus").returncode, 1)
+
+    def test_health_and_unreachable_server(self) -> None:
+        done = self.run_cli("health")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("server ok", done.stdout)
+        dead = self.run_cli("--timeout", "5", "health", server=f"http://127.0.0.1:{free_port()}")
+        self.assertEqual(dead.returncode, 2)
+        self.assertIn("cannot reach", dead.stderr)
+
+    def test_submit_csv_and_json_measurements(self) -> None:
+        residual_csv = self.dir / "residual.csv"
+        settings_out = self.dir / "settings.json"
+        job = self.submit("--residual-csv", str(residual_csv), "--settings-out", str(settings_out))
+        residual = read_csv_grid(str(residual_csv))
+        self.assertAlmostEqual(residual[2][4], job["result"]["predicted_residual_um"][2][4], places=9)
+        self.assertIn("axes", json.loads(settings_out.read_text()))
+
+        human = self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.json"))
+        self.assertIn(human.returncode, (0, 5), human.stderr)
+        self.assertIn("predicted residual", human.stdout)
+        self.assertIn("row 5 tip", human.stdout)
+
+    def test_submit_bad_csv_names_line_and_column(self) -> None:
+        bad = self.dir / "bad.csv"
+        lines = (EXAMPLES / "measurement.csv").read_text().splitlines()
+        lines[5] = lines[5].replace("0.6", "0.6x", 1)  # line 6 of the file: its third data row
+        bad.write_text("\n".join(lines) + "\n")
+        done = self.run_cli("submit", str(EXAMPLES / "request.json"), str(bad))
+        self.assertEqual(done.returncode, 4)
+        self.assertIn("bad.csv: line 6, column 3: '0.6x' is not a number", done.stderr)
+        missing = self.run_cli("submit", str(EXAMPLES / "request.json"), str(self.dir / "nope.csv"))
+        self.assertEqual(missing.returncode, 4)
+
+    def test_submit_invalid_request_is_api_error(self) -> None:
+        request = json.loads((EXAMPLES / "request.json").read_text())
+        request["gear"]["teeth"] = -3
+        path = self.dir / "bad_request.json"
+        path.write_text(json.dumps(request))
+        done = self.run_cli("submit", str(path), str(EXAMPLES / "measurement.csv"))
+        self.assertEqual(done.returncode, 3)
+        self.assertIn("422 invalid_value at gear.teeth", done.stderr)
+
+    def test_list_show_and_grid_export(self) -> None:
+        job = self.submit()
+        listed = self.run_cli("list", "--limit", "50")
+        self.assertEqual(listed.returncode, 0, listed.stderr)
+        self.assertRegex(listed.stdout, rf"(?m)^{job['id']}\s+\d{{4}}-")
+        as_json = json.loads(self.run_cli("--json", "list", "--limit", "2").stdout)
+        self.assertLessEqual(len(as_json["jobs"]), 2)
+
+        shown = self.run_cli("show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("measured", shown.stdout)
+        self.assertIn("37 teeth", shown.stdout)
+        measured = self.run_cli("show", str(job["id"]), "--grid", "measured")
+        self.assertEqual(read_csv_grid(measured.stdout, is_text=True), read_csv_grid(str(EXAMPLES / "measurement.csv")))
+        target = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "target").stdout, is_text=True)
+        # Lead crowning of 4 um: the middle of the lead is highest.
+        self.assertGreater(target[2][4], target[2][0])
+        self.assertEqual(self.run_cli("show", "999999").returncode, 3)
+
+    def test_replay_with_changed_option(self) -> None:
+        job = self.submit()
+        done = self.run_cli("--json", "replay", str(job["id"]), "--set", "solver=lsq-plain")
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        replay = json.loads(done.stdout)
+        self.assertEqual(replay["parent_job_id"], job["id"])
+        self.assertEqual(replay["result"]["solver"], "lsq-plain")
+        refused = self.run_cli("replay", str(job["id"]), "--set", "max_num_iterations=-5")
+        self.assertEqual(refused.returncode, 3, refused.stderr)
+
+    def test_batch_over_folder(self) -> None:
+        folder = self.dir / "parts"
+        folder.mkdir(exist_ok=True)
+        shutil.copy(EXAMPLES / "measurement.csv", folder / "part01.csv")
+        shutil.copy(EXAMPLES / "measurement.json", folder / "part02.json")
+        grid = read_csv_grid(str(EXAMPLES / "measurement.csv"))
+        grid[1][1] = 2.5
+        (folder / "part03.json").write_text(json.dumps({"deviations_um": grid}))
+        (folder / "notes.txt").write_text("ignored")
+        done = self.run_cli("batch", str(EXAMPLES / "request.json"), str(folder), "--poll-ms", "100")
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        self.assertIn("3 done, 0 failed of 3", done.stdout)
+        for name in ("part01.csv", "part02.json", "part03.json"):
+            self.assertIn(name, done.stdout)
+        (folder / "part04.csv").write_text("1,2,3\n")
+        invalid = self.run_cli("batch", str(EXAMPLES / "request.json"), str(folder))
+        self.assertEqual(invalid.returncode, 4)
+        self.assertIn("part04.csv: line 1", invalid.stderr)
+
+    def test_simulate_and_closed_loop(self) -> None:
+        out = self.dir / "simulated.csv"
+        done = self.run_cli("simulate", str(EXAMPLES / "scenario.json"), "--csv", str(out), "--seed", "3")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("simulated measurement", done.stdout)
+        self.assertEqual(len(read_csv_grid(str(out))), 5)
+        # The simulated grid is itself a valid measurement file for submit.
+        again = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(out))
+        self.assertIn(again.returncode, (0, 5), again.stderr)
+
+        loop = self.run_cli("closed-loop", str(EXAMPLES / "scenario.json"), "--corrections", "2", "--store")
+        self.assertEqual(loop.returncode, 0, loop.stderr)
+        self.assertIn("true rms", loop.stdout)
+        as_json = json.loads(self.run_cli("--json", "closed-loop", str(EXAMPLES / "scenario.json"),
+                                          "--corrections", "2").stdout)
+        self.assertGreaterEqual(len(as_json["iterations"]), 2)
+
+    def test_report_is_self_contained(self) -> None:
+        job = self.submit()
+        out = self.dir / "job.html"
+        done = self.run_cli("report", str(job["id"]), "-o", str(out))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        html = out.read_text()
+        self.assertIn("window.GEARLOOP_REPORT", html)
+        self.assertIn("GearloopPlots", html)
+        self.assertNotIn('src="/static', html)
+        self.assertNotIn('href="/static', html)
+        self.assertIn(f'"id":{job["id"]}', html)
+        stdout = self.run_cli("report", str(job["id"]))
+        self.assertEqual(stdout.stdout, html)
+
+
+if __name__ == "__main__":
+    unittest.main()
