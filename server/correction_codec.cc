@@ -206,6 +206,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) 
       {"regularisation",
        {{"rule", RegularisationRuleName(s.rule)},
         {"level", FiniteOrNull(s.regularisation_level)},
+        {"effective_dof", FiniteOrNull(s.effective_dof)},
         {"truncation_rank", s.truncation_rank}}},
       {"solver", CorrectionSolverName(s.solver)},
       {"mode", CorrectionModeName(s.mode)},
@@ -262,8 +263,14 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
         return false;
       }
     }
-    if (!ReadNumber(j, path, "probe_noise_um", false, &o.probe_noise_um, error) ||
-        !ReadNumber(j, path, "min_flank_effect_um", false, &o.min_flank_effect_um, error) ||
+    // Absent: the probe noise is unknown and generalised cross-validation picks the level.
+    bool noise_found = false;
+    if (!ReadNumber(j, path, "probe_noise_um", false, &o.probe_noise_um, error, &noise_found)) return false;
+    if (noise_found && !(o.probe_noise_um >= 0.0 && o.probe_noise_um <= 1e3)) {
+      *error = InvalidValue("options.probe_noise_um", "options.probe_noise_um must lie in [0, 1000] um");
+      return false;
+    }
+    if (!ReadNumber(j, path, "min_flank_effect_um", false, &o.min_flank_effect_um, error) ||
         !ReadIntegerInRange(j, path, "max_num_iterations", 0, 200, &o.max_num_iterations, error) ||
         !ReadIntegerInRange(j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||
         !ReadNumber(j, path, "rework_tolerance_um", false, &o.rework_tolerance_um, error) ||

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "clients/web/web_assets.h"
 #include "engine/flank_grid.h"
 #include "engine/flat_wheel_grinder.h"
 #include "engine/gear.h"
@@ -522,6 +523,19 @@ class GearloopServer::Impl {
              });
     Register("POST", "/api/v1/simulations/closed-loop", "POST /api/v1/simulations/closed-loop", Access::kWrite,
              [this](const httplib::Request& req, httplib::Response& res) { HandleClosedLoop(req, res); });
+
+    // The dashboard (clients/web, embedded in the binary). Its pages hold no data: the API
+    // calls they make carry the token.
+    Register("GET", R"(/|/jobs/\d+/report|/static/[A-Za-z0-9._-]+)", "GET dashboard", Access::kOpen,
+             [](const httplib::Request& req, httplib::Response& res) {
+               std::string body;
+               std::string content_type;
+               if (!FindWebAsset(req.path, &body, &content_type)) {
+                 return RespondError(res, ApiError{404, "not_found", "no such resource", ""});
+               }
+               res.status = 200;
+               res.set_content(body, content_type.c_str());
+             });
 
     // A known path with a method it does not serve: 405 with Allow (cpp-httplib alone says 404).
     for (const auto& [pattern, methods] : allowed_methods_) {

@@ -1,0 +1,651 @@
+// End-to-end tests of the HTTP server: the real server on an ephemeral loopback port with a
+// real SQLite temp file, spoken to with httplib::Client. Every endpoint, the error cases, restart
+// persistence, replay and settings lineage, a batch of 200 items, access control.
+#include "server/gearloop_server.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <openssl/sha.h>
+
+#include "storage/job_repository.h"
+#include "tests/server/server_test_util.h"
+
+namespace gearloop {
+namespace {
+
+using testing_util::DefaultSetup;
+using testing_util::ParseBody;
+using testing_util::RunningServer;
+using testing_util::TempPath;
+
+struct Answer {
+  int status = 0;
+  nlohmann::json body;
+  std::string location;
+};
+
+Answer Send(httplib::Client& client, const std::string& method, const std::string& path,
+            const std::string& body = "", const httplib::Headers& headers = {}) {
+  auto send = [&]() -> httplib::Result {
+    if (method == "GET") return client.Get(path.c_str(), headers);
+    if (method == "POST") return client.Post(path.c_str(), headers, body, "application/json");
+    if (method == "PUT") return client.Put(path.c_str(), headers, body, "application/json");
+    return client.Delete(path.c_str(), headers);
+  };
+  httplib::Result result = send();
+  Answer answer;
+  if (!result) return answer;
+  answer.status = result->status;
+  answer.body = ParseBody(result);
+  answer.location = result->get_header_value("Location");
+  return answer;
+}
+
+Answer Post(httplib::Client& client, const std::string& path, const nlohmann::json& body) {
+  return Send(client, "POST", path, body.dump());
+}
+
+class GearloopServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override { StartServer(); }
+
+  void StartServer(ServerOptions options = ServerOptions()) {
+    options.database_path = db_.path();
+    running_.reset();
+    running_ = std::make_unique<RunningServer>(options);
+    ASSERT_GT(running_->port(), 0);
+    client_ = running_->Client();
+  }
+
+  // A simulated CMM measurement of a part ground with hidden machine errors.
+  nlohmann::json Measurement(int seed = 9) {
+    nlohmann::json request = DefaultSetup();
+    request["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+    request["noise_um"] = 0.3;
+    request["seed"] = seed;
+    const Answer answer = Post(*client_, "/api/v1/simulations/measurement", request);
+    EXPECT_EQ(answer.status, 200) << answer.body.dump();
+    return answer.body["measurement"];
+  }
+
+  nlohmann::json CorrectionRequest(int seed = 9) {
+    nlohmann::json request = DefaultSetup();
+    request["measurement"] = Measurement(seed);
+    request["options"] = {{"probe_noise_um", 0.3}};
+    return request;
+  }
+
+  int64_t StoredJobs() {
+    const Answer answer = Send(*client_, "GET", "/api/v1/corrections?limit=1");
+    return answer.body.value("total", int64_t{-1});
+  }
+
+  TempPath db_;
+  std::unique_ptr<RunningServer> running_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+TEST_F(GearloopServerTest, AnswersHealthz) {
+  const Answer answer = Send(*client_, "GET", "/healthz");
+  EXPECT_EQ(answer.status, 200);
+  EXPECT_EQ(answer.body["status"], "ok");
+  EXPECT_EQ(answer.body["version"], ServerVersion());
+}
+
+TEST_F(GearloopServerTest, ExposesPrometheusMetricsByRouteAndStatus) {
+  Send(*client_, "GET", "/healthz");
+  Send(*client_, "GET", "/no/such/path");
+  auto result = client_->Get("/metrics");
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->status, 200);
+  EXPECT_NE(result->get_header_value("Content-Type").find("text/plain"), std::string::npos);
+  const std::string& text = result->body;
+  EXPECT_NE(text.find("gearloop_http_requests_total{route=\"GET /healthz\",status=\"200\"} 1"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("gearloop_http_requests_total{route=\"unmatched\",status=\"404\"} 1"), std::string::npos);
+  EXPECT_NE(text.find("gearloop_http_request_duration_seconds_bucket{le=\"+Inf\"} 2"), std::string::npos);
+  EXPECT_NE(text.find("gearloop_jobs_stored 0"), std::string::npos);
+  EXPECT_NE(text.find("gearloop_solver_duration_seconds_count 0"), std::string::npos);
+}
+
+TEST_F(GearloopServerTest, NominalGivesSettingsOfModelSection2) {
+  const Answer answer = Post(*client_, "/api/v1/nominal", DefaultSetup());
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  const nlohmann::json& axes = answer.body["settings"]["axes"];
+  constexpr double kPi = 3.14159265358979323846;
+  EXPECT_NEAR(axes["A"][0].get<double>(), 20.0 * kPi / 180.0, 1e-12);
+  EXPECT_NEAR(axes["B"][0].get<double>(), 15.0 * kPi / 180.0, 1e-12);  // left hand: beta > 0
+  EXPECT_NEAR(axes["C"][1].get<double>(), 1.0, 1e-12);                  // C0 = phi1
+  // Y0 = r_j + s_y with s_y = R_w cos(alpha_n) - r_j + r_f (MODEL.md §2).
+  EXPECT_NEAR(axes["Y"][0].get<double>(), 350.0 * std::cos(20.0 * kPi / 180.0) + 107.1569, 1e-9);
+  EXPECT_EQ(axes["X"].size(), 7u);
+  EXPECT_NEAR(answer.body["pitch_radius_mm"].get<double>(), 37 * 6 / (2 * std::cos(15.0 * kPi / 180.0)), 1e-9);
+  EXPECT_DOUBLE_EQ(answer.body["settings"]["wheel"]["cone_angle_deg"].get<double>(), 0.0);
+}
+
+TEST_F(GearloopServerTest, EvaluatesNominalAsTheInvoluteWithPointsAndNormals) {
+  const Answer answer = Post(*client_, "/api/v1/evaluate", DefaultSetup());
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  const nlohmann::json& grid = answer.body["deviations_um"];
+  ASSERT_EQ(grid.size(), 5u);
+  for (const nlohmann::json& row : grid) {
+    ASSERT_EQ(row.size(), 9u);
+    for (const nlohmann::json& value : row) EXPECT_NEAR(value.get<double>(), 0.0, /*tol_um=*/1e-6);
+  }
+  EXPECT_TRUE(answer.body["not_reached"].empty());
+  ASSERT_EQ(answer.body["points"].size(), 45u);
+  const nlohmann::json& p = answer.body["points"][13];
+  EXPECT_EQ(p["row"], 1);
+  EXPECT_EQ(p["column"], 4);
+  const double nx = p["normal"][0], ny = p["normal"][1], nz = p["normal"][2];
+  EXPECT_NEAR(nx * nx + ny * ny + nz * nz, 1.0, 1e-12);
+  const double y = p["position_mm"][1], z = p["position_mm"][2];
+  EXPECT_NEAR(std::hypot(y, z), p["radius_mm"].get<double>(), 1e-9);
+}
+
+TEST_F(GearloopServerTest, EvaluatesAConedWheelAsMaterialRemoved) {
+  nlohmann::json request = DefaultSetup();
+  request["settings"] = Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
+  request["settings"]["wheel"]["cone_angle_deg"] = 0.05;
+  const Answer answer = Post(*client_, "/api/v1/evaluate", request);
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  double most_negative = 0.0;
+  for (const nlohmann::json& row : answer.body["deviations_um"]) {
+    for (const nlohmann::json& value : row) {
+      if (value.is_number()) most_negative = std::min(most_negative, value.get<double>());
+    }
+  }
+  // lambda ~ -u_w theta_w: millimetres of u_w times ~1e-3 rad is micrometres.
+  EXPECT_LT(most_negative, -1.0);
+}
+
+TEST_F(GearloopServerTest, SensitivityQuotesTheConeColumnPerDegree) {
+  const Answer s = Post(*client_, "/api/v1/sensitivity", DefaultSetup());
+  ASSERT_EQ(s.status, 200) << s.body.dump();
+  ASSERT_EQ(s.body["matrix"].size(), 45u);
+  ASSERT_EQ(s.body["matrix"][0].size(), 45u);
+  EXPECT_EQ(s.body["parameters"][42], "cone_angle");
+  EXPECT_EQ(s.body["units"][42], "um/deg");
+  // MODEL.md §5: about 13 singular values above 1e-6 of the largest; 16-17 normalised.
+  EXPECT_GE(s.body["rank"].get<int>(), 11);
+  EXPECT_LE(s.body["rank"].get<int>(), 15);
+  EXPECT_GE(s.body["normalised"]["rank"].get<int>(), 15);
+  EXPECT_LE(s.body["normalised"]["rank"].get<int>(), 18);
+  EXPECT_EQ(s.body["singular_values"].size(), 45u);
+
+  // A cone angle of 0.01 deg moves point i by about S[i][42] * 0.01.
+  nlohmann::json request = DefaultSetup();
+  request["settings"] = Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
+  request["settings"]["wheel"]["cone_angle_deg"] = 0.01;
+  const Answer e = Post(*client_, "/api/v1/evaluate", request);
+  ASSERT_EQ(e.status, 200);
+  double largest = 0.0;
+  for (int i = 0; i < 45; ++i) largest = std::max(largest, std::fabs(s.body["matrix"][i][42].get<double>() * 0.01));
+  ASSERT_GT(largest, 0.1);
+  for (int i = 0; i < 45; ++i) {
+    const double predicted = s.body["matrix"][i][42].get<double>() * 0.01;
+    const double actual = e.body["deviations_um"][i / 9][i % 9].get<double>();
+    EXPECT_NEAR(actual, predicted, 0.02 * largest) << "point " << i;
+  }
+}
+
+TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
+  const nlohmann::json request = CorrectionRequest();
+  const Answer created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const int64_t id = created.body["id"];
+  EXPECT_EQ(created.location, "/api/v1/corrections/" + std::to_string(id));
+  const nlohmann::json& result = created.body["result"];
+  for (const char* key : {"settings", "delta", "predicted_residual_um", "residual_rms_um", "residual_max_um",
+                          "best_reachable_rms_um", "rank", "condition_number", "regularisation", "solver", "status",
+                          "iterations", "elapsed_ms"}) {
+    EXPECT_TRUE(result.contains(key)) << key;
+  }
+  EXPECT_EQ(result["settings"]["axes"]["X"].size(), 7u);
+  EXPECT_EQ(result["predicted_residual_um"].size(), 5u);
+  EXPECT_TRUE(result["status"] == "converged" || result["status"] == "not_converged");
+  EXPECT_EQ(result["solver"], "regularised");
+  EXPECT_TRUE(result["regularisation"].contains("rule"));
+  // The correction brings the flank close to the best the model can reach (3 um hidden errors).
+  EXPECT_LT(result["residual_rms_um"].get<double>(), 1.0);
+
+  const Answer stored = Send(*client_, "GET", created.location);
+  ASSERT_EQ(stored.status, 200);
+  EXPECT_EQ(stored.body["id"], id);
+  EXPECT_EQ(stored.body["kind"], "correction");
+  EXPECT_EQ(stored.body["result"], result);
+  EXPECT_EQ(stored.body["request"]["measurement"], request["measurement"]);
+  EXPECT_EQ(stored.body["gear"]["teeth"], 37);
+  EXPECT_EQ(stored.body["gear"]["helix_angle_deg"], 15.0);
+  EXPECT_EQ(stored.body["gear"]["hand"], "left");
+  EXPECT_EQ(stored.body["server_version"], ServerVersion());
+  EXPECT_TRUE(stored.body["parent_job_id"].is_null());
+
+  auto metrics = client_->Get("/metrics");
+  EXPECT_NE(metrics->body.find("gearloop_jobs_stored 1"), std::string::npos);
+  EXPECT_NE(metrics->body.find("gearloop_solver_duration_seconds_count 1"), std::string::npos);
+  EXPECT_NE(metrics->body.find("route=\"POST /api/v1/corrections\",status=\"201\""), std::string::npos);
+}
+
+TEST_F(GearloopServerTest, StoresANonConvergedValidSolveWithItsStatus) {
+  nlohmann::json request = CorrectionRequest();
+  // One Levenberg-Marquardt iteration cannot finish the refinement.
+  request["options"]["max_num_iterations"] = 1;
+  const Answer created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  EXPECT_EQ(created.body["result"]["status"], "not_converged");
+  EXPECT_FALSE(created.body["result"]["message"].get<std::string>().empty());
+  const Answer stored = Send(*client_, "GET", created.location);
+  EXPECT_EQ(stored.body["status"], "not_converged");
+}
+
+TEST_F(GearloopServerTest, ListsHistoryNewestFirstWithPagingAndFilters) {
+  const nlohmann::json request = CorrectionRequest();
+  std::vector<int64_t> ids;
+  for (int i = 0; i < 3; ++i) ids.push_back(Post(*client_, "/api/v1/corrections", request).body["id"]);
+  nlohmann::json left = request;
+  left["flank"] = "left";
+  left.erase("measurement");
+  left["measurement"] = request["measurement"];
+  ids.push_back(Post(*client_, "/api/v1/corrections", left).body["id"]);
+
+  Answer page = Send(*client_, "GET", "/api/v1/corrections?limit=2");
+  ASSERT_EQ(page.status, 200);
+  EXPECT_EQ(page.body["total"], 4);
+  ASSERT_EQ(page.body["jobs"].size(), 2u);
+  EXPECT_EQ(page.body["jobs"][0]["id"], ids[3]);
+  EXPECT_EQ(page.body["jobs"][1]["id"], ids[2]);
+  page = Send(*client_, "GET", "/api/v1/corrections?limit=2&offset=2");
+  EXPECT_EQ(page.body["jobs"][1]["id"], ids[0]);
+
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?flank=left").body["total"], 1);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=37&module_mm=6").body["total"], 4);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=38").body["total"], 0);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?created_from=2000-01-01&created_to=2999-01-01").body["total"],
+            4);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?created_to=2000-01-01").body["total"], 0);
+
+  Answer bad = Send(*client_, "GET", "/api/v1/corrections?limit=abc");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "query.limit");
+  bad = Send(*client_, "GET", "/api/v1/corrections?limit=5000");
+  EXPECT_EQ(bad.status, 422);
+  bad = Send(*client_, "GET", "/api/v1/corrections?created_from=yesterday");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "query.created_from");
+  bad = Send(*client_, "GET", "/api/v1/corrections?flank=top");
+  EXPECT_EQ(bad.status, 422);
+}
+
+struct ErrorCase {
+  std::string name;
+  std::string path;
+  std::string body;
+  int status;
+  std::string code;
+  std::string field;
+};
+
+TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
+  nlohmann::json good = CorrectionRequest();
+  auto edited = [&](const std::function<void(nlohmann::json*)>& edit) {
+    nlohmann::json j = good;
+    edit(&j);
+    return j.dump();
+  };
+  const std::string corrections = "/api/v1/corrections";
+  const std::vector<ErrorCase> cases = {
+      {"not json", corrections, "{\"gear\": ", 400, "invalid_json", ""},
+      {"empty body", corrections, "", 400, "invalid_json", ""},
+      {"array body", corrections, "[1,2]", 400, "invalid_request", ""},
+      {"NaN", corrections, "{\"gear\": NaN}", 400, "invalid_json", ""},
+      {"teeth as string", corrections, edited([](nlohmann::json* j) { (*j)["gear"]["teeth"] = "many"; }), 400,
+       "invalid_request", "gear.teeth"},
+      {"no measurement", corrections, edited([](nlohmann::json* j) { j->erase("measurement"); }), 400,
+       "invalid_request", "measurement"},
+      {"short row", corrections,
+       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][2] = {1.0, 2.0}; }), 400,
+       "invalid_request", "measurement.deviations_um[2]"},
+      {"string entry", corrections,
+       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][2][7] = "x"; }), 400, "invalid_request",
+       "measurement.deviations_um[2][7]"},
+      {"impossible gear", corrections,
+       edited([](nlohmann::json* j) { (*j)["gear"]["normal_pressure_angle_deg"] = 50; }), 422, "invalid_value",
+       "gear.normal_pressure_angle_deg"},
+      {"tip inside root", corrections, edited([](nlohmann::json* j) { (*j)["gear"]["tip_radius_mm"] = 90; }), 422,
+       "invalid_value", "gear.tip_radius_mm"},
+      {"range wrong way", corrections,
+       edited([](nlohmann::json* j) { (*j)["grid"]["lead_range"] = {0.4, -0.4}; }), 422, "invalid_value",
+       "grid.lead_range[1]"},
+      {"huge deviation", corrections,
+       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][0][0] = 1e300; }), 422, "invalid_value",
+       "measurement.deviations_um[0][0]"},
+      {"unknown solver", corrections, edited([](nlohmann::json* j) { (*j)["options"]["solver"] = "magic"; }), 422,
+       "invalid_value", "options.solver"},
+      {"negative noise", corrections, edited([](nlohmann::json* j) { (*j)["options"]["probe_noise_um"] = -1; }), 422,
+       "invalid_value", "options.probe_noise_um"},
+      {"no outlier fraction left", corrections,
+       edited([](nlohmann::json* j) { (*j)["options"]["max_outlier_fraction"] = 1.5; }), 422, "invalid_value",
+       "options"},
+      {"unknown source job", corrections, edited([](nlohmann::json* j) { (*j)["settings_source_job_id"] = 999; }),
+       422, "invalid_value", "settings_source_job_id"},
+      {"unknown modification", corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["target"] = {{"modifications", {{{"kind", "wobble"}, {"amount_um", 1}}}}};
+       }),
+       422, "invalid_value", "target.modifications[0].kind"},
+      {"deep nesting", corrections, std::string(5000, '[') + std::string(5000, ']'), 400, "invalid_json", ""},
+      {"sql-looking flank", "/api/v1/evaluate",
+       edited([](nlohmann::json* j) { (*j)["flank"] = "right'; DROP TABLE jobs; --"; }), 422, "invalid_value",
+       "flank"},
+      {"settings axis missing", "/api/v1/evaluate",
+       edited([](nlohmann::json* j) { (*j)["settings"] = {{"axes", {{"X", {1.0}}}}}; }), 400, "invalid_request",
+       "settings.axes.Y"},
+  };
+  for (const ErrorCase& c : cases) {
+    const Answer answer = Send(*client_, "POST", c.path, c.body);
+    EXPECT_EQ(answer.status, c.status) << c.name << ": " << answer.body.dump();
+    ASSERT_TRUE(answer.body.is_object() && answer.body.contains("error")) << c.name;
+    EXPECT_EQ(answer.body["error"]["code"], c.code) << c.name;
+    EXPECT_EQ(answer.body["error"]["field"], c.field) << c.name << ": " << answer.body.dump();
+    EXPECT_FALSE(answer.body["error"]["message"].get<std::string>().empty()) << c.name;
+  }
+  EXPECT_EQ(StoredJobs(), 0);
+}
+
+TEST_F(GearloopServerTest, AnswersNotFoundAndMethodNotAllowedAsJson) {
+  Answer answer = Send(*client_, "GET", "/api/v1/nothing-here");
+  EXPECT_EQ(answer.status, 404);
+  EXPECT_EQ(answer.body["error"]["code"], "not_found");
+  answer = Send(*client_, "GET", "/api/v1/corrections/12345");
+  EXPECT_EQ(answer.status, 404);
+  EXPECT_EQ(answer.body["error"]["code"], "not_found");
+  answer = Send(*client_, "GET", "/api/v1/corrections/99999999999999999999999999");
+  EXPECT_EQ(answer.status, 404);
+  answer = Send(*client_, "POST", "/api/v1/corrections/77/replay", "{}");
+  EXPECT_EQ(answer.status, 404);
+  answer = Send(*client_, "GET", "/api/v1/batches/5");
+  EXPECT_EQ(answer.status, 404);
+
+  auto result = client_->Get("/api/v1/nominal");
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->status, 405);
+  EXPECT_EQ(result->get_header_value("Allow"), "POST");
+  EXPECT_EQ(ParseBody(result)["error"]["code"], "method_not_allowed");
+  answer = Send(*client_, "DELETE", "/api/v1/corrections/1");
+  EXPECT_EQ(answer.status, 405);
+  answer = Send(*client_, "PUT", "/api/v1/corrections", "{}");
+  EXPECT_EQ(answer.status, 405);
+  answer = Send(*client_, "POST", "/healthz", "{}");
+  EXPECT_EQ(answer.status, 405);
+}
+
+TEST_F(GearloopServerTest, RefusesOversizedBodiesWith413) {
+  ServerOptions options;
+  options.payload_max_bytes = 64 * 1024;
+  StartServer(options);
+  const std::string huge = "{\"gear\": \"" + std::string(200 * 1024, 'x') + "\"}";
+  const Answer answer = Send(*client_, "POST", "/api/v1/corrections", huge);
+  EXPECT_EQ(answer.status, 413);
+  EXPECT_EQ(answer.body["error"]["code"], "payload_too_large");
+  // The server is still fine afterwards.
+  EXPECT_EQ(Send(*client_, "GET", "/healthz").status, 200);
+}
+
+TEST_F(GearloopServerTest, ReplayStoresALinkedJobWithChangedOptions) {
+  const Answer parent = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  ASSERT_EQ(parent.status, 201);
+  const int64_t parent_id = parent.body["id"];
+  const Answer replay = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+                             {{"options", {{"solver", "lsq-plain"}}}});
+  ASSERT_EQ(replay.status, 201) << replay.body.dump();
+  EXPECT_EQ(replay.body["kind"], "replay");
+  EXPECT_EQ(replay.body["parent_job_id"], parent_id);
+  EXPECT_EQ(replay.body["result"]["solver"], "lsq-plain");
+  const Answer stored = Send(*client_, "GET", replay.location);
+  EXPECT_EQ(stored.body["parent_job_id"], parent_id);
+  // Same measurement, merged options.
+  EXPECT_EQ(stored.body["request"]["measurement"], Send(*client_, "GET", parent.location).body["request"]["measurement"]);
+  EXPECT_EQ(stored.body["request"]["options"]["probe_noise_um"], 0.3);
+  EXPECT_EQ(stored.body["request"]["options"]["solver"], "lsq-plain");
+
+  // A replay with nothing changed re-runs the same solve.
+  const Answer again = Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(parent_id) + "/replay", "");
+  ASSERT_EQ(again.status, 201);
+  EXPECT_NEAR(again.body["result"]["residual_rms_um"].get<double>(),
+              parent.body["result"]["residual_rms_um"].get<double>(), 1e-9);
+
+  const Answer wrong = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+                            {{"measurement", nlohmann::json::object()}});
+  EXPECT_EQ(wrong.status, 400);
+  EXPECT_EQ(wrong.body["error"]["field"], "measurement");
+  const Answer bad_option = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+                                 {{"options", {{"mode", "sideways"}}}});
+  EXPECT_EQ(bad_option.status, 422);
+  EXPECT_EQ(bad_option.body["error"]["field"], "options.mode");
+}
+
+TEST_F(GearloopServerTest, WalksTheSettingsLineageOfAGear) {
+  const Answer first = Post(*client_, "/api/v1/corrections", CorrectionRequest(1));
+  ASSERT_EQ(first.status, 201);
+  nlohmann::json second_request = CorrectionRequest(2);
+  second_request["settings"] = first.body["result"]["settings"];
+  second_request["settings_source_job_id"] = first.body["id"];
+  const Answer second = Post(*client_, "/api/v1/corrections", second_request);
+  ASSERT_EQ(second.status, 201) << second.body.dump();
+  EXPECT_EQ(second.body["settings_source_job_id"], first.body["id"]);
+  Post(*client_, "/api/v1/corrections", CorrectionRequest(3));  // unrelated
+
+  const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(second.body["id"].get<int64_t>()) +
+                                                   "/lineage");
+  ASSERT_EQ(lineage.status, 200);
+  ASSERT_EQ(lineage.body["jobs"].size(), 2u);
+  EXPECT_EQ(lineage.body["jobs"][0]["id"], first.body["id"]);
+  EXPECT_EQ(lineage.body["jobs"][1]["id"], second.body["id"]);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections/999/lineage").status, 404);
+}
+
+TEST_F(GearloopServerTest, KeepsJobsAcrossARestart) {
+  const Answer created = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  ASSERT_EQ(created.status, 201);
+  client_.reset();
+  StartServer();
+  const Answer stored = Send(*client_, "GET", created.location);
+  ASSERT_EQ(stored.status, 200);
+  EXPECT_EQ(stored.body["result"], created.body["result"]);
+  EXPECT_EQ(StoredJobs(), 1);
+}
+
+nlohmann::json WaitForBatch(httplib::Client& client, const std::string& location, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  nlohmann::json batch;
+  while (std::chrono::steady_clock::now() < deadline) {
+    batch = Send(client, "GET", location).body;
+    if (batch.value("status", "") == "finished") return batch;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return batch;
+}
+
+TEST_F(GearloopServerTest, RunsABatchOf200ItemsWhereFailedItemsFailAlone) {
+  const nlohmann::json good = CorrectionRequest();
+  nlohmann::json bad = good;
+  bad["gear"]["teeth"] = 2;
+  nlohmann::json items = nlohmann::json::array();
+  for (int i = 0; i < 200; ++i) items.push_back(i % 20 == 7 ? bad : good);
+  const auto start = std::chrono::steady_clock::now();
+  const Answer accepted = Post(*client_, "/api/v1/batches", {{"items", items}});
+  ASSERT_EQ(accepted.status, 202) << accepted.body.dump();
+  EXPECT_EQ(accepted.body["total"], 200);
+  ASSERT_FALSE(accepted.location.empty());
+
+  const nlohmann::json batch = WaitForBatch(*client_, accepted.location, 240.0);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(batch["status"], "finished") << batch.dump().substr(0, 400);
+  EXPECT_EQ(batch["total"], 200);
+  EXPECT_EQ(batch["done"], 190);
+  EXPECT_EQ(batch["failed"], 10);
+  EXPECT_EQ(batch["pending"], 0);
+  ASSERT_EQ(batch["items"].size(), 200u);
+  for (int i = 0; i < 200; ++i) {
+    const nlohmann::json& item = batch["items"][i];
+    EXPECT_EQ(item["index"], i);
+    if (i % 20 == 7) {
+      EXPECT_EQ(item["state"], "failed");
+      EXPECT_EQ(item["error_status"], 422);
+      EXPECT_EQ(item["error"]["field"], "gear.teeth");
+    } else {
+      EXPECT_EQ(item["state"], "done");
+      EXPECT_TRUE(item.contains("job_id"));
+    }
+  }
+  const Answer job = Send(*client_, "GET", batch["items"][0]["location"]);
+  EXPECT_EQ(job.status, 200);
+  EXPECT_EQ(job.body["kind"], "batch_item");
+  EXPECT_EQ(StoredJobs(), 190);
+  std::printf("[ info     ] batch of 200 corrections finished in %.2f s\n", seconds);
+}
+
+TEST_F(GearloopServerTest, RefusesMalformedBatches) {
+  Answer answer = Post(*client_, "/api/v1/batches", nlohmann::json::object());
+  EXPECT_EQ(answer.status, 400);
+  EXPECT_EQ(answer.body["error"]["field"], "items");
+  answer = Post(*client_, "/api/v1/batches", {{"items", nlohmann::json::array()}});
+  EXPECT_EQ(answer.status, 422);
+  answer = Post(*client_, "/api/v1/batches", {{"items", {1, 2}}});
+  EXPECT_EQ(answer.status, 400);
+  EXPECT_EQ(answer.body["error"]["field"], "items[0]");
+}
+
+TEST_F(GearloopServerTest, ResumesPendingBatchItemsAfterARestart) {
+  const std::string item = CorrectionRequest().dump();
+  client_.reset();
+  running_.reset();
+  // Items acknowledged by an earlier server that stopped before running them.
+  int64_t batch_id = 0;
+  {
+    std::unique_ptr<JobRepository> repository = OpenJobRepository(db_.path());
+    batch_id = repository->CreateBatch({item, item, item});
+  }
+  StartServer();
+  const nlohmann::json batch = WaitForBatch(*client_, "/api/v1/batches/" + std::to_string(batch_id), 60.0);
+  EXPECT_EQ(batch["status"], "finished");
+  EXPECT_EQ(batch["done"], 3);
+}
+
+TEST_F(GearloopServerTest, SimulatesAReproducibleMeasurement) {
+  const nlohmann::json a = Measurement(5);
+  const nlohmann::json b = Measurement(5);
+  const nlohmann::json c = Measurement(6);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  ASSERT_EQ(a["deviations_um"].size(), 5u);
+  nlohmann::json request = DefaultSetup();
+  request["hidden_errors"] = {{"axes", {{"X", {0.002}}}}};
+  request["missing_points"] = {{0, 0}, {4, 8}};
+  const Answer answer = Post(*client_, "/api/v1/simulations/measurement", request);
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  EXPECT_TRUE(answer.body["measurement"]["deviations_um"][0][0].is_null());
+  EXPECT_TRUE(answer.body["measurement"]["deviations_um"][4][8].is_null());
+  EXPECT_EQ(answer.body["missing"].size(), 2u);
+  request["missing_points"] = {{9, 0}};
+  EXPECT_EQ(Post(*client_, "/api/v1/simulations/measurement", request).status, 422);
+}
+
+TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
+  nlohmann::json scenario = DefaultSetup();
+  scenario["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+  scenario["noise_um"] = 0.2;
+  scenario["seed"] = 11;
+  scenario["corrections"] = 2;
+  scenario["target"] = {{"modifications", {{{"kind", "profile_crowning"}, {"amount_um", 3.0}}}}};
+  scenario["store"] = true;
+  const Answer answer = Post(*client_, "/api/v1/simulations/closed-loop", scenario);
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  EXPECT_TRUE(answer.body["completed"].get<bool>());
+  const nlohmann::json& iterations = answer.body["iterations"];
+  ASSERT_EQ(iterations.size(), 3u);
+  // The loop closes: the part after the first correction is far better than the first part.
+  EXPECT_LT(iterations[1]["true_rms_um"].get<double>(), 0.3 * iterations[0]["true_rms_um"].get<double>());
+  ASSERT_TRUE(iterations[1].contains("job_id"));
+  const int64_t last = iterations[1]["job_id"];
+  const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(last) + "/lineage");
+  ASSERT_EQ(lineage.body["jobs"].size(), 2u);
+  EXPECT_EQ(lineage.body["jobs"][0]["id"], iterations[0]["job_id"]);
+  // A stored closed-loop job can be replayed like any other.
+  const Answer replay = Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(last) + "/replay", "");
+  EXPECT_EQ(replay.status, 201) << replay.body.dump();
+}
+
+std::string Sha256Hex(const std::string& text) {
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(reinterpret_cast<const unsigned char*>(text.data()), text.size(), digest);
+  char hex[2 * SHA256_DIGEST_LENGTH + 1];
+  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
+  return hex;
+}
+
+TEST_F(GearloopServerTest, ChecksBearerTokensAndRoles) {
+  TempPath token_file("gearloop_tokens");
+  {
+    std::ofstream out(token_file.path());
+    out << "# role sha256 name\n";
+    out << "read " << Sha256Hex("reader-secret") << " dashboard\n";
+    out << "write " << Sha256Hex("writer-secret") << " cmm-cell-3\n";
+  }
+  const nlohmann::json request = CorrectionRequest();  // before tokens are on
+  ServerOptions options;
+  options.token_file = token_file.path();
+  StartServer(options);
+  const httplib::Headers reader = {{"Authorization", "Bearer reader-secret"}};
+  const httplib::Headers writer = {{"Authorization", "Bearer writer-secret"}};
+  const httplib::Headers stranger = {{"Authorization", "Bearer guess"}};
+
+  Answer answer = Send(*client_, "POST", "/api/v1/corrections", request.dump());
+  EXPECT_EQ(answer.status, 401);
+  EXPECT_EQ(answer.body["error"]["code"], "unauthorized");
+  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), stranger);
+  EXPECT_EQ(answer.status, 401);
+  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), reader);
+  EXPECT_EQ(answer.status, 403);
+  EXPECT_EQ(answer.body["error"]["code"], "forbidden");
+  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), writer);
+  EXPECT_EQ(answer.status, 201);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", reader).status, 200);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", writer).status, 200);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections").status, 401);
+  // Liveness and metrics stay open for the monitoring.
+  EXPECT_EQ(Send(*client_, "GET", "/healthz").status, 200);
+}
+
+TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {
+  TempPath db;
+  ServerOptions options;
+  options.database_path = db.path();
+  options.host = "0.0.0.0";
+  EXPECT_THROW(GearloopServer server(options), std::runtime_error);
+}
+
+TEST(GearloopServer, RefusesAMalformedTokenFile) {
+  TempPath db;
+  TempPath token_file("gearloop_tokens");
+  {
+    std::ofstream out(token_file.path());
+    out << "admin 1234\n";
+  }
+  ServerOptions options;
+  options.database_path = db.path();
+  options.token_file = token_file.path();
+  EXPECT_THROW(GearloopServer server(options), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace gearloop
