@@ -7,6 +7,7 @@ free loopback port, with a fresh SQLite file in a temporary folder; stopped with
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -30,6 +31,15 @@ def free_port() -> int:
 
 def example_json(name: str) -> dict:
     return json.loads((EXAMPLES / name).read_text())
+
+
+def write_token_file(folder: str, read_token: str, write_token: str) -> str:
+    """A token file of the server ("<role> <sha256-hex> [name]" per line); returns its path."""
+    path = os.path.join(folder, "tokens.txt")
+    with open(path, "w") as f:
+        f.write(f"read {hashlib.sha256(read_token.encode()).hexdigest()} dashboard\n")
+        f.write(f"write {hashlib.sha256(write_token.encode()).hexdigest()} cmm-cell-3\n")
+    return path
 
 
 class RunningServer:

@@ -12,7 +12,7 @@ import unittest
 from pathlib import Path
 
 from gearloop_client import read_csv_grid
-from server_fixture import EXAMPLES, RunningServer, free_port
+from server_fixture import EXAMPLES, RunningServer, free_port, write_token_file
 
 CLI = os.environ.get("GEARLOOP_CLI_BIN", "")
 
@@ -180,6 +180,30 @@ class CliTest(unittest.TestCase):
         self.assertIn(f'"id":{job["id"]}', html)
         stdout = self.run_cli("report", str(job["id"]))
         self.assertEqual(stdout.stdout, html)
+
+
+class CliTokenTest(unittest.TestCase):
+    def test_token_is_sent_and_refusals_are_api_errors(self) -> None:
+        with tempfile.TemporaryDirectory(prefix="gearloop-tokens-") as folder:
+            tokens = write_token_file(folder, "reader-secret", "writer-secret")
+            with RunningServer(extra_args=["--token-file", tokens]) as server:
+                def run(*args: str, env_token: str = "") -> subprocess.CompletedProcess:
+                    env = dict(os.environ)
+                    env.pop("GEARLOOP_TOKEN", None)
+                    if env_token:
+                        env["GEARLOOP_TOKEN"] = env_token
+                    return subprocess.run([CLI, "--server", server.url, *args], capture_output=True, text=True,
+                                          timeout=120, env=env)
+                request, measurement = str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv")
+                anonymous = run("list")
+                self.assertEqual(anonymous.returncode, 3)
+                self.assertIn("401 unauthorized", anonymous.stderr)
+                self.assertEqual(run("--token", "reader-secret", "list").returncode, 0)
+                reader = run("--token", "reader-secret", "submit", request, measurement)
+                self.assertEqual(reader.returncode, 3)
+                self.assertIn("403 forbidden", reader.stderr)
+                writer = run("submit", request, measurement, env_token="writer-secret")
+                self.assertIn(writer.returncode, (0, 5), writer.stderr)
 
 
 if __name__ == "__main__":

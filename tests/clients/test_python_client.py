@@ -7,7 +7,7 @@ import unittest
 
 from gearloop_client import (Client, GearloopApiError, GearloopTransportError, format_csv_grid,
                              read_csv_grid)
-from server_fixture import EXAMPLES, RunningServer, example_json, free_port
+from server_fixture import EXAMPLES, RunningServer, example_json, free_port, write_token_file
 
 
 class PythonClientTest(unittest.TestCase):
@@ -122,6 +122,26 @@ class PythonClientTest(unittest.TestCase):
             client.health()
         with self.assertRaises(ValueError):
             Client("127.0.0.1:8080")
+
+
+class TokenTest(unittest.TestCase):
+    def test_bearer_token_roles(self) -> None:
+        import tempfile
+        with tempfile.TemporaryDirectory(prefix="gearloop-tokens-") as folder:
+            tokens = write_token_file(folder, "reader-secret", "writer-secret")
+            with RunningServer(extra_args=["--token-file", tokens]) as server:
+                request = example_json("request.json")
+                request["measurement"] = {"deviations_um": read_csv_grid(str(EXAMPLES / "measurement.csv"))}
+                with self.assertRaises(GearloopApiError) as caught:
+                    Client(server.url).list_corrections()
+                self.assertEqual((caught.exception.status, caught.exception.code), (401, "unauthorized"))
+                reader = Client(server.url, token="reader-secret")
+                self.assertEqual(reader.list_corrections()["total"], 0)
+                with self.assertRaises(GearloopApiError) as caught:
+                    reader.create_correction(request)
+                self.assertEqual(caught.exception.status, 403)
+                job = Client(server.url, token="writer-secret").create_correction(request)
+                self.assertEqual(reader.get_correction(job["id"])["id"], job["id"])
 
 
 class CsvGridTest(unittest.TestCase):

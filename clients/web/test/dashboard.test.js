@@ -3,11 +3,12 @@
 // three topographies with readable numbers, the axis-correction and convergence plots, the
 // printable report and a simulated closed loop, with no console error; writes screenshots.
 //
-//   node dashboard.test.js /path/to/gearloop-server /path/to/output-dir
+//   node dashboard.test.js /path/to/gearloop-server /path/to/output-dir [/path/to/gearloop]
+// With the CLI given, the self-contained report it writes is opened from a file:// address too.
 "use strict";
 
 const { chromium } = require("playwright-core");
-const { spawn } = require("child_process");
+const { spawn, execFileSync } = require("child_process");
 const fs = require("fs");
 const net = require("net");
 const os = require("os");
@@ -17,6 +18,7 @@ const REPO = path.resolve(__dirname, "..", "..", "..");
 const EXAMPLES = path.join(REPO, "clients", "examples");
 const serverBin = process.argv[2];
 const outDir = path.resolve(process.argv[3] || path.join(os.tmpdir(), "gearloop-web-test"));
+const cliBin = process.argv[4] || "";
 
 let passed = 0;
 let failed = 0;
@@ -161,7 +163,26 @@ async function main() {
     check("report drawn", (await page.getAttribute("body", "data-ready")) === "true" && (await page.$$("svg.heatmap")).length === 3);
     await page.screenshot({ path: path.join(outDir, "report.png"), fullPage: true });
 
-    // 5. Unknown pages stay 404 and the API is untouched by the static routes.
+    // 5. The offline report written by `gearloop report` (no server needed to view it).
+    if (cliBin) {
+      const file = path.join(outDir, "job-" + job.id + ".html");
+      execFileSync(cliBin, ["--server", base, "report", String(job.id), "-o", file], { stdio: "ignore" });
+      const offline = await context.newPage();
+      const offlineErrors = [];
+      offline.on("console", (msg) => {
+        if (msg.type() === "error") offlineErrors.push(msg.text());
+      });
+      offline.on("pageerror", (err) => offlineErrors.push(err.message));
+      await offline.goto("file://" + file, { waitUntil: "load" });
+      await offline.waitForSelector("body[data-ready]", { timeout: 30000 });
+      const ready = await offline.getAttribute("body", "data-ready");
+      check("offline report drawn", ready === "true" && (await offline.$$("svg.heatmap")).length === 3, ready);
+      check("offline report without errors", offlineErrors.length === 0, offlineErrors.join(" | "));
+      await offline.screenshot({ path: path.join(outDir, "report-offline.png"), fullPage: true });
+      await offline.close();
+    }
+
+    // 6. Unknown pages stay 404 and the API is untouched by the static routes.
     const missing = await fetch(base + "/static/nope.js");
     check("unknown asset is 404", missing.status === 404);
 

@@ -2,7 +2,7 @@
 # Browser test of the dashboard (ctest: clients_web). Installs playwright-core from the committed
 # package-lock.json into clients/web/test/node_modules on first use (no browser download: it
 # drives Debian's /usr/bin/chromium, which scripts/test installs), then runs dashboard.test.js.
-# Usage: run.sh GEARLOOP_SERVER_BIN [OUTPUT_DIR]
+# Usage: run.sh GEARLOOP_SERVER_BIN [OUTPUT_DIR [GEARLOOP_CLI_BIN]]
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 server_bin="${1:?usage: run.sh GEARLOOP_SERVER_BIN [OUTPUT_DIR]}"
@@ -16,4 +16,4 @@ if [ ! -f "$here/node_modules/playwright-core/package.json" ] ||
   # The browser is Debian's: never let an install step fetch one.
   PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --prefix "$here" --no-audit --no-fund --loglevel=error
 fi
-exec node "$here/dashboard.test.js" "$server_bin" "$out_dir"
+exec node "$here/dashboard.test.js" "$server_bin" "$out_dir" "${3:-}"
