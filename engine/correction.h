@@ -135,11 +135,12 @@ struct CorrectionOptions {
 
   // A direction of the scaled S counts toward its numerical rank (and may be corrected) when one
   // unit of correction size (1 um of axis motion with the default scales) moves the flank by at
-  // least this much, rms over the points [um]. 1e-3 refuses corrections that need more than
-  // ~1000 um of axis motion per um of flank; it sits in the gap between the genuine directions
-  // and the first-order null space, whose singular values leave zero as soon as the settings
-  // leave nominal.
-  double min_flank_effect_um = 1e-3;
+  // least this much, rms over the points [um]. 0.01 refuses corrections that need more than
+  // ~100 um of axis motion per um of flank. Weaker directions are the first-order null space
+  // (whose singular values leave zero as soon as the settings leave nominal) and directions so
+  // nonlinear that a correction along them is not predicted by S (rate terms of A, the vertex
+  // d_w while a_w is small): fitting them makes the closed loop diverge.
+  double min_flank_effect_um = 0.01;
 
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
   int max_num_iterations = 20;

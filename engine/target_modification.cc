@@ -100,12 +100,16 @@ TargetCoordinates ComputeTargetCoordinates(const FlankGrid& grid, const GearData
   c.xi = NormaliseToUnit(roll);
   // eta: centred on the middle of the grid's lead extent, +-1 at its ends.
   c.eta = NormaliseToUnit(x).array() * 2.0 - 1.0;
-  // The contact line of a flat generating plane on a helical involute runs at the base helix
-  // angle in the (L, x) plane of the base tangent plane; on the left flank (mirror z -> -z of
-  // the right flank of gear -beta) the slope changes sign.
-  const double mirror = flank == Flank::kRight ? 1.0 : -1.0;
+  // The contact line of the flat generating plane on a helical involute is straight in the
+  // (L, x) plane, at the base helix angle. In the frames of MODEL.md §3 (the engine's), the
+  // nominal contact roll phi1 is constant along L + x tan(beta_b) on the right flank and along
+  // L - x tan(beta_b) on the left flank (mirror z -> -z of the right flank of gear -beta), with
+  // phi1 = w / r_b + const; tests/engine/target_modification_test.cc checks this against the
+  // envelope. MODEL.md §7 writes L - x tan(beta_b); the property it states (constant along a
+  // contact line) is what is implemented.
+  const double sign = flank == Flank::kRight ? 1.0 : -1.0;
   const double tan_beta_b = gear.TanBaseHelixAngle();
-  c.w = NormaliseToUnit(roll - mirror * tan_beta_b * x);
+  c.w = NormaliseToUnit(roll + sign * tan_beta_b * x);
   return c;
 }
 

@@ -14,10 +14,12 @@
 // point, and L_s..L_e, x_s..x_e the grid's own extent,
 //   xi  = (L - L_s) / (L_e - L_s)                   in [0, 1], root -> tip
 //   eta = (x - (x_s + x_e)/2) / ((x_e - x_s)/2)     in [-1, 1]
-//   w   = L - s x tan(beta_b), normalised to [0, 1] over the grid, constant along a contact line
+//   w   = L + s x tan(beta_b), normalised to [0, 1] over the grid, constant along a contact line
 // where tan(beta_b) = tan(beta) cos(alpha_t) (GearData::TanBaseHelixAngle) and s = +1 on the
-// right flank, -1 on the left flank (the left flank of gear beta is the mirror image of the
-// right flank of gear -beta, MODEL.md §3, and the mirror keeps L and x).
+// right flank, -1 on the left flank. In the engine's frames (MODEL.md §3) the nominal contact
+// roll phi1 is exactly w / r_b + const on both flanks (tested); MODEL.md §7 prints
+// w = L - x tan(beta_b), whose sign does not follow its contact lines on the right flank, so the
+// stated property (constant along a contact line) is what is implemented.
 #ifndef GEARLOOP_ENGINE_TARGET_MODIFICATION_H_
 #define GEARLOOP_ENGINE_TARGET_MODIFICATION_H_
 

@@ -1,0 +1,577 @@
+#include "engine/correction.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <Eigen/QR>
+#include <gtest/gtest.h>
+
+#include "engine/flat_wheel_grinder.h"
+#include "engine/measurement_simulator.h"
+#include "engine/target_modification.h"
+#include "tests/engine/test_gears.h"
+
+namespace gearloop {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A left-hand helical gear unlike the cutter: 23 teeth, m_n 5 mm, 20 deg, beta = +25 deg,
+// b = 60 mm, R_w = 300 mm.
+GrindingSetup HelicalSetup() {
+  GrindingSetup s;
+  s.gear.teeth = 23;
+  s.gear.normal_module_mm = 5.0;
+  s.gear.normal_pressure_angle_rad = testing::Deg(20.0);
+  s.gear.helix_angle_rad = testing::Deg(25.0);
+  s.gear.face_width_mm = 60.0;
+  const double r_j = s.gear.PitchRadiusMm();
+  s.gear.tip_radius_mm = r_j + 5.0;
+  s.gear.root_radius_mm = r_j - 6.25;
+  s.wheel.radius_mm = 300.0;
+  return s;
+}
+
+double Rms(const Eigen::VectorXd& v) {
+  double s = 0.0;
+  int n = 0;
+  for (int i = 0; i < v.size(); ++i) {
+    if (std::isfinite(v(i))) {
+      s += v(i) * v(i);
+      ++n;
+    }
+  }
+  return n > 0 ? std::sqrt(s / n) : 0.0;
+}
+
+// A linear machine with a designed Jacobian (a test double for MachineModel): one polynomial
+// block "P" of 3 coefficients and two scalar blocks; deviations = J (p - p0) exactly, contacts
+// spread over the roll range [-0.2, 0.3].
+class LinearTestModel : public MachineModel {
+ public:
+  LinearTestModel(int rows, int columns, const Eigen::MatrixXd& jacobian)
+      : rows_(rows), columns_(columns), jacobian_(jacobian), origin_(Eigen::VectorXd::Zero(5)) {}
+  int NumParameters() const override { return 5; }
+  int GridRows() const override { return rows_; }
+  int GridColumns() const override { return columns_; }
+  std::string ParameterName(int j) const override { return "p" + std::to_string(j); }
+  std::vector<ParameterBlock> ParameterBlocks() const override {
+    return {{"P", "mm", 0, 3, true, 1e-3}, {"s1", "rad", 3, 1, false, 1e-5}, {"s2", "mm", 4, 1, false, 1e-3}};
+  }
+  void Evaluate(const Eigen::VectorXd& parameters, bool with_jacobian, ModelEvaluation* e) const override {
+    const int n = rows_ * columns_;
+    e->deviations_um = jacobian_ * (parameters - origin_);
+    e->status.assign(n, PointStatus::kOk);
+    e->contact_roll_rad.resize(n);
+    for (int i = 0; i < n; ++i) e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
+    if (with_jacobian) e->jacobian_um = jacobian_;
+  }
+
+ private:
+  int rows_, columns_;
+  Eigen::MatrixXd jacobian_;
+  Eigen::VectorXd origin_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Correction size and coordinates.
+
+TEST(CorrectionSize, EqualsTheRmsAxisMotionOverTheRollRange) {
+  const FlatWheelGrinder grinder(testing::CutterSetup());
+  const std::vector<ParameterBlock> blocks = grinder.ParameterBlocks();
+  const double lo = grinder.roll_min_rad(), hi = grinder.roll_max_rad();
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Eigen::VectorXd delta(kNumGrinderParameters);
+  for (int j = 0; j < delta.size(); ++j) delta(j) = 1e-4 * gauss(rng);
+  std::vector<BlockCorrectionSize> sizes;
+  const double size = CorrectionSize(blocks, delta, lo, hi, {}, &sizes);
+  // Independent: the mean of (dC(phi)/s)^2 by the trapezoid rule on a fine grid.
+  double total2 = 0.0;
+  for (const ParameterBlock& b : blocks) {
+    double mean2 = 0.0;
+    if (b.is_polynomial) {
+      const int kSamples = 20001;
+      for (int k = 0; k < kSamples; ++k) {
+        const double phi = lo + (hi - lo) * k / (kSamples - 1);
+        double value = 0.0;
+        for (int c = b.num_coefficients - 1; c >= 0; --c) value = value * phi + delta(b.first_index + c);
+        const double weight = (k == 0 || k == kSamples - 1) ? 0.5 : 1.0;
+        mean2 += weight * std::pow(value / b.default_scale, 2) / (kSamples - 1);
+      }
+    } else {
+      mean2 = std::pow(delta(b.first_index) / b.default_scale, 2);
+    }
+    total2 += mean2;
+  }
+  EXPECT_NEAR(size, std::sqrt(total2), 1e-6 * std::sqrt(total2));
+  ASSERT_EQ(sizes.size(), blocks.size());
+  EXPECT_EQ(sizes[0].name, "X");
+}
+
+TEST(CorrectionSize, CoordinatesRoundTrip) {
+  const FlatWheelGrinder grinder(testing::CutterSetup());
+  const std::vector<ParameterBlock> blocks = grinder.ParameterBlocks();
+  Eigen::VectorXd y = Eigen::VectorXd::LinSpaced(kNumGrinderParameters, -2.0, 3.0);
+  const Eigen::VectorXd delta = DeltaFromCorrectionCoordinates(blocks, y, -0.25, 0.13);
+  EXPECT_NEAR(CorrectionSize(blocks, delta, -0.25, 0.13), y.norm(), 1e-9 * y.norm());
+  const Eigen::VectorXd back = CorrectionCoordinates(blocks, delta, -0.25, 0.13);
+  EXPECT_LT((back - y).cwiseAbs().maxCoeff(), 1e-8);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Best reachable residual and the linear solve, on a model with a known range.
+
+TEST(ComputeCorrection, BestReachableIsTheProjectionOffTheRange) {
+  const int rows = 3, columns = 4, n = 12;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  // Range spanned by 3 of the 5 columns; the other two are combinations (rank 3).
+  Eigen::MatrixXd base(n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < 3; ++j) base(i, j) = gauss(rng);
+  Eigen::MatrixXd jac(n, 5);
+  jac.leftCols(3) = base * 1e3;  // per mm: 1 um of motion moves the flank by ~1 um
+  jac.col(3) = (base.col(0) - base.col(1)) * 1e5;
+  jac.col(4) = base.col(2) * 2e3;
+  const LinearTestModel model(rows, columns, jac);
+  // e = (in range) + q with q orthogonal to the range.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(base);
+  const Eigen::MatrixXd q_full = qr.householderQ();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
+  for (int j = 3; j < n; ++j) q += gauss(rng) * q_full.col(j);
+  q *= 0.7 / Rms(q);
+  const Eigen::VectorXd in_range = base * Eigen::Vector3d(2.0, -1.0, 3.0);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.measured_um = in_range + q;
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;  // exact data
+  options.outlier_threshold = 0.0;
+  const CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  EXPECT_EQ(result.summary.rank, 3);
+  EXPECT_NEAR(result.summary.best_reachable_rms_um, 0.7, /*tol_um=*/1e-9);
+  EXPECT_NEAR(result.summary.initial_rms_um, Rms(in_range + q), 1e-9);
+  // With exact data the solver reaches it, and what is left is q itself.
+  EXPECT_NEAR(result.summary.residual_rms_um, 0.7, 1e-6);
+  EXPECT_LT((result.predicted_residual_um - q).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(result.summary.rule, RegularisationRule::kDiscrepancyPrinciple);
+  EXPECT_EQ(result.summary.regularisation_level, 0.0);
+}
+
+// On the real grinder: no change of the free parameters does better than "best reachable"
+// (checked against the unregularised pseudo-inverse), and the regularised answer is close to it.
+TEST(ComputeCorrection, BestReachableBoundsEverySolverOnTheCutter) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd target = EvaluateTargetModifications(
+      {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kHelixSlope, -4.0}}, grinder.grid(), setup.gear,
+      setup.flank);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  input.target_um = target;
+  ModelEvaluation eval;
+  grinder.Evaluate(nominal, true, &eval);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  const CorrectionResult regularised = ComputeCorrection(options, input);
+  options.solver = CorrectionSolver::kPlainLeastSquares;
+  const CorrectionResult plain = ComputeCorrection(options, input);
+  const double best = regularised.summary.best_reachable_rms_um;
+  EXPECT_GT(best, 0.0);
+  // Plain least squares in the linear model reaches at most as low (it may also use the
+  // directions below min_flank_effect_um), never lower than the full-rank projection.
+  EXPECT_LE(plain.summary.linear_residual_rms_um, best + 1e-9);
+  const Eigen::VectorXd e = -target;
+  const Eigen::VectorXd full = e - eval.jacobian_um * eval.jacobian_um.completeOrthogonalDecomposition().solve(e);
+  EXPECT_GE(plain.summary.linear_residual_rms_um, Rms(full) - 1e-6);
+  EXPECT_LE(regularised.summary.linear_residual_rms_um, best + /*tol_um=*/1e-6);
+  EXPECT_LE(regularised.summary.residual_rms_um, best + /*tol_um=*/0.02);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Closed loop with exact measurements on three gears and three targets (issue 3, "Must show").
+
+struct LoopCase {
+  const char* name;
+  GrindingSetup setup;
+  std::vector<TargetModification> target;
+  std::uint64_t hidden_seed;
+};
+
+std::vector<LoopCase> LoopCases() {
+  return {
+      {"cutter_slopes_crowning",
+       testing::CutterSetup(),
+       {{ModificationKind::kProfileSlope, 4.0},
+        {ModificationKind::kHelixSlope, -3.0},
+        {ModificationKind::kProfileCrowning, 2.0}},
+       42},
+      {"right_hand_left_flank_tip_relief_twist",
+       testing::RightHandSetup(Flank::kLeft),
+       {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic}, {ModificationKind::kFlankTwist, 4.0}},
+       43},
+      {"helical_crownings",
+       HelicalSetup(),
+       {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kLeadCrowning, 5.0}},
+       45},
+  };
+}
+
+TEST(ComputeCorrection, NoiseFreeLoopReachesTheBestOnThreeGears) {
+  for (const LoopCase& c : LoopCases()) {
+    const FlatWheelGrinder grinder(c.setup);
+    const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+    // Hidden machine errors: every axis up to order 2 and the wheel, about 2 um of axis motion
+    // per axis over the roll range.
+    const Eigen::VectorXd hidden =
+        RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, c.hidden_seed);
+    const Eigen::VectorXd target = EvaluateTargetModifications(c.target, grinder.grid(), c.setup.gear, c.setup.flank);
+    ClosedLoopOptions loop;
+    loop.corrections = 3;
+    loop.correction.probe_noise_um = 0.0;  // exact measurements
+    const ClosedLoopResult run = SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+    ASSERT_TRUE(run.completed) << c.name << ": " << run.message;
+    ASSERT_EQ(run.iterations.size(), 4u);
+    // The best the model can still reach for that target, from the last part.
+    const SimulatedMeasurement last =
+        SimulateMeasurement(grinder, run.iterations.back().commanded_parameters, hidden, {});
+    CorrectionInput input;
+    input.model = &grinder;
+    input.current_parameters = run.iterations.back().commanded_parameters;
+    input.measured_um = last.measured_um;
+    input.target_um = target;
+    const CorrectionResult best = ComputeCorrection(loop.correction, input);
+    const double final_rms = run.iterations.back().true_rms_um;
+    EXPECT_LE(final_rms, best.summary.best_reachable_rms_um + /*tol_um=*/0.05) << c.name;
+    EXPECT_LT(final_rms, 0.25 * run.iterations.front().true_rms_um) << c.name;
+    // Never into the null space: every correction moves the axes by tens of um at most.
+    for (const ClosedLoopIteration& it : run.iterations) {
+      if (it.corrected) {
+        EXPECT_LT(it.correction.correction_size, 100.0) << c.name << " part " << it.part;
+      }
+    }
+  }
+}
+
+// The upper 99% quantile of chi^2 with k degrees of freedom by the Wilson-Hilferty cube-root
+// approximation (relative error below 0.2% for k >= 3).
+double ChiSquared99(int k) {
+  const double z = 2.326348;  // standard normal 99% quantile
+  const double a = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - a + z * std::sqrt(a), 3.0);
+}
+
+// With probe noise sigma = 0.5 um, after two corrections the true flank error is at most the
+// least-squares noise floor sqrt(r^2 + sigma^2 chi^2_k(0.99) / N) for at least 95 of 100 seeds.
+// The solver is the real one (exact model, Ceres refinement); only the noise seed changes.
+TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloor) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 1001);
+  const Eigen::VectorXd target = EvaluateTargetModifications(
+      {{ModificationKind::kProfileSlope, 4.0},
+       {ModificationKind::kHelixSlope, -3.0},
+       {ModificationKind::kProfileCrowning, 2.0}},
+      grinder.grid(), setup.gear, setup.flank);
+  const double sigma_um = 0.5;
+  const int n = grinder.grid().NumPoints();
+  // r: the best reachable residual of the true (noise-free) error.
+  const SimulatedMeasurement truth = SimulateMeasurement(grinder, nominal, hidden, {});
+  CorrectionOptions exact;
+  exact.probe_noise_um = 0.0;
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = truth.measured_um;
+  input.target_um = target;
+  const double r = ComputeCorrection(exact, input).summary.best_reachable_rms_um;
+
+  int within = 0;
+  for (int seed = 1; seed <= 100; ++seed) {
+    ClosedLoopOptions loop;
+    loop.corrections = 2;
+    loop.measurement.probe_noise_um = sigma_um;
+    loop.measurement.seed = 1000 + 2 * seed;
+    loop.correction.probe_noise_um = sigma_um;
+    const ClosedLoopResult run = SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+    ASSERT_TRUE(run.completed) << run.message;
+    const int k = run.iterations[1].correction.rank;
+    const double floor_um = std::sqrt(r * r + sigma_um * sigma_um * ChiSquared99(k) / n);
+    if (run.iterations.back().true_rms_um <= floor_um) ++within;
+  }
+  RecordProperty("seeds_within_noise_floor", within);
+  EXPECT_GE(within, 95);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rework, freedom, bounds, outliers, missing points.
+
+TEST(ComputeCorrection, ReworkNeverPredictsAddedMaterial) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 5);
+  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, {});
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = part.measured_um;
+  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, grinder.grid(),
+                                                setup.gear, setup.flank);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  // The part has too little material at some points, so the unconstrained answer adds some.
+  const CorrectionResult next_part = ComputeCorrection(options, input);
+  ASSERT_TRUE(next_part.summary.IsSolutionUsable());
+  ASSERT_GT(next_part.summary.max_added_material_um, 0.5);
+  options.mode = CorrectionMode::kRework;
+  const CorrectionResult rework = ComputeCorrection(options, input);
+  ASSERT_EQ(rework.summary.status, CorrectionStatus::kConverged) << rework.summary.message;
+  EXPECT_LE(rework.summary.max_added_material_um, options.rework_tolerance_um);
+  // Independently: the exact model at the new settings against the current ones.
+  ModelEvaluation before, after;
+  grinder.Evaluate(nominal, false, &before);
+  grinder.Evaluate(rework.parameters, false, &after);
+  for (int i = 0; i < grinder.grid().NumPoints(); ++i) {
+    ASSERT_EQ(after.status[i], PointStatus::kOk);
+    EXPECT_LE(after.deviations_um(i) - before.deviations_um(i), /*tol_um=*/1e-6) << "point " << i;
+  }
+  // It still corrects: the error is smaller than before, though not as small as next-part.
+  EXPECT_LT(rework.summary.residual_rms_um, rework.summary.initial_rms_um);
+  EXPECT_GE(rework.summary.residual_rms_um, next_part.summary.residual_rms_um - 1e-9);
+}
+
+TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 6);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  // The published cutter case: only C up to order 6, the other axes order 0; no wheel change.
+  options.default_max_order = 0;
+  options.max_order = {{"C", 6}, {"cone_angle", -1}, {"parabola_coefficient", -1}, {"parabola_vertex", -1}};
+  const CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  EXPECT_EQ(result.summary.num_free_parameters, 5 + 7);
+  for (int j = 0; j < kNumGrinderParameters; ++j) {
+    const bool free = (j < kNumAxisCoefficients && j % kCoefficientsPerAxis == 0) ||
+                      (j >= ParameterIndex(Axis::kC, 0) && j <= ParameterIndex(Axis::kC, 6));
+    if (!free) {
+      EXPECT_EQ(result.delta(j), 0.0) << GrinderParameterName(j);
+    }
+  }
+  EXPECT_NE(result.delta(ParameterIndex(Axis::kC, 2)), 0.0);
+  EXPECT_LT(result.summary.residual_rms_um, result.summary.initial_rms_um);
+  // An unknown block name is invalid input, reported, not thrown.
+  options.max_order = {{"W", 2}};
+  EXPECT_EQ(ComputeCorrection(options, input).summary.status, CorrectionStatus::kInvalidInput);
+}
+
+TEST(ComputeCorrection, BoundsAreRespected) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 3.0, 1, 0.4, 8);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  const CorrectionResult free = ComputeCorrection(options, input);
+  const int c0 = ParameterIndex(Axis::kC, 0);
+  ASSERT_GT(std::abs(free.delta(c0)), 1e-6);
+  // Allow C0 only a fifth of the change it wanted.
+  const double limit = 0.2 * std::abs(free.delta(c0));
+  options.lower_delta = Eigen::VectorXd::Constant(kNumGrinderParameters, -std::numeric_limits<double>::infinity());
+  options.upper_delta = Eigen::VectorXd::Constant(kNumGrinderParameters, std::numeric_limits<double>::infinity());
+  options.lower_delta(c0) = -limit;
+  options.upper_delta(c0) = limit;
+  const CorrectionResult bounded = ComputeCorrection(options, input);
+  ASSERT_TRUE(bounded.summary.IsSolutionUsable()) << bounded.summary.message;
+  EXPECT_LE(std::abs(bounded.delta(c0)), limit * (1.0 + 1e-9));
+  EXPECT_LT(bounded.summary.residual_rms_um, bounded.summary.initial_rms_um);
+  // Bounds the wrong way round are invalid input.
+  options.lower_delta(c0) = 1.0;
+  EXPECT_EQ(ComputeCorrection(options, input).summary.status, CorrectionStatus::kInvalidInput);
+}
+
+TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 9);
+  MeasurementSimulationOptions cmm;
+  cmm.probe_noise_um = 0.3;
+  cmm.seed = 4;
+  const SimulatedMeasurement clean = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  cmm.outlier_points = {12};
+  cmm.outlier_size_um = 25.0;
+  const SimulatedMeasurement dirty = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  ASSERT_EQ(dirty.outlier_indices, std::vector<int>{12});
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = 0.3;
+  input.measured_um = clean.measured_um;
+  const CorrectionResult from_clean = ComputeCorrection(options, input);
+  EXPECT_TRUE(from_clean.summary.outlier_indices.empty());
+  input.measured_um = dirty.measured_um;
+  const CorrectionResult from_dirty = ComputeCorrection(options, input);
+  ASSERT_TRUE(from_dirty.summary.IsSolutionUsable());
+  EXPECT_EQ(from_dirty.summary.outlier_indices, std::vector<int>{12});
+  EXPECT_EQ(from_dirty.summary.num_points_used, 44);
+  // The outlier is not silently used: the correction matches the clean one closely.
+  EXPECT_LT(CorrectionSize(grinder.ParameterBlocks(), from_dirty.delta - from_clean.delta,
+                           from_clean.summary.roll_min_rad, from_clean.summary.roll_max_rad),
+            0.2 * from_clean.summary.correction_size);
+}
+
+TEST(ComputeCorrection, MissingPointsAreHonoured) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 10);
+  MeasurementSimulationOptions cmm;
+  cmm.missing_points = {0, 8, 22, 40};
+  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = part.measured_um;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  const CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  EXPECT_EQ(result.summary.missing_indices, (std::vector<int>{0, 8, 22, 40}));
+  EXPECT_EQ(result.summary.num_points_used, 41);
+  for (int i : {0, 8, 22, 40}) {
+    EXPECT_TRUE(std::isnan(result.predicted_residual_um(i)));
+    EXPECT_TRUE(std::isfinite(result.predicted_change_um(i)));
+  }
+  // The true error of the next part is small at the missing points too (the model fills them).
+  const SimulatedMeasurement next = SimulateMeasurement(grinder, result.parameters, hidden, {});
+  EXPECT_LT(Rms(next.true_deviations_um), 0.2 * Rms(part.true_deviations_um));
+}
+
+TEST(AverageTeeth, MeanOfTheDeliveredValues) {
+  Eigen::VectorXd a(3), b(3), c(3);
+  a << 1.0, kNaN, 3.0;
+  b << 3.0, kNaN, kNaN;
+  c << 2.0, kNaN, 5.0;
+  Eigen::VectorXi counts;
+  const Eigen::VectorXd mean = AverageTeeth({a, b, c}, &counts);
+  EXPECT_DOUBLE_EQ(mean(0), 2.0);
+  EXPECT_TRUE(std::isnan(mean(1)));
+  EXPECT_DOUBLE_EQ(mean(2), 4.0);
+  EXPECT_EQ(counts(0), 3);
+  EXPECT_EQ(counts(1), 0);
+  EXPECT_EQ(counts(2), 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The comparison solvers and input validation.
+
+TEST(ComputeCorrection, ParticleSwarmIsSeededAndStaysInItsBox) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 12);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  options.solver = CorrectionSolver::kParticleSwarm;
+  options.pso_generations = 40;  // the published 200 are exercised by the benchmark
+  const CorrectionResult a = ComputeCorrection(options, input);
+  const CorrectionResult b = ComputeCorrection(options, input);
+  ASSERT_TRUE(a.summary.IsSolutionUsable()) << a.summary.message;
+  EXPECT_EQ(a.delta, b.delta);
+  EXPECT_EQ(a.summary.iterations, 40);
+  for (int j = 0; j < kNumGrinderParameters; ++j) {
+    const double box = j == kConeAngleIndex ? 0.02 * 3.14159265358979323846 / 180.0 : 0.02;
+    EXPECT_LE(std::abs(a.delta(j)), box * (1.0 + 1e-12)) << GrinderParameterName(j);
+  }
+  options.pso_seed = 99;
+  const CorrectionResult c = ComputeCorrection(options, input);
+  EXPECT_NE(a.delta, c.delta);
+}
+
+TEST(ComputeCorrection, PlainLeastSquaresWandersIntoTheNullSpace) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 13);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, grinder.grid(),
+                                                setup.gear, setup.flank);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  const CorrectionResult regularised = ComputeCorrection(options, input);
+  options.solver = CorrectionSolver::kPlainLeastSquares;
+  const CorrectionResult plain = ComputeCorrection(options, input);
+  ASSERT_TRUE(regularised.summary.IsSolutionUsable());
+  EXPECT_EQ(plain.summary.rule, RegularisationRule::kNone);
+  // MODEL.md §5: the minimum-norm answer in raw units moves the axes far more.
+  EXPECT_GT(plain.summary.correction_size, 10.0 * regularised.summary.correction_size);
+}
+
+TEST(ComputeCorrection, InvalidInputIsReportedNotThrown) {
+  const FlatWheelGrinder grinder(testing::CutterSetup());
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = grinder.nominal().ToVector();
+  input.measured_um = Eigen::VectorXd::Zero(45);
+  input.target_um = Eigen::VectorXd::Zero(44);
+  CorrectionOptions options;
+  CorrectionResult r = ComputeCorrection(options, input);
+  EXPECT_EQ(r.summary.status, CorrectionStatus::kInvalidInput);
+  EXPECT_FALSE(r.summary.IsSolutionUsable());
+  EXPECT_NE(r.summary.message.find("target_um"), std::string::npos);
+  input.target_um = Eigen::VectorXd::Zero(45);
+  input.measured_um = Eigen::VectorXd::Constant(45, kNaN);
+  r = ComputeCorrection(options, input);
+  EXPECT_EQ(r.summary.status, CorrectionStatus::kInvalidInput);
+  options.min_flank_effect_um = 0.0;
+  std::string error;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(error.find("min_flank_effect_um"), std::string::npos);
+  CorrectionSolver solver;
+  EXPECT_TRUE(ParseCorrectionSolver("pso", &solver));
+  EXPECT_EQ(solver, CorrectionSolver::kParticleSwarm);
+  EXPECT_FALSE(ParseCorrectionSolver("genetic", &solver));
+}
+
+}  // namespace
+}  // namespace gearloop
