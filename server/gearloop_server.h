@@ -31,7 +31,8 @@ struct ServerOptions {
   int port = 8080;
   // SQLite file of the job history (":memory:" for a throwaway one).
   std::string database_path = "./gearloop.sqlite";
-  // HTTP worker threads (0 = twice the hardware threads, at least 4).
+  // HTTP worker threads (0 = four per hardware thread, at least 16). cpp-httplib holds a thread
+  // per open keep-alive connection, so this bounds the clients served at once, not the CPU use.
   int threads = 0;
   // Background workers running batch items.
   int batch_workers = 1;

@@ -1,0 +1,129 @@
+// gearloop-load: a small load generator for a running gearloop-server. Posts corrections of
+// the API.md example gear from N concurrent clients (each on its own keep-alive connection) for
+// a fixed time, then reports latency percentiles and throughput, and checks that every job the
+// server acknowledged (201) is stored (GET each one).
+//
+//   gearloop-load [--host 127.0.0.1] [--port 8080] [--clients 1] [--seconds 10] [--token T]
+//
+// The measurement is simulated once by the server (/api/v1/simulations/measurement) so every
+// request is a realistic solve, not a trivial one.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <httplib.h>
+
+namespace {
+
+nlohmann::json DefaultSetup() {
+  return nlohmann::json::parse(R"({
+    "gear": {"teeth": 37, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+             "helix_angle_deg": 15, "hand": "left", "face_width_mm": 78,
+             "tip_radius_mm": 120.9157, "root_radius_mm": 107.1569},
+    "wheel": {"radius_mm": 350}, "flank": "right"})");
+}
+
+double Percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t index = std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
+  return values[index];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  int clients = 1;
+  double seconds = 10.0;
+  std::string token;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string arg = argv[i];
+    if (arg == "--host") {
+      host = argv[i + 1];
+    } else if (arg == "--port") {
+      port = std::atoi(argv[i + 1]);
+    } else if (arg == "--clients") {
+      clients = std::max(1, std::atoi(argv[i + 1]));
+    } else if (arg == "--seconds") {
+      seconds = std::atof(argv[i + 1]);
+    } else if (arg == "--token") {
+      token = argv[i + 1];
+    } else {
+      std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
+      return 2;
+    }
+  }
+  httplib::Headers headers;
+  if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+
+  httplib::Client setup_client(host, port);
+  setup_client.set_read_timeout(60, 0);
+  nlohmann::json simulation = DefaultSetup();
+  simulation["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+  simulation["noise_um"] = 0.3;
+  auto simulated = setup_client.Post("/api/v1/simulations/measurement", headers, simulation.dump(), "application/json");
+  if (!simulated || simulated->status != 200) {
+    std::fprintf(stderr, "cannot simulate a measurement on %s:%d\n", host.c_str(), port);
+    return 1;
+  }
+  nlohmann::json request = DefaultSetup();
+  request["measurement"] = nlohmann::json::parse(simulated->body)["measurement"];
+  request["options"] = {{"probe_noise_um", 0.3}};
+  const std::string body = request.dump();
+
+  std::mutex mutex;
+  std::vector<double> latencies_ms;
+  std::vector<long long> ids;
+  std::atomic<long long> errors{0};
+  const auto start = std::chrono::steady_clock::now();
+  const auto end = start + std::chrono::duration<double>(seconds);
+  std::vector<std::thread> threads;
+  for (int c = 0; c < clients; ++c) {
+    threads.emplace_back([&] {
+      httplib::Client client(host, port);
+      client.set_keep_alive(true);
+      client.set_tcp_nodelay(true);
+      client.set_read_timeout(60, 0);
+      std::vector<double> local;
+      std::vector<long long> local_ids;
+      while (std::chrono::steady_clock::now() < end) {
+        const auto t0 = std::chrono::steady_clock::now();
+        auto result = client.Post("/api/v1/corrections", headers, body, "application/json");
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        if (!result || result->status != 201) {
+          ++errors;
+          continue;
+        }
+        local.push_back(ms);
+        local_ids.push_back(nlohmann::json::parse(result->body)["id"].get<long long>());
+      }
+      std::lock_guard<std::mutex> lock(mutex);
+      latencies_ms.insert(latencies_ms.end(), local.begin(), local.end());
+      ids.insert(ids.end(), local_ids.begin(), local_ids.end());
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  long long missing = 0;
+  for (long long id : ids) {
+    auto result = setup_client.Get(("/api/v1/corrections/" + std::to_string(id)).c_str(), headers);
+    if (!result || result->status != 200) ++missing;
+  }
+  std::printf("clients %d, %.1f s: %zu corrections (%.1f/s), errors %lld\n", clients, elapsed, latencies_ms.size(),
+              latencies_ms.size() / elapsed, errors.load());
+  std::printf("latency ms: p50 %.2f  p90 %.2f  p99 %.2f  max %.2f\n", Percentile(latencies_ms, 0.5),
+              Percentile(latencies_ms, 0.9), Percentile(latencies_ms, 0.99), Percentile(latencies_ms, 1.0));
+  std::printf("acknowledged jobs stored: %lld of %zu\n", static_cast<long long>(ids.size()) - missing, ids.size());
+  return missing == 0 && errors == 0 ? 0 : 1;
+}
