@@ -334,7 +334,10 @@
       { name: "best reachable", x: x, y: jobs.map((j) => (j.result ? j.result.best_reachable_rms_um : j.best_reachable_rms_um)), dashed: true },
     ].filter((s) => s.y.some(isNum));
     const chart = lineChart(series, {
-      title: "closed loop: deviation per correction (jobs " + jobs.map((j) => j.id).join(", ") + ")",
+      title:
+        jobs.length > 1
+          ? "closed loop: deviation per correction (jobs " + jobs.map((j) => j.id).join(", ") + ")"
+          : "job " + (jobs[0] ? jobs[0].id : "?") + ": no linked settings revisions yet (one correction)",
       xLabel: "correction in the loop",
       yLabel: "rms [\u00b5m]",
       xTicks: "integer",
