@@ -76,8 +76,8 @@ struct CradleMachineSettings {
   // Cradle angle Q [rad] at the centre roll.
   double cradle_angle_rad = 0.0;
   // Tilt-mechanism rotation I_x [rad]: the cutter head turns by I_x about the tilt axis. The
-  // tilt axis is inclined by tilt_axis_inclination_rad to the cradle axis (7.5 deg: the
-  // No. 116 mechanism's 15 deg range of tilt is twice it), and is carried by the eccentric
+  // tilt axis is inclined by tilt_axis_inclination_rad to the cradle axis (7.5 deg: we read the
+  // published "15 deg" as the mechanism's range of tilt, twice it), and is carried by the eccentric
   // drum, leaning toward the azimuth Q + beta + 180 deg + tilt_axis_mounting_rad (a machine
   // constant; 25 deg makes the root line cut on both published sides parallel to the blank's
   // root cone, see docs/bevel-machines.md). Tilt i = 2 asin(sin(inclination) |sin(I_x / 2)|).
