@@ -79,7 +79,7 @@ TEST(BevelFreeFormGenerator, JacobianMatchesCentralDifferences) {
   g.Evaluate(p0, /*with_jacobian=*/true, &base);
   ASSERT_TRUE(base.AllReached());
   const double h_roll = std::max(std::abs(g.roll_min_rad()), std::abs(g.roll_max_rad()));
-  const double tol_relative = 1e-5;
+  const double tol_relative = 1e-7;  // measured: 2.3e-9 (convex)
   for (int j = 0; j < g.NumParameters(); ++j) {
     const int axis = j / (g.degree() + 1), order = j % (g.degree() + 1);
     const double step = (axis < 2 ? 1e-6 : 1e-4) / std::pow(h_roll, order);
