@@ -40,8 +40,12 @@
     return typeof v === "number" && Number.isFinite(v);
   }
 
+  // A number with fixed decimals; "\u2013" for no value; never "-0.00".
   function fmt(v, digits) {
-    return isNum(v) ? v.toFixed(digits === undefined ? 2 : digits) : "\u2013";
+    if (!isNum(v)) return "\u2013";
+    const d = digits === undefined ? 2 : digits;
+    const text = v.toFixed(d);
+    return Number(text) === 0 ? (0).toFixed(d) : text;
   }
 
   // --- Colours: a diverging scale, blue = material removed (< 0), red = material left on (> 0),

@@ -52,7 +52,8 @@ class CliTest(unittest.TestCase):
         self.assertEqual(done.returncode, 0)
         for word in ("submit", "batch", "closed-loop", "report", "exit codes", "--token"):
             self.assertIn(word, done.stdout)
-        for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health"):
+        for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
+                        "nominal", "evaluate"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -166,6 +167,22 @@ class CliTest(unittest.TestCase):
         as_json = json.loads(self.run_cli("--json", "closed-loop", str(EXAMPLES / "scenario.json"),
                                           "--corrections", "2").stdout)
         self.assertGreaterEqual(len(as_json["iterations"]), 2)
+
+    def test_nominal_settings_grind_the_involute(self) -> None:
+        settings = self.dir / "nominal.json"
+        done = self.run_cli("nominal", str(EXAMPLES / "request.json"), "--settings-out", str(settings))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("roll range", done.stdout)
+        self.assertEqual(sorted(json.loads(settings.read_text())["axes"]), ["A", "B", "C", "X", "Y", "Z"])
+        grid_csv = self.dir / "nominal_grid.csv"
+        evaluated = self.run_cli("evaluate", str(EXAMPLES / "request.json"), "--settings", str(settings), "--csv",
+                                 str(grid_csv))
+        self.assertEqual(evaluated.returncode, 0, evaluated.stderr)
+        self.assertNotIn("-0.00", evaluated.stdout)
+        for row in read_csv_grid(str(grid_csv)):
+            for value in row:
+                if value is not None:
+                    self.assertLess(abs(value), 1e-3)
 
     def test_report_is_self_contained(self) -> None:
         job = self.submit()

@@ -138,7 +138,7 @@ async function main() {
     const root = measurement.deviations_um[0];
     check("root row at the bottom", maps[0].values.slice(36, 45).join() === root.map((v) => v.toFixed(2)).join(), JSON.stringify(maps[0].values.slice(36)));
     const residual = job.result.predicted_residual_um;
-    check("predicted residual numbers", maps[2].values[36] === residual[0][0].toFixed(2), maps[2].values[36] + " vs " + residual[0][0]);
+    check("predicted residual numbers", Number(maps[2].values[36]) === Number(residual[0][0].toFixed(2)), maps[2].values[36] + " vs " + residual[0][0]);
     const curves = await page.$$eval("svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
     check("axis corrections drawn as curves", ["X", "Y", "Z", "A", "B", "C"].every((a) => curves.includes(a)), JSON.stringify(curves));
     check("convergence plot present", (await page.$$("svg.convergence")).length === 1);
