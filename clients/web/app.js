@@ -112,6 +112,7 @@
       actions.appendChild(simulate);
       detail.appendChild(actions);
       detail.appendChild(P.renderJob(job, chain.length ? chain : [job]));
+      detail.appendChild(downloads(job));
       const sim = P.html("section", { class: "simulation" });
       detail.appendChild(sim);
       simulate.addEventListener("click", () => runClosedLoop(job, sim, simulate));
@@ -120,6 +121,33 @@
       detail.textContent = "";
       detail.appendChild(message("Cannot load job " + id + ": " + e.message));
     }
+  }
+
+  // A grid as CSV in the clients' format (clients/FORMATS.md): header L1..Ln, row 1 (root) first,
+  // missing points empty.
+  function gridCsv(grid) {
+    const header = grid[0].map((_, c) => "L" + (c + 1)).join(",");
+    return [header].concat(grid.map((row) => row.map((v) => (typeof v === "number" ? String(v) : "")).join(","))).join("\n") + "\n";
+  }
+
+  function downloadLink(name, text, type) {
+    const url = URL.createObjectURL(new Blob([text], { type }));
+    return P.html("a", { href: url, download: name, class: "button", text: name });
+  }
+
+  // The job's grids as CSV files and the whole job as JSON, for a spreadsheet or the CLI.
+  function downloads(job) {
+    const box = P.html("div", { class: "actions downloads" }, [P.html("span", { class: "note", text: "Download:" })]);
+    const grids = [
+      ["measured", P.measuredGrid(job)],
+      ["target", P.targetGrid(job)],
+      ["residual", (job.result || {}).predicted_residual_um],
+    ];
+    for (const [name, grid] of grids) {
+      if (grid && grid.length) box.appendChild(downloadLink("job" + job.id + "-" + name + ".csv", gridCsv(grid), "text/csv"));
+    }
+    box.appendChild(downloadLink("job" + job.id + ".json", JSON.stringify(job, null, 2), "application/json"));
+    return box;
   }
 
   // A simulated closed loop with the job's gear, machine, grid, target and options: hidden

@@ -142,6 +142,12 @@ async function main() {
     const curves = await page.$$eval("svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
     check("axis corrections drawn as curves", ["X", "Y", "Z", "A", "B", "C"].every((a) => curves.includes(a)), JSON.stringify(curves));
     check("convergence plot present", (await page.$$("svg.convergence")).length === 1);
+    const csv = await page.evaluate(async (name) => {
+      const link = document.querySelector("a[download='" + name + "']");
+      return link ? (await fetch(link.href)).text() : "";
+    }, "job" + job.id + "-measured.csv");
+    const csvLines = csv.trim().split("\n");
+    check("measured grid downloads as CSV", csvLines.length === 6 && csvLines[1] === root.join(",") && csvLines[5].endsWith(","), JSON.stringify(csvLines.slice(0, 2)));
     await page.screenshot({ path: path.join(outDir, "dashboard.png"), fullPage: true });
 
     // 2. A job of the closed-loop chain: the convergence plot has one point per correction.
