@@ -172,5 +172,32 @@ TEST(BevelCorrection, RecoversHiddenAxisErrors) {
   EXPECT_LT(after.deviations_um.cwiseAbs().maxCoeff(), 0.2);
 }
 
+
+// The simulated closed loop (grind, measure with probe noise, correct, twice) on the concave
+// side with random hidden axis errors up to order 2 drawn by the grinder's own generator.
+TEST(BevelCorrection, ClosedLoopConvergesWithProbeNoise) {
+  static const Fixture* concave = new Fixture(BevelFlankSide::kConcave);
+  const BevelFreeFormGenerator& g = concave->generator;
+  ASSERT_TRUE(concave->conversion.ok);
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(g, g.roll_min_rad(), g.roll_max_rad(), /*block_size=*/3.0, /*max_order=*/2,
+                         /*wheel_size=*/0.0, /*seed=*/11);
+  ClosedLoopOptions loop;
+  loop.corrections = 2;
+  loop.measurement.probe_noise_um = 0.2;
+  loop.measurement.seed = 5;
+  loop.correction.default_max_order = 2;
+  loop.correction.probe_noise_um = 0.2;
+  const ClosedLoopResult run =
+      SimulateClosedLoop(g, concave->conversion.motion.ToVector(), hidden, Eigen::VectorXd::Zero(g.NumPoints()), loop);
+  ASSERT_TRUE(run.completed) << run.message;
+  ASSERT_EQ(run.iterations.size(), 3u);
+  const double initial = run.iterations.front().true_rms_um;
+  const double final_rms = run.iterations.back().true_rms_um;
+  EXPECT_GT(initial, 1.0);
+  EXPECT_LT(final_rms, 0.25);  // about the probe noise
+  EXPECT_LT(final_rms, 0.1 * initial) << "initial " << initial << " um";
+}
+
 }  // namespace
 }  // namespace gearloop
