@@ -313,6 +313,35 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloor) {
   EXPECT_GE(within, 95);
 }
 
+// Unknown probe noise (the default): generalised cross-validation picks lambda; it corrects the
+// machine errors without chasing the noise into weak directions.
+TEST(ComputeCorrection, UnknownNoiseUsesGeneralisedCrossValidation) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 21);
+  MeasurementSimulationOptions cmm;
+  cmm.probe_noise_um = 0.5;
+  cmm.seed = 21;
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
+  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  const CorrectionOptions options;  // probe_noise_um < 0: unknown
+  const CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_EQ(result.summary.status, CorrectionStatus::kConverged) << result.summary.message;
+  EXPECT_EQ(result.summary.rule, RegularisationRule::kGeneralisedCrossValidation);
+  EXPECT_GT(result.summary.regularisation_level, 0.0);
+  EXPECT_LT(result.summary.effective_dof, result.summary.rank);
+  // The fit leaves about the noise: neither the raw error nor an exact fit of the noise.
+  EXPECT_GT(result.summary.residual_rms_um, 0.2);
+  EXPECT_LT(result.summary.residual_rms_um, 0.6);
+  const SimulatedMeasurement next = SimulateMeasurement(grinder, result.parameters, hidden, {});
+  EXPECT_LT(Rms(next.true_deviations_um), 0.25 * Rms(SimulateMeasurement(grinder, nominal, hidden, {}).true_deviations_um));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Rework, freedom, bounds, outliers, missing points.
 
