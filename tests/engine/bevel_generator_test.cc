@@ -180,7 +180,7 @@ TEST(BevelCorrection, ClosedLoopConvergesWithProbeNoise) {
   const BevelFreeFormGenerator& g = concave->generator;
   ASSERT_TRUE(concave->conversion.ok);
   const Eigen::VectorXd hidden =
-      RandomHiddenErrors(g, g.roll_min_rad(), g.roll_max_rad(), /*block_size=*/3.0, /*max_order=*/2,
+      RandomHiddenErrors(g, g.roll_min_rad(), g.roll_max_rad(), /*block_size=*/5.0, /*max_order=*/2,
                          /*wheel_size=*/0.0, /*seed=*/11);
   ClosedLoopOptions loop;
   loop.corrections = 2;
