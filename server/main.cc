@@ -1,7 +1,10 @@
 // gearloop-server: the HTTP server of gearloop (API.md).
 //
 //   gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1] [--threads N]
-//                   [--token-file F] [--batch-workers N] [--quiet]
+//                   [--token-file F] [--batch-workers N] [--quiet] [--seed-demo]
+//
+// --seed-demo: once listening, an empty job history is seeded with a short closed-loop demo
+// (server/demo_seed.h) spoken over HTTP, and its summary printed; scripts/run uses it.
 //
 // SIGTERM or SIGINT stops it gracefully: no new connections, requests in flight are answered,
 // batch workers finish the item in hand (waiting items stay pending in the database and resume
@@ -10,19 +13,22 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <string>
 #include <thread>
 
+#include "server/demo_seed.h"
 #include "server/gearloop_server.h"
 
 namespace {
 
 void PrintUsage() {
   std::cerr << "usage: gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1]\n"
-               "                       [--threads N] [--token-file F] [--batch-workers N] [--quiet]\n";
+               "                       [--threads N] [--token-file F] [--batch-workers N] [--quiet]\n"
+               "                       [--seed-demo]\n";
 }
 
 bool ParseInt(const char* text, int min, int max, int* out) {
@@ -40,6 +46,7 @@ int main(int argc, char** argv) {
   google::InitGoogleLogging(argv[0]);
 
   gearloop::ServerOptions options;
+  bool seed_demo = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const bool has_value = i + 1 < argc;
@@ -48,6 +55,8 @@ int main(int argc, char** argv) {
       return 0;
     } else if (arg == "--quiet") {
       options.access_log = false;
+    } else if (arg == "--seed-demo") {
+      seed_demo = true;
     } else if (arg == "--port" && has_value) {
       if (!ParseInt(argv[++i], 0, 65535, &options.port)) {
         std::cerr << "--port must be 0..65535\n";
@@ -111,7 +120,19 @@ int main(int argc, char** argv) {
   });
   signal_waiter.detach();
 
-  server->Serve();
+  std::thread serving([&server] { server->Serve(); });
+  if (seed_demo) {
+    while (!server->IsRunning()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (!options.token_file.empty()) {
+      std::cout << "Tokens are on: the demo is not seeded (it would need a write token).\n";
+    } else if (!gearloop::SeedDemo(options.host, port, "", std::cout)) {
+      std::cout << "The demo could not be seeded (see above); the server keeps running.\n";
+    }
+    std::cout << "\ngearloop-server is running on http://" << options.host << ":" << port
+              << "  (dashboard: /, API: /api/v1, metrics: /metrics; Ctrl-C stops it)\n"
+              << std::flush;
+  }
+  serving.join();
   server.reset();  // closes the database after the batch workers have stopped
   LOG(INFO) << "stopped";
   return 0;

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <functional>
 #include <string>
 #include <thread>
@@ -15,6 +16,7 @@
 
 #include <openssl/sha.h>
 
+#include "server/demo_seed.h"
 #include "storage/job_repository.h"
 #include "tests/server/server_test_util.h"
 
@@ -583,6 +585,22 @@ TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
   // A stored closed-loop job can be replayed like any other.
   const Answer replay = Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(last) + "/replay", "");
   EXPECT_EQ(replay.status, 201) << replay.body.dump();
+}
+
+TEST_F(GearloopServerTest, SeedsTheDemoOnceIntoAnEmptyHistory) {
+  std::ostringstream out;
+  ASSERT_TRUE(SeedDemo("127.0.0.1", running_->port(), "", out)) << out.str();
+  EXPECT_EQ(StoredJobs(), 5);  // correction, replay, three closed-loop corrections
+  EXPECT_NE(out.str().find("correction job #1"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("/api/v1/corrections/5/lineage"), std::string::npos) << out.str();
+  const Answer replay = Send(*client_, "GET", "/api/v1/corrections/2");
+  EXPECT_EQ(replay.body["parent_job_id"], 1);
+  const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/5/lineage");
+  EXPECT_EQ(lineage.body["jobs"].size(), 3u);
+  std::ostringstream again;
+  ASSERT_TRUE(SeedDemo("127.0.0.1", running_->port(), "", again));
+  EXPECT_EQ(StoredJobs(), 5);
+  EXPECT_NE(again.str().find("already seeded"), std::string::npos);
 }
 
 std::string Sha256Hex(const std::string& text) {
