@@ -120,6 +120,10 @@ bool ConversionOptions::IsValid(std::string* error) const {
     *error = "num_check_samples must lie in [2, 100000]";
     return false;
   }
+  if (!(max_flank_distance_um > 0.0)) {
+    *error = "max_flank_distance_um must be > 0";
+    return false;
+  }
   if (!(roll_margin_fraction >= 0.0 && roll_margin_fraction <= 10.0)) {
     *error = "roll_margin_fraction must lie in [0, 10]";
     return false;
@@ -128,6 +132,18 @@ bool ConversionOptions::IsValid(std::string* error) const {
 }
 
 ConversionResult ConvertCradleToFreeForm(const ConversionOptions& options, const BevelPinionJob& job) {
+  if (options.choose_degree) {
+    ConversionOptions fixed = options;
+    fixed.choose_degree = false;
+    ConversionResult best;
+    for (int degree = 2; degree <= 12; ++degree) {
+      fixed.polynomial_degree = degree;
+      fixed.num_samples = std::max(options.num_samples, degree + 1);
+      best = ConvertCradleToFreeForm(fixed, job);
+      if (!best.grid.ok || (best.ok && best.flank_max_distance_um < options.max_flank_distance_um)) break;
+    }
+    return best;
+  }
   ConversionResult result;
   std::string error, field;
   if (!options.IsValid(&error)) {

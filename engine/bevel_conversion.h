@@ -53,6 +53,11 @@ struct ConversionOptions {
   // pinion's grid (both sides), well under the 0.1 um goal; degree 4 gives 0.03-0.07 um,
   // degree 3 0.6-1.1 um (tests/engine/bevel_conversion_test.cc).
   int polynomial_degree = 5;
+  // When true, polynomial_degree is ignored: the smallest degree in [2, 12] whose fitted
+  // motions cut the flank within max_flank_distance_um of the cradle flank on the grid is
+  // chosen (the highest tried if none reaches it; ConversionResult::motion.degree says which).
+  bool choose_degree = false;
+  double max_flank_distance_um = 0.1;
   // Instants sampled for the fit (>= degree + 1) and for the checks (>= 2).
   int num_samples = 121;
   int num_check_samples = 401;

@@ -79,6 +79,18 @@ TEST(ConvertCradleToFreeForm, ReproducesPublishedConvexMotion) {
   EXPECT_NEAR(kPi - m.Value(FreeFormAxis::kB, 0.0), 2.98765, 0.02);
 }
 
+// Choosing the degree: the smallest that keeps the flank within the goal (degree 4 here, whose
+// flank distance is 0.03-0.07 um; degree 3 gives 0.6-1.1 um).
+TEST_P(ConversionSides, ChosenDegreeIsSmallestMeetingGoal) {
+  ConversionOptions options;
+  options.choose_degree = true;
+  options.max_flank_distance_um = 0.1;
+  const ConversionResult c = ConvertCradleToFreeForm(options, PublishedPinionJob(GetParam()));
+  ASSERT_TRUE(c.ok) << c.message;
+  EXPECT_EQ(c.motion.degree, 4);
+  EXPECT_LT(c.flank_max_distance_um, 0.1);
+}
+
 TEST(ConvertCradleToFreeForm, InvalidOptionsAreReported) {
   ConversionOptions options;
   options.polynomial_degree = 0;
