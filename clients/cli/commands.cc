@@ -429,6 +429,7 @@ const CommandSpec kSubmit{
     "  --target FILE         wanted topography: CSV grid (complete) or JSON {modifications:[...]}\n"
     "  --options FILE        JSON object of solver options, merged over REQUEST.json's\n"
     "  --settings-from ID    the part was ground with the corrected settings of job ID\n"
+    "                        (they are fetched when REQUEST.json has no settings)\n"
     "  --residual-csv FILE   write the predicted residual grid as CSV\n"
     "  --settings-out FILE   write the new machine settings as JSON\n\n"
     "Exit 0 converged, 5 stored but not converged, 3 refused (the message names the field).\n",
@@ -474,9 +475,33 @@ int BuildCorrectionRequest(const std::string& request_path,
   return -1;
 }
 
+// With --settings-from ID and no "settings" in the request file, the part was ground with job
+// ID's corrected settings: fetch them (once; `cache` keeps them for the items of a batch) so the
+// server corrects from where the machine really was. Returns -1, or an exit code.
+int FillSourceSettings(ApiClient* client, json* request, json* cache) {
+  if (!request->contains("settings_source_job_id") || request->contains("settings")) return -1;
+  if (cache->is_null()) {
+    const std::string id = Text((*request)["settings_source_job_id"]);
+    const ApiResponse source = client->Get("/api/v1/corrections/" + id);
+    const int failure = CheckAnswer(source);
+    if (failure >= 0) return failure;
+    const json result = source.body.value("result", json::object());
+    if (!result.contains("settings") || !result["settings"].is_object()) {
+      std::cerr << "gearloop: job " << id << " holds no corrected settings\n";
+      return kExitApiError;
+    }
+    *cache = result["settings"];
+  }
+  (*request)["settings"] = *cache;
+  return -1;
+}
+
 int Submit(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
   json request;
-  const int built = BuildCorrectionRequest(args.positional[0], args.positional[1], args, &request);
+  int built = BuildCorrectionRequest(args.positional[0], args.positional[1], args, &request);
+  if (built >= 0) return built;
+  json source_settings;
+  built = FillSourceSettings(client, &request, &source_settings);
   if (built >= 0) return built;
   const ApiResponse answer = client->Post("/api/v1/corrections", request);
   const int failure = CheckAnswer(answer);
@@ -767,6 +792,7 @@ const CommandSpec kBatch{
     "options:\n"
     "  --target FILE     the same target for every item (else REQUEST.json's)\n"
     "  --options FILE    solver options merged over REQUEST.json's\n"
+    "  --settings-from ID  every part was ground with the corrected settings of job ID\n"
     "  --no-wait         print the batch id and return at once\n"
     "  --poll-ms N       progress polling interval (default 250)\n\n"
     "Exit 0 all items converged, 5 some failed or did not converge, 4 a file is invalid\n"
@@ -800,9 +826,12 @@ int Batch(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global
   if (files.empty()) return InputError(folder + ": no *.csv or *.json measurement files");
 
   json items = json::array();
+  json source_settings;
   for (const std::string& file : files) {
     json request;
-    const int built = BuildCorrectionRequest(args.positional[0], file, args, &request);
+    int built = BuildCorrectionRequest(args.positional[0], file, args, &request);
+    if (built >= 0) return built;
+    built = FillSourceSettings(client, &request, &source_settings);
     if (built >= 0) return built;
     items.push_back(request);
   }

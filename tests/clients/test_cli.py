@@ -168,6 +168,22 @@ class CliTest(unittest.TestCase):
                                           "--corrections", "2").stdout)
         self.assertGreaterEqual(len(as_json["iterations"]), 2)
 
+    def test_settings_from_links_the_next_part(self) -> None:
+        first = self.submit()
+        done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.json"),
+                            "--settings-from", str(first["id"]))
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        second = json.loads(done.stdout)
+        self.assertEqual(second["settings_source_job_id"], first["id"])
+        stored = json.loads(self.run_cli("--json", "show", str(second["id"])).stdout)
+        self.assertEqual(stored["request"]["settings"], first["result"]["settings"])
+        lineage = [j["id"] for j in json.loads(self.run_cli("--json", "list", "--limit", "100").stdout)["jobs"]
+                   if j.get("settings_source_job_id") == first["id"]]
+        self.assertIn(second["id"], lineage)
+        missing = self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv"),
+                               "--settings-from", "999999")
+        self.assertEqual(missing.returncode, 3)
+
     def test_nominal_settings_grind_the_involute(self) -> None:
         settings = self.dir / "nominal.json"
         done = self.run_cli("nominal", str(EXAMPLES / "request.json"), "--settings-out", str(settings))
