@@ -38,6 +38,7 @@ __all__ = [
     "GearloopTransportError",
     "Grid",
     "read_csv_grid",
+    "read_measurement_file",
     "format_csv_grid",
 ]
 
@@ -278,6 +279,39 @@ def read_csv_grid(path_or_text: str, rows: int = 5, columns: int = 9, allow_miss
     if len(grid) != rows:
         raise ValueError(f"end of file after {len(grid)} data rows, expected {rows}")
     return grid
+
+
+def read_measurement_file(path: str, rows: int = 5, columns: int = 9) -> Json:
+    """Reads a measurement file into the API's measurement object, as the gearloop CLI does:
+    a CSV grid, or JSON with "deviations_um" (or "teeth"), possibly inside "measurement", or a
+    bare array of rows (clients/FORMATS.md). Raises ValueError naming what is wrong."""
+    if path.lower().endswith(".csv"):
+        try:
+            return {"deviations_um": read_csv_grid(path, rows, columns)}
+        except ValueError as error:
+            raise ValueError(f"{path}: {error}") from None
+    with open(path, encoding="utf-8") as f:
+        try:
+            data = json.load(f)
+        except ValueError as error:
+            raise ValueError(f"{path}: not valid JSON: {error}") from None
+    if isinstance(data, dict) and "measurement" in data:
+        data = data["measurement"]
+    if isinstance(data, list):
+        data = {"deviations_um": data}
+    if not isinstance(data, dict) or ("deviations_um" not in data and "teeth" not in data):
+        raise ValueError(f'{path}: a measurement file holds "deviations_um" or "teeth"')
+    out: Json = {}
+    if "deviations_um" in data:
+        grid = data["deviations_um"]
+        if (not isinstance(grid, list) or len(grid) != rows
+                or any(not isinstance(row, list) or len(row) != columns for row in grid)
+                or any(v is not None and not isinstance(v, (int, float)) for row in grid for v in row)):
+            raise ValueError(f"{path}: deviations_um must be {rows} rows of {columns} numbers or null")
+        out["deviations_um"] = grid
+    if "teeth" in data:
+        out["teeth"] = data["teeth"]
+    return out
 
 
 def format_csv_grid(grid: Grid, header: bool = True) -> str:

@@ -6,7 +6,7 @@ import copy
 import unittest
 
 from gearloop_client import (Client, GearloopApiError, GearloopTransportError, format_csv_grid,
-                             read_csv_grid)
+                             read_csv_grid, read_measurement_file)
 from server_fixture import EXAMPLES, RunningServer, example_json, free_port, write_token_file
 
 
@@ -150,6 +150,12 @@ class CsvGridTest(unittest.TestCase):
         self.assertEqual(grid[0][0], 2.1)
         self.assertIsNone(grid[4][8])
         self.assertEqual(read_csv_grid(format_csv_grid(grid), is_text=True), grid)
+
+    def test_measurement_files_csv_and_json_agree(self) -> None:
+        from_csv = read_measurement_file(str(EXAMPLES / "measurement.csv"))
+        from_json = read_measurement_file(str(EXAMPLES / "measurement.json"))
+        self.assertEqual(from_csv, from_json)
+        self.assertEqual(set(from_json), {"deviations_um"})  # metadata stays local
 
     def test_errors_name_line_and_column(self) -> None:
         text = "\n".join(["1,2,3,4,5,6,7,8,9"] * 2 + ["1,2,3,4,5,6,abc,8,9"] + ["1,2,3,4,5,6,7,8,9"] * 2)
