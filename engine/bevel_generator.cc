@@ -229,6 +229,18 @@ void BevelFreeFormGenerator::Evaluate(const Eigen::VectorXd& parameters, bool wi
   }
 }
 
+bool AxisSensitivityOptions::IsValid(std::string* error) const {
+  if (!(linear_error_mm > 0.0) || !std::isfinite(linear_error_mm)) {
+    *error = "linear_error_mm must be finite and > 0";
+    return false;
+  }
+  if (!(angular_error_rad > 0.0) || !std::isfinite(angular_error_rad)) {
+    *error = "angular_error_rad must be finite and > 0";
+    return false;
+  }
+  return true;
+}
+
 AxisSensitivityTable ComputeAxisSensitivity(const BevelFreeFormGenerator& generator, const Eigen::VectorXd& parameters,
                                             const AxisSensitivityOptions& options) {
   AxisSensitivityTable table;

@@ -84,6 +84,9 @@ struct AxisSensitivityOptions {
   double angular_error_rad = 0.01 * 3.14159265358979323846 / 180.0;
   // Also re-evaluate the exact model with each offset applied (else only S times the offset).
   bool exact = true;
+
+  // Both errors finite and > 0; else false with the reason.
+  bool IsValid(std::string* error) const;
 };
 
 // The flank error on the grid caused by one axis error [um] (positive = material left on).

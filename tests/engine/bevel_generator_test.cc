@@ -112,6 +112,15 @@ TEST(ComputeAxisSensitivity, OffsetsMatchExactModelAndAreRanked) {
   }
 }
 
+TEST(AxisSensitivityOptions, RejectsNonPositiveErrors) {
+  AxisSensitivityOptions options;
+  std::string error;
+  EXPECT_TRUE(options.IsValid(&error));
+  options.angular_error_rad = 0.0;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(error.find("angular_error_rad"), std::string::npos);
+}
+
 // Against the published axis-error table (Tang 2011, Table 2, convex side, 0.01 mm / 0.01 deg
 // per axis): B moves the flank most, and each axis's largest flank error is within 45 % of the
 // published one (X 8, Y 7, Z 3, A 4, B 14 um; their flank came from a CAD cut, ours is exact).
