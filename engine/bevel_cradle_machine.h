@@ -29,6 +29,8 @@
 //   m   = RotZ(t) r_c
 //   R1  = RotX(-i0 t) H (m - apex_m),     H the rows x_h, y_h, z_h,  i0 the ratio of roll
 // Tilt = rotation by I_x about the tilt axis (see CradleMachineSettings::tilt_rotation_rad).
+// With these signs the work turns with the cradle in the sense that generates the flank with
+// the straight blade, and the published pinion comes out LEFT-hand, offset below centre.
 #ifndef GEARLOOP_ENGINE_BEVEL_CRADLE_MACHINE_H_
 #define GEARLOOP_ENGINE_BEVEL_CRADLE_MACHINE_H_
 
