@@ -378,10 +378,32 @@ class GearloopServer::Impl {
     // body waits for the client's delayed ACK (~40 ms per request on Linux).
     http_.set_tcp_nodelay(true);
 
-    httplib::Server::HandlerWithResponse pre_routing = [](const httplib::Request&, httplib::Response&) {
+    const size_t payload_max_bytes = options_.payload_max_bytes;
+    httplib::Server::HandlerWithResponse pre_routing = [payload_max_bytes](const httplib::Request& req,
+                                                                           httplib::Response& res) {
       t_request.start = Clock::now();
       t_request.started = true;
       t_request.route = "unmatched";
+      // Refuse an announced oversized body before reading it (cpp-httplib would first read and
+      // discard it all, holding a worker for as long as the client cares to send), and close.
+      const std::string length = req.get_header_value("Content-Length");
+      if (!length.empty()) {
+        char* end = nullptr;
+        const unsigned long long bytes = std::strtoull(length.c_str(), &end, 10);
+        if (end == length.c_str() || *end != '\0') {
+          res.set_header("Connection", "close");
+          RespondError(res, InvalidRequest("", "Content-Length is not a number"));
+          return httplib::Server::HandlerResponse::Handled;
+        }
+        if (bytes > payload_max_bytes) {
+          res.set_header("Connection", "close");
+          RespondError(res, ApiError{413, "payload_too_large",
+                                     "the request body is larger than the server accepts (" +
+                                         std::to_string(payload_max_bytes) + " bytes)",
+                                     ""});
+          return httplib::Server::HandlerResponse::Handled;
+        }
+      }
       return httplib::Server::HandlerResponse::Unhandled;
     };
     http_.set_pre_routing_handler(pre_routing);
