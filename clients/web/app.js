@@ -95,6 +95,9 @@
 
   async function showJob(id) {
     state.selected = id;
+    // Only the latest request draws: a slower earlier one must not overwrite it.
+    const ticket = (state.ticket = (state.ticket || 0) + 1);
+    document.body.removeAttribute("data-job-shown");
     for (const tr of $("jobs").querySelectorAll("tbody tr")) {
       tr.classList.toggle("selected", Number(tr.getAttribute("data-job-id")) === id);
     }
@@ -104,6 +107,7 @@
     try {
       const job = await api("GET", "/api/v1/corrections/" + id);
       const chain = await lineage(id);
+      if (ticket !== state.ticket) return;
       detail.textContent = "";
       const actions = P.html("div", { class: "actions" }, [
         P.html("a", { href: "/jobs/" + id + "/report", target: "_blank", class: "button", text: "Printable report" }),
@@ -118,6 +122,7 @@
       simulate.addEventListener("click", () => runClosedLoop(job, sim, simulate));
       document.body.setAttribute("data-job-shown", String(id));
     } catch (e) {
+      if (ticket !== state.ticket) return;
       detail.textContent = "";
       detail.appendChild(message("Cannot load job " + id + ": " + e.message));
     }
@@ -203,7 +208,10 @@
       } catch (e) {
         /* private mode: the token lives for this page only */
       }
-      loadJobs();
+      loadHealth();
+      loadJobs().then(() => {
+        if (state.selected === null) route();
+      });
     });
     $("refresh").addEventListener("click", loadJobs);
     $("filter-kind").addEventListener("change", () => {

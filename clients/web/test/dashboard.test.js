@@ -45,10 +45,12 @@ function freePort() {
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-async function api(base, method, p, body) {
+async function api(base, method, p, body, token) {
+  const headers = body ? { "Content-Type": "application/json" } : {};
+  if (token) headers.Authorization = "Bearer " + token;
   const res = await fetch(base + p, {
     method,
-    headers: body ? { "Content-Type": "application/json" } : {},
+    headers,
     body: body ? JSON.stringify(body) : undefined,
   });
   const data = await res.json();
@@ -56,10 +58,11 @@ async function api(base, method, p, body) {
   return data;
 }
 
-async function startServer(tmp) {
+async function startServer(tmp, extraArgs) {
   const port = await freePort();
   const log = fs.openSync(path.join(outDir, "server.log"), "a");
-  const child = spawn(serverBin, ["--host", "127.0.0.1", "--port", String(port), "--db", path.join(tmp, "jobs.sqlite")], {
+  const args = ["--host", "127.0.0.1", "--port", String(port), "--db", path.join(tmp, "jobs.sqlite")].concat(extraArgs || []);
+  const child = spawn(serverBin, args, {
     stdio: ["ignore", log, log],
   });
   const base = "http://127.0.0.1:" + port;
@@ -193,6 +196,29 @@ async function main() {
     check("unknown asset is 404", missing.status === 404);
 
     check("no console errors", consoleErrors.length === 0, consoleErrors.join(" | "));
+
+    // 7. A server that wants tokens: the page says so, and works once a read token is entered.
+    const tokenTmp = fs.mkdtempSync(path.join(os.tmpdir(), "gearloop-web-token-"));
+    const sha = (t) => require("crypto").createHash("sha256").update(t).digest("hex");
+    const tokenFile = path.join(tokenTmp, "tokens.txt");
+    fs.writeFileSync(tokenFile, "read " + sha("reader-secret") + " dashboard\nwrite " + sha("writer-secret") + " cmm\n");
+    const guarded = await startServer(tokenTmp, ["--token-file", tokenFile]);
+    try {
+      const guardedJob = await api(guarded.base, "POST", "/api/v1/corrections", request, "writer-secret");
+      const tokenPage = await context.newPage();
+      await tokenPage.goto(guarded.base + "/", { waitUntil: "load" });
+      await tokenPage.waitForSelector("#jobs td.error", { timeout: 30000 });
+      check("missing token is explained", /401/.test(await tokenPage.textContent("#jobs td.error")));
+      await tokenPage.fill("#token", "reader-secret");
+      await tokenPage.dispatchEvent("#token", "change");
+      await tokenPage.waitForSelector("#jobs tbody tr[data-job-id='" + guardedJob.id + "']", { timeout: 30000 });
+      // The newest job opens by itself once the list loads.
+      await tokenPage.waitForSelector("body[data-job-shown='" + guardedJob.id + "']", { timeout: 30000 });
+      check("job shown with a read token", (await tokenPage.$$("svg.heatmap")).length === 3);
+      await tokenPage.close();
+    } finally {
+      guarded.child.kill("SIGTERM");
+    }
   } finally {
     if (context) await context.close();
     child.kill("SIGTERM");
