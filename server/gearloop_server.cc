@@ -709,7 +709,13 @@ class GearloopServer::Impl {
     job.request_json = Dump(body);
     job.server_version = ServerVersion();
     job.id = repository_->WriteJob(job);
+    LogSolve(job, run);
     RespondCreatedJob(res, job, run);
+  }
+
+  // The engine is silent; the server tells what the solver did (STYLE.md).
+  void LogSolve(const JobRecord& job, const CorrectionRun& run) const {
+    if (options_.access_log) LOG(INFO) << "job " << job.id << " (" << job.kind << "): " << run.result.summary.BriefReport();
   }
 
   void HandleListCorrections(const httplib::Request& req, httplib::Response& res) {
@@ -778,6 +784,7 @@ class GearloopServer::Impl {
     job.server_version = ServerVersion();
     job.parent_job_id = id;
     job.id = repository_->WriteJob(job);
+    LogSolve(job, run);
     RespondCreatedJob(res, job, run);
   }
 
