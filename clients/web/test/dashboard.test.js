@@ -127,6 +127,8 @@ async function main() {
     await page.waitForSelector("body[data-job-shown='" + job.id + "']", { timeout: 30000 });
     const rows = await page.$$eval("#jobs tbody tr", (trs) => trs.map((tr) => tr.getAttribute("data-job-id")));
     check("history lists every job", rows.length === chainIds.length + 1 && rows[0] === String(job.id), JSON.stringify(rows));
+    const heads = await page.$$eval("#jobs thead th", (ths) => ths.map((th) => th.textContent));
+    check("history columns", heads.length === 5 && heads[0] === "id" && heads[4] === "created (UTC)", JSON.stringify(heads));
     check("health shows the server version", /server ok/.test(await page.textContent("#health")));
 
     const maps = await page.$$eval("svg.heatmap", (svgs) =>
