@@ -289,6 +289,14 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
     }
     o.pso_seed = static_cast<unsigned long long>(seed);
   }
+  // The swarm's work grows with particles x generations x grid points; keep one request from
+  // occupying a worker for long (the published 40 x 200 on 5 x 9 is 3.6e5; 5e6 takes ~0.3 s).
+  const double swarm_work = static_cast<double>(o.pso_particles) * o.pso_generations * rows * columns;
+  if (o.solver == CorrectionSolver::kParticleSwarm && swarm_work > 5e6) {
+    *error = InvalidValue("options.pso_generations",
+                          "pso_particles x pso_generations x grid points must stay below 5e6");
+    return false;
+  }
   std::string message;
   if (!o.IsValid(&message)) {
     *error = InvalidValue("options", message);

@@ -56,7 +56,8 @@ bool ParseCorrectionRequest(const nlohmann::json& body, CorrectionRequest* reque
 // default_max_order, max_order {block: order}, point_weights (grid), probe_noise_um,
 // block_scales {block: scale}, min_flank_effect_um,
 // max_num_iterations (<= 200), max_rework_passes (<= 20), outlier_threshold, outlier_min_um,
-// max_outlier_fraction, pso_particles (<= 200), pso_generations (<= 2000), pso_seed.
+// max_outlier_fraction, pso_particles (<= 200), pso_generations (<= 2000; particles x generations x
+// grid points <= 5e6 for the "pso" solver), pso_seed.
 bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, CorrectionOptions* options,
                             ApiError* error);
 

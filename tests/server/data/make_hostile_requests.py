@@ -137,7 +137,8 @@ for name, options, expect in [
         ("iterations huge", {"max_num_iterations": 10**9}, 422), ("pso particles huge", {"pso_particles": 100000}, 422),
         ("pso generations huge", {"pso_generations": 10**8}, 422), ("noise negative", {"probe_noise_um": -0.1}, 422),
         ("block scale zero", {"block_scales": {"X": 0}}, 422), ("options a list", [1], 400),
-        ("outlier fraction 1", {"max_outlier_fraction": 1.0}, 422)]:
+        ("outlier fraction 1", {"max_outlier_fraction": 1.0}, 422),
+        ("swarm too large", {"solver": "pso", "pso_particles": 200, "pso_generations": 2000}, 422)]:
     add(f"options: {name}", dict(copy.deepcopy(BASE), options=options), expect)
 add("settings_source_job_id unknown", dict(copy.deepcopy(BASE), settings_source_job_id=424242), 422)
 add("settings_source_job_id negative", dict(copy.deepcopy(BASE), settings_source_job_id=-1), 422)
