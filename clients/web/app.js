@@ -115,6 +115,7 @@
       const simulate = P.html("button", { type: "button", class: "button", text: "Simulate a closed loop on this setup" });
       actions.appendChild(simulate);
       detail.appendChild(actions);
+      detail.appendChild(nextPartPanel(job));
       detail.appendChild(P.renderJob(job, chain.length ? chain : [job]));
       detail.appendChild(downloads(job));
       const sim = P.html("section", { class: "simulation" });
@@ -126,6 +127,88 @@
       detail.textContent = "";
       detail.appendChild(message("Cannot load job " + id + ": " + e.message));
     }
+  }
+
+  // Reads a CSV grid by the rules of clients/FORMATS.md (the same as the CLI's csv_grid.h):
+  // '#' comments and blank lines skipped, an optional header line without numbers, empty or
+  // "null" = missing; errors name the line and column.
+  function parseCsvGrid(text, rows, columns) {
+    const grid = [];
+    let first = true;
+    const lines = text.replace(/^\uFEFF/, "").split(/\r?\n/);
+    const isNumber = (t) => t !== "" && !Number.isNaN(Number(t)) && /^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$/.test(t);
+    for (let i = 0; i < lines.length; ++i) {
+      const line = lines[i].trim();
+      if (!line || line[0] === "#") continue;
+      let cells = lines[i].split(",").map((c) => c.trim().replace(/^"(.*)"$/, "$1").trim());
+      if (cells.length === columns + 1 && cells[columns] === "") cells = cells.slice(0, columns);
+      if (first) {
+        first = false;
+        if (cells.every((c) => !isNumber(c)) && cells.some((c) => c && c.toLowerCase() !== "null")) continue;
+      }
+      const where = "line " + (i + 1);
+      if (grid.length >= rows) throw new Error(where + ": more than " + rows + " data rows");
+      if (cells.length !== columns) throw new Error(where + ": " + cells.length + " cells, expected " + columns);
+      grid.push(
+        cells.map((c, k) => {
+          if (c === "" || c.toLowerCase() === "null") return null;
+          if (!isNumber(c)) throw new Error(where + ", column " + (k + 1) + ": '" + c + "' is not a number");
+          return Number(c);
+        })
+      );
+    }
+    if (grid.length !== rows) throw new Error("end of file after " + grid.length + " data rows, expected " + rows);
+    return grid;
+  }
+
+  // The closed loop by hand: the part ground with this job's corrected settings was measured;
+  // its file (CSV grid or JSON measurement file) becomes a new correction linked to this job.
+  function nextPartPanel(job) {
+    const req = job.request || {};
+    const grid = req.grid || {};
+    const rows = grid.profile_points || 5;
+    const columns = grid.lead_points || 9;
+    const input = P.html("input", { type: "file", accept: ".csv,.json,text/csv,application/json", id: "next-part-file" });
+    const status = P.html("span", { class: "note", id: "next-part-status" });
+    const panel = P.html("div", { class: "actions next-part" }, [
+      P.html("label", { for: "next-part-file", text: "Next part, ground with these settings \u2014 its measurement:" }),
+      input,
+      status,
+    ]);
+    input.addEventListener("change", async () => {
+      const file = input.files && input.files[0];
+      if (!file) return;
+      status.className = "note";
+      status.textContent = "reading " + file.name + "\u2026";
+      try {
+        const text = await file.text();
+        let measurement;
+        if (/\.json$/i.test(file.name)) {
+          let data = JSON.parse(text);
+          if (data && data.measurement) data = data.measurement;
+          if (Array.isArray(data)) data = { deviations_um: data };
+          if (!data || (!data.deviations_um && !data.teeth)) throw new Error('the file holds no "deviations_um" or "teeth"');
+          measurement = data.deviations_um ? { deviations_um: data.deviations_um } : { teeth: data.teeth };
+        } else {
+          measurement = { deviations_um: parseCsvGrid(text, rows, columns) };
+        }
+        const request = {};
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options"]) if (req[k] !== undefined) request[k] = req[k];
+        request.settings = (job.result || {}).settings;
+        request.settings_source_job_id = job.id;
+        request.measurement = measurement;
+        status.textContent = "correcting\u2026";
+        const created = await api("POST", "/api/v1/corrections", request);
+        status.textContent = "job " + created.id + " stored";
+        state.offset = 0;
+        await loadJobs();
+        window.location.hash = "job=" + created.id;
+      } catch (e) {
+        status.className = "error";
+        status.textContent = file.name + ": " + e.message;
+      }
+    });
+    return panel;
   }
 
   // A grid as CSV in the clients' format (clients/FORMATS.md): header L1..Ln, row 1 (root) first,

@@ -163,18 +163,37 @@ async function main() {
     check("convergence over the lineage", points >= chainIds.length, "markers " + points);
     await page.screenshot({ path: path.join(outDir, "dashboard-closed-loop.png"), fullPage: true });
 
-    // 3. A simulated closed loop run from the page.
+    // 3. The next part by hand: a bad file is refused with its line and column, a good one
+    //    becomes a new job ground with this job's settings.
+    const bad = path.join(outDir, "bad-part.csv");
+    fs.writeFileSync(bad, "1,2,3,4,5,6,7,8,9\n1,2,3,4,5,6,7,8,9\n1,2,x,4,5,6,7,8,9\n");
+    await page.setInputFiles("#next-part-file", bad);
+    await page.waitForSelector("#next-part-status.error", { timeout: 30000 });
+    check("bad measurement file named", /line 3, column 3/.test(await page.textContent("#next-part-status")), await page.textContent("#next-part-status"));
+    await page.setInputFiles("#next-part-file", path.join(EXAMPLES, "measurement.csv"));
+    await page.waitForFunction((old) => {
+      const shown = document.body.getAttribute("data-job-shown");
+      return shown && Number(shown) > old;
+    }, Math.max(job.id, ...chainIds), { timeout: 60000 });
+    const nextId = Number(await page.getAttribute("body", "data-job-shown"));
+    const next = await api(base, "GET", "/api/v1/corrections/" + nextId);
+    check("next part stored and linked", next.settings_source_job_id === last && JSON.stringify(next.request.settings) === JSON.stringify((await api(base, "GET", "/api/v1/corrections/" + last)).result.settings), JSON.stringify({ id: nextId, source: next.settings_source_job_id }));
+    const nextPoints = await page.$$eval("svg.convergence circle", (cs) => cs.length);
+    check("convergence grows by the next part", nextPoints > points, nextPoints + " vs " + points);
+    await page.screenshot({ path: path.join(outDir, "dashboard-next-part.png"), fullPage: true });
+
+    // 4. A simulated closed loop run from the page.
     await page.click("text=Simulate a closed loop on this setup");
     await page.waitForSelector("svg.closed-loop, section.simulation p.error", { timeout: 180000 });
     check("simulated closed loop plotted", (await page.$$("svg.closed-loop")).length === 1, await page.textContent("section.simulation"));
 
-    // 4. The printable report of the measured job.
+    // 5. The printable report of the measured job.
     await page.goto(base + "/jobs/" + job.id + "/report", { waitUntil: "load" });
     await page.waitForSelector("body[data-ready]", { timeout: 30000 });
     check("report drawn", (await page.getAttribute("body", "data-ready")) === "true" && (await page.$$("svg.heatmap")).length === 3);
     await page.screenshot({ path: path.join(outDir, "report.png"), fullPage: true });
 
-    // 5. The offline report written by `gearloop report` (no server needed to view it).
+    // 6. The offline report written by `gearloop report` (no server needed to view it).
     if (cliBin) {
       const file = path.join(outDir, "job-" + job.id + ".html");
       execFileSync(cliBin, ["--server", base, "report", String(job.id), "-o", file], { stdio: "ignore" });
@@ -193,13 +212,13 @@ async function main() {
       await offline.close();
     }
 
-    // 6. Unknown pages stay 404 and the API is untouched by the static routes.
+    // 7. Unknown pages stay 404 and the API is untouched by the static routes.
     const missing = await fetch(base + "/static/nope.js");
     check("unknown asset is 404", missing.status === 404);
 
     check("no console errors", consoleErrors.length === 0, consoleErrors.join(" | "));
 
-    // 7. A server that wants tokens: the page says so, and works once a read token is entered.
+    // 8. A server that wants tokens: the page says so, and works once a read token is entered.
     const tokenTmp = fs.mkdtempSync(path.join(os.tmpdir(), "gearloop-web-token-"));
     const sha = (t) => require("crypto").createHash("sha256").update(t).digest("hex");
     const tokenFile = path.join(tokenTmp, "tokens.txt");
