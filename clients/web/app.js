@@ -114,6 +114,7 @@
       ]);
       const simulate = P.html("button", { type: "button", class: "button", text: "Simulate a closed loop on this setup" });
       actions.appendChild(simulate);
+      actions.appendChild(replayControl(job));
       detail.appendChild(actions);
       detail.appendChild(nextPartPanel(job));
       detail.appendChild(P.renderJob(job, chain.length ? chain : [job]));
@@ -127,6 +128,31 @@
       detail.textContent = "";
       detail.appendChild(message("Cannot load job " + id + ": " + e.message));
     }
+  }
+
+  // Replays the stored measurement with another solver (POST .../replay); the new job opens.
+  function replayControl(job) {
+    const solver = P.html("select", { id: "replay-solver", "aria-label": "solver" }, ["regularised", "pso", "lsq-plain"].map((v) => P.html("option", { value: v, text: v })));
+    const current = (job.result || {}).solver;
+    if (current) solver.value = current;
+    const button = P.html("button", { type: "button", class: "button", id: "replay", text: "Replay with solver" });
+    const status = P.html("span", { class: "note", id: "replay-status" });
+    button.addEventListener("click", async () => {
+      button.disabled = true;
+      status.className = "note";
+      status.textContent = "solving\u2026";
+      try {
+        const created = await api("POST", "/api/v1/corrections/" + job.id + "/replay", { options: { solver: solver.value } });
+        state.offset = 0;
+        await loadJobs();
+        window.location.hash = "job=" + created.id;
+      } catch (e) {
+        status.className = "error";
+        status.textContent = e.message;
+        button.disabled = false;
+      }
+    });
+    return P.html("span", { class: "replay" }, [button, solver, status]);
   }
 
   // Reads a CSV grid by the rules of clients/FORMATS.md (the same as the CLI's csv_grid.h):

@@ -182,6 +182,14 @@ async function main() {
     check("convergence grows by the next part", nextPoints > points, nextPoints + " vs " + points);
     await page.screenshot({ path: path.join(outDir, "dashboard-next-part.png"), fullPage: true });
 
+    // 3b. A replay of the shown job with another solver opens the new, linked job.
+    await page.selectOption("#replay-solver", "lsq-plain");
+    await page.click("#replay");
+    await page.waitForFunction((old) => Number(document.body.getAttribute("data-job-shown")) > old, nextId, { timeout: 60000 });
+    const replayId = Number(await page.getAttribute("body", "data-job-shown"));
+    const replayed = await api(base, "GET", "/api/v1/corrections/" + replayId);
+    check("replay from the page", replayed.kind === "replay" && replayed.parent_job_id === nextId && replayed.result.solver === "lsq-plain", JSON.stringify({ kind: replayed.kind, parent: replayed.parent_job_id }));
+
     // 4. A simulated closed loop run from the page.
     await page.click("text=Simulate a closed loop on this setup");
     await page.waitForSelector("svg.closed-loop, section.simulation p.error", { timeout: 180000 });
