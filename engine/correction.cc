@@ -933,6 +933,9 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
       }
       return f;
     };
+    // The published parameters fix the swarm size, generations, inertia and c1, c2; the rest is
+    // the textbook global-best swarm: positions uniform in the box, velocities uniform in
+    // +-(box width), velocities clamped to the box width and positions to the box.
     std::mt19937_64 rng(options.pso_seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     const int np_swarm = options.pso_particles;

@@ -65,10 +65,12 @@
 // Solver "lsq-plain" (for comparison): the minimum-norm unregularised least-squares solution in
 // the raw parameter units, dzeta = pinv(W^1/2 S) (-W^1/2 e), no refinement.
 //
-// Outliers: after a first fit the point with the largest robust residual is tested against
-// outlier_threshold times the robust spread (1.4826 * median absolute deviation, but at least the
-// probe noise and outlier_min_um); a gross outlier is dropped, the fit repeated, and the dropped
-// indices reported in the summary. They never take part in the final solve.
+// Outliers (default solver): after a regularised linear fit, each point's standardised residual
+// r_i / sqrt(1 - h_ii) (h the hat matrix of the fit) is compared with its median; the point
+// furthest from it is a gross outlier when that distance exceeds
+// max(outlier_threshold * max(1.4826 * MAD, sigma), outlier_min_um). It is dropped, the fit
+// repeated (at most max_outlier_fraction of the points), and the dropped indices reported in
+// the summary; they never take part in the final solve.
 #ifndef GEARLOOP_ENGINE_CORRECTION_H_
 #define GEARLOOP_ENGINE_CORRECTION_H_
 
