@@ -4,6 +4,7 @@
 #include "storage/job_repository.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -264,6 +265,34 @@ TEST(OpenJobRepository, KeepsJobsAndBatchesAcrossReopen) {
   EXPECT_EQ(repo->ReadPendingBatchItems().size(), 2u);
   EXPECT_EQ(repo->ReadBatch(batch, true)->items.size(), 2u);
   EXPECT_EQ(repo->IntegrityCheck(), "ok");
+}
+
+TEST(OpenJobRepository, RefusesADatabaseFromANewerServer) {
+  TempDatabasePath temp;
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version = 99;", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  EXPECT_THROW(OpenJobRepository(temp.path()), StorageError);
+}
+
+TEST(OpenJobRepository, UsesWriteAheadLogWithForeignKeys) {
+  TempDatabasePath temp;
+  { std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path()); }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* statement = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode;", -1, &statement, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(statement, 0)), "wal");
+  sqlite3_finalize(statement);
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_int(statement, 0), 1);
+  sqlite3_finalize(statement);
+  sqlite3_close(db);
 }
 
 TEST(OpenJobRepository, ThrowsStorageErrorForUnopenablePath) {
