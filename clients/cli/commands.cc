@@ -370,7 +370,9 @@ const CommandSpec kList{"list",
                         "  --kind K         correction | replay | batch_item | closed_loop\n"
                         "  --status S       converged | not_converged | ...\n"
                         "  --flank F        left | right\n"
-                        "  --teeth N        only gears with N teeth\n",
+                        "  --teeth N        only gears with N teeth\n\n"
+                        "columns: rms um is the predicted residual; parent N = a replay of job N,\n"
+                        "<N = the part was ground with the corrected settings of job N.\n",
                         {"--limit", "--offset", "--kind", "--status", "--flank", "--teeth"},
                         {},
                         0,
