@@ -485,7 +485,21 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   if (input.current_parameters.size() != np || !input.current_parameters.allFinite()) {
     return invalid("current_parameters must hold " + std::to_string(np) + " finite values");
   }
-  if (input.measured_um.size() != n) return invalid("measured_um must hold " + std::to_string(n) + " values");
+  // Several teeth: their point-wise mean, each point's noise variance divided by its count.
+  Eigen::VectorXd measured = input.measured_um;
+  Eigen::VectorXd noise_share = Eigen::VectorXd::Ones(n);  // variance of a point / sigma^2
+  if (!input.measured_teeth_um.empty()) {
+    for (size_t t = 0; t < input.measured_teeth_um.size(); ++t) {
+      if (input.measured_teeth_um[t].size() != n) {
+        return invalid("measured_teeth_um[" + std::to_string(t) + "] must hold " + std::to_string(n) + " values");
+      }
+    }
+    Eigen::VectorXi counts;
+    measured = AverageTeeth(input.measured_teeth_um, &counts);
+    for (int i = 0; i < n; ++i) noise_share(i) = counts(i) > 0 ? 1.0 / counts(i) : 1.0;
+  } else if (input.measured_um.size() != n) {
+    return invalid("measured_um must hold " + std::to_string(n) + " values");
+  }
   if (input.target_um.size() != n) return invalid("target_um must hold " + std::to_string(n) + " values");
   if (options.point_weights.size() != 0 && options.point_weights.size() != n) {
     return invalid("point_weights must be empty or hold " + std::to_string(n) + " values");
@@ -524,7 +538,7 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
 
   const Eigen::VectorXd weights =
       options.point_weights.size() == n ? options.point_weights : Eigen::VectorXd::Ones(n);
-  const Eigen::VectorXd e = input.measured_um - input.target_um;  // NaN where missing
+  const Eigen::VectorXd e = measured - input.target_um;  // NaN where missing
   std::vector<int> used;
   std::vector<int> reached;
   for (int i = 0; i < n; ++i) {
@@ -602,7 +616,9 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
     const double s2 = options.probe_noise_um > 0.0 ? options.probe_noise_um * options.probe_noise_um : 0.0;
     for (int i = 0; i < rank; ++i) {
       double v = 0.0;
-      for (size_t r = 0; r < rows.size(); ++r) v += weights(rows[r]) * ls.svd.u(r, i) * ls.svd.u(r, i);
+      for (size_t r = 0; r < rows.size(); ++r) {
+        v += weights(rows[r]) * noise_share(rows[r]) * ls.svd.u(r, i) * ls.svd.u(r, i);
+      }
       noise2_total += s2 * v;
     }
     // Filter factor f_i = sigma_i^2 / (sigma_i^2 + lambda^2); in-range residual and dof.

@@ -175,6 +175,11 @@ struct CorrectionInput {
   Eigen::VectorXd current_parameters;
   // The measured deviations [um], row-major, NaN = missing.
   Eigen::VectorXd measured_um;
+  // Alternatively several measured teeth of the flank (each row-major, NaN = missing): when not
+  // empty, measured_um is ignored and the point-wise mean of the delivered values is used
+  // (AverageTeeth), with the probe noise of a point divided by sqrt(number of teeth averaged)
+  // in the discrepancy principle.
+  std::vector<Eigen::VectorXd> measured_teeth_um;
   // The target modification [um], row-major (e.g. EvaluateTargetModifications).
   Eigen::VectorXd target_um;
   // The roll range used [rad]. When roll_min_rad >= roll_max_rad (the default) it is taken

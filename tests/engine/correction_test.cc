@@ -522,6 +522,41 @@ TEST(AverageTeeth, MeanOfTheDeliveredValues) {
   EXPECT_EQ(counts(2), 2);
 }
 
+// Several teeth: the mean is corrected, and the discrepancy principle sees sigma / sqrt(teeth).
+TEST(ComputeCorrection, SeveralTeethActLikeTheirMeanWithReducedNoise) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd hidden =
+      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 31);
+  MeasurementSimulationOptions cmm;
+  cmm.probe_noise_um = 1.0;
+  cmm.teeth = 4;
+  cmm.seed = 31;
+  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  ASSERT_EQ(part.teeth_um.size(), 4u);
+  CorrectionInput teeth;
+  teeth.model = &grinder;
+  teeth.current_parameters = nominal;
+  teeth.measured_teeth_um = part.teeth_um;
+  teeth.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = 1.0;
+  const CorrectionResult from_teeth = ComputeCorrection(options, teeth);
+  CorrectionInput mean = teeth;
+  mean.measured_teeth_um.clear();
+  mean.measured_um = AverageTeeth(part.teeth_um);
+  options.probe_noise_um = 0.5;
+  const CorrectionResult from_mean = ComputeCorrection(options, mean);
+  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable()) << from_teeth.summary.message;
+  EXPECT_NEAR(from_teeth.summary.regularisation_level, from_mean.summary.regularisation_level,
+              1e-9 * from_mean.summary.regularisation_level);
+  EXPECT_LT((from_teeth.delta - from_mean.delta).cwiseAbs().maxCoeff(), 1e-12);
+  // A tooth of the wrong size is invalid input.
+  teeth.measured_teeth_um.push_back(Eigen::VectorXd::Zero(3));
+  EXPECT_EQ(ComputeCorrection(options, teeth).summary.status, CorrectionStatus::kInvalidInput);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The comparison solvers and input validation.
 
