@@ -7,6 +7,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
@@ -687,7 +688,7 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
     const int max_drop = static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
     for (int drop = 0; drop < max_drop; ++drop) {
       const LinearSolve ls = linear_solve(used);
-      // Leave-one-out residual r_i / (1 - h_ii), h_ii from the hat matrix U_k U_k'.
+      // h_ii from the hat matrix of the Tikhonov fit, U diag(f) U'.
       std::vector<double> loo(used.size());
       for (size_t r = 0; r < used.size(); ++r) {
         double h = 0.0;
@@ -702,10 +703,38 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
       std::vector<double> dev(loo.size());
       for (size_t r = 0; r < loo.size(); ++r) dev[r] = std::abs(loo[r] - med);
       const double spread = 1.4826 * Median(dev);
-      const size_t worst = std::max_element(dev.begin(), dev.end()) - dev.begin();
       const double limit = std::max(options.outlier_threshold * std::max(spread, std::max(options.probe_noise_um, 0.0)),
                                     options.outlier_min_um);
-      if (dev[worst] <= limit) break;
+      // A gross outlier is an isolated point: it must also stand out from its grid neighbours
+      // along every line through it (row, column and both diagonals; the mean of the one or two
+      // neighbours on the line). A target the model cannot follow (a tip, root or end relief, a
+      // diagonal band) leaves a misfit shared along some line, and that is not an outlier.
+      std::vector<int> position(n, -1);
+      for (size_t r = 0; r < used.size(); ++r) position[used[r]] = static_cast<int>(r);
+      const int columns = model.GridColumns();
+      const int rows_count = model.GridRows();
+      std::vector<double> isolation(loo.size(), 0.0);
+      for (size_t r = 0; r < used.size(); ++r) {
+        const int row = used[r] / columns, col = used[r] % columns;
+        double least = dev[r];
+        for (const auto& [dr, dc] : {std::pair<int, int>{0, 1}, {1, 0}, {1, 1}, {1, -1}}) {
+          double sum = 0.0;
+          int count = 0;
+          for (int sign : {-1, 1}) {
+            const int rr = row + sign * dr, cc = col + sign * dc;
+            if (rr < 0 || cc < 0 || rr >= rows_count || cc >= columns) continue;
+            const int q = position[rr * columns + cc];
+            if (q >= 0) {
+              sum += loo[q];
+              ++count;
+            }
+          }
+          if (count > 0) least = std::min(least, std::abs(loo[r] - sum / count));
+        }
+        isolation[r] = least;
+      }
+      const size_t worst = std::max_element(isolation.begin(), isolation.end()) - isolation.begin();
+      if (isolation[worst] <= limit) break;
       summary.outlier_indices.push_back(used[worst]);
       used.erase(used.begin() + worst);
     }

@@ -66,9 +66,12 @@
 // the raw parameter units, dzeta = pinv(W^1/2 S) (-W^1/2 e), no refinement.
 //
 // Outliers (default solver): after a regularised linear fit, each point's standardised residual
-// r_i / sqrt(1 - h_ii) (h the hat matrix of the fit) is compared with its median; the point
-// furthest from it is a gross outlier when that distance exceeds
-// max(outlier_threshold * max(1.4826 * MAD, sigma), outlier_min_um). It is dropped, the fit
+// r_i / sqrt(1 - h_ii) (h the hat matrix of the fit) is compared with the median over all
+// points and with its grid neighbours along each line through it (row, column, both diagonals:
+// the mean of the neighbours on the line); the point standing out most from all of them is a
+// gross outlier when that smallest distance exceeds
+// max(outlier_threshold * max(1.4826 * MAD, sigma), outlier_min_um). A misfit shared by its
+// neighbours (a relief the model cannot follow) is not an outlier. It is dropped, the fit
 // repeated (at most max_outlier_fraction of the points), and the dropped indices reported in
 // the summary; they never take part in the final solve.
 #ifndef GEARLOOP_ENGINE_CORRECTION_H_
@@ -145,7 +148,7 @@ struct CorrectionOptions {
   double min_flank_effect_um = 0.01;
 
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
-  int max_num_iterations = 20;
+  int max_num_iterations = 50;
   // Rework mode: re-linearisations of the constrained problem on the exact model.
   int max_rework_passes = 4;
   // Rework mode: predicted added material above this [um] counts as a violation.

@@ -478,6 +478,30 @@ TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
             0.2 * from_clean.summary.correction_size);
 }
 
+// Sharp reliefs leave a misfit along a row or a column that no correction removes: that is the
+// best reachable residual, not a set of outliers.
+TEST(ComputeCorrection, ReliefTheModelCannotFollowIsNotAnOutlier) {
+  for (const GrindingSetup& setup : {testing::CutterSetup(), testing::RightHandSetup(Flank::kLeft)}) {
+    const FlatWheelGrinder grinder(setup);
+    for (const TargetModification& relief :
+         {TargetModification{ModificationKind::kTipRelief, 20.0, 0.25},
+          TargetModification{ModificationKind::kEndRelief, 15.0, 0.25},
+          TargetModification{ModificationKind::kRootRelief, 10.0, 0.25, ReliefShape::kParabolic}}) {
+      CorrectionInput input;
+      input.model = &grinder;
+      input.current_parameters = grinder.nominal().ToVector();
+      input.measured_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+      input.target_um = EvaluateTargetModifications({relief}, grinder.grid(), setup.gear, setup.flank);
+      CorrectionOptions options;
+      options.probe_noise_um = 0.0;
+      const CorrectionResult result = ComputeCorrection(options, input);
+      ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+      EXPECT_GT(result.summary.best_reachable_rms_um, 1.0) << ModificationKindName(relief.kind);
+      EXPECT_TRUE(result.summary.outlier_indices.empty()) << ModificationKindName(relief.kind);
+    }
+  }
+}
+
 TEST(ComputeCorrection, MissingPointsAreHonoured) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
