@@ -365,6 +365,9 @@ bool CorrectionOptions::IsValid(std::string* error) const {
   for (const auto& [name, scale] : block_scales) {
     if (!(scale > 0.0) || !std::isfinite(scale)) return fail("block_scales[" + name + "] must be > 0");
   }
+  if (!(min_relative_regularisation >= 0.0 && min_relative_regularisation < 1.0)) {
+    return fail("min_relative_regularisation must lie in [0, 1)");
+  }
   if (!(min_flank_effect_um > 0.0) || !std::isfinite(min_flank_effect_um)) {
     return fail("min_flank_effect_um must be finite and > 0");
   }
@@ -673,6 +676,14 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
         }
       }
     }
+    // Exact data (sigma = 0) and GCV: never below the floor. It keeps the exact-model
+    // refinement well posed when the target is out of reach (lambda = 0 lets
+    // Levenberg-Marquardt crawl along directions whose linear effect is tiny), at the cost of
+    // fitting the weakest kept direction (sigma = 0.067 for N = 45) to about 86% per
+    // correction. With a known sigma > 0 the discrepancy principle alone decides.
+    if (rank > 0 && !(options.probe_noise_um > 0.0)) {
+      ls.lambda = std::max(ls.lambda, options.min_relative_regularisation * sigma1);
+    }
     ls.dof = dof(ls.lambda);
     ls.y = Eigen::VectorXd::Zero(nf);
     for (int i = 0; i < rank; ++i) {
@@ -889,40 +900,62 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
       }
       // Ceres cannot start where the exact model loses a point: then start from no change (a
       // valid point) and let the trust region find how far the linear step can be followed.
+      bool from_zero = false;
       {
         ModelEvaluation ev;
         model.Evaluate(input.current_parameters + p * v, false, &ev);
         bool start_ok = true;
         for (int i : used) start_ok = start_ok && ev.status[i] == PointStatus::kOk;
-        if (!start_ok) v.setZero();
-      }
-      {
-      ceres::Problem::Options problem_options;
-      problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-      ceres::Problem problem(problem_options);
-      problem.AddResidualBlock(
-          new ExactModelCost(model, input.current_parameters, d0, e, weights, used, p, reg), nullptr, v.data());
-      if (has_bounds) {
-        for (int c = 0; c < nf; ++c) {
-          if (std::isfinite(lower(free[c]))) problem.SetParameterLowerBound(v.data(), c, lower(free[c]));
-          if (std::isfinite(upper(free[c]))) problem.SetParameterUpperBound(v.data(), c, upper(free[c]));
+        if (!start_ok) {
+          v.setZero();
+          from_zero = true;
         }
       }
-      ceres::Solver::Options solver_options;
-      solver_options.linear_solver_type = ceres::DENSE_QR;
-      solver_options.max_num_iterations = options.max_num_iterations;
-      solver_options.logging_type = ceres::SILENT;
-      solver_options.minimizer_progress_to_stdout = false;
-      solver_options.num_threads = 1;
-      solver_options.function_tolerance = 1e-10;
-      solver_options.gradient_tolerance = 1e-12;
-      solver_options.parameter_tolerance = 1e-10;
-      ceres::Solver::Summary ceres_summary;
+      auto refine = [&](Eigen::VectorXd* x, ceres::Solver::Summary* ceres_summary) {
+        ceres::Problem::Options problem_options;
+        problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+        ceres::Problem problem(problem_options);
+        problem.AddResidualBlock(
+            new ExactModelCost(model, input.current_parameters, d0, e, weights, used, p, reg), nullptr, x->data());
+        if (has_bounds) {
+          for (int c = 0; c < nf; ++c) {
+            if (std::isfinite(lower(free[c]))) problem.SetParameterLowerBound(x->data(), c, lower(free[c]));
+            if (std::isfinite(upper(free[c]))) problem.SetParameterUpperBound(x->data(), c, upper(free[c]));
+          }
+        }
+        ceres::Solver::Options solver_options;
+        solver_options.linear_solver_type = ceres::DENSE_QR;
+        solver_options.max_num_iterations = options.max_num_iterations;
+        solver_options.logging_type = ceres::SILENT;
+        solver_options.minimizer_progress_to_stdout = false;
+        solver_options.num_threads = 1;
+        solver_options.function_tolerance = 1e-10;
+        solver_options.gradient_tolerance = 1e-12;
+        solver_options.parameter_tolerance = 1e-10;
+        ceres::Solve(solver_options, &problem, ceres_summary);
+      };
       const Eigen::VectorXd v0 = v;
-      ceres::Solve(solver_options, &problem, &ceres_summary);
+      ceres::Solver::Summary ceres_summary;
+      refine(&v, &ceres_summary);
+      int iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
+      if (ceres_summary.termination_type != ceres::CONVERGENCE && !from_zero) {
+        // Far from the linear prediction (a strongly nonlinear direction), the trust region
+        // may do better walking out from no change: try that too and keep the lower cost.
+        Eigen::VectorXd v_zero = Eigen::VectorXd::Zero(v.size());
+        ceres::Solver::Summary zero_summary;
+        refine(&v_zero, &zero_summary);
+        iterations += static_cast<int>(zero_summary.iterations.size()) - 1;
+        const bool zero_usable = zero_summary.termination_type == ceres::CONVERGENCE ||
+                                 zero_summary.termination_type == ceres::NO_CONVERGENCE;
+        const bool first_usable = ceres_summary.termination_type == ceres::NO_CONVERGENCE;
+        if (zero_usable && (!first_usable || zero_summary.final_cost < ceres_summary.final_cost)) {
+          v = v_zero;
+          ceres_summary = zero_summary;
+        }
+      }
       summary.refinement_initial_cost = ceres_summary.initial_cost;
       summary.refinement_final_cost = ceres_summary.final_cost;
-      summary.iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
+      summary.iterations = iterations;
       if (ceres_summary.termination_type == ceres::CONVERGENCE) {
         delta = p * v;
       } else if (ceres_summary.termination_type == ceres::NO_CONVERGENCE) {
@@ -932,7 +965,6 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
         delta = p * v0;
         not_converged = "the exact-model refinement failed (" + ceres_summary.message +
                         "); the linear correction is reported";
-      }
       }
     }
   } else if (options.solver == CorrectionSolver::kPlainLeastSquares) {

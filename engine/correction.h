@@ -40,7 +40,8 @@
 //     with f_i = sigma_i^2 / (sigma_i^2 + lambda^2), i.e. min |A y - b|^2 + lambda^2 |y|^2 over
 //     y in span(v_0..v_rank-1). lambda by a stated rule: the discrepancy principle when the probe
 //     noise sigma is known, >= 0 (the in-range residual sum_i (1 - f_i)^2 (u_i'b)^2 equals the
-//     noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2; sigma = 0 gives lambda = 0),
+//     noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2; sigma = 0: exact data,
+//     lambda = min_relative_regularisation * sigma_1, the floor that GCV also respects),
 //     generalised cross-validation (minimum of |A y - b|^2 / (m - dof)^2, dof = sum f_i, m the
 //     points used) when sigma is unknown (negative). GCV reads a systematic misfit (a target the
 //     model cannot reach) as noise and then corrects less; with exact data give sigma = 0.
@@ -147,8 +148,14 @@ struct CorrectionOptions {
   // d_w while a_w is small): fitting them makes the closed loop diverge.
   double min_flank_effect_um = 0.01;
 
+  // Floor of the Tikhonov level lambda, relative to the largest singular value of the scaled S
+  // (0 = none), for exact data (probe_noise_um = 0) and GCV: there lambda >=
+  // min_relative_regularisation * sigma_1. With a known noise > 0 the discrepancy principle
+  // alone decides.
+  double min_relative_regularisation = 1e-3;
+
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
-  int max_num_iterations = 50;
+  int max_num_iterations = 20;
   // Rework mode: re-linearisations of the constrained problem on the exact model.
   int max_rework_passes = 4;
   // Rework mode: predicted added material above this [um] counts as a violation.

@@ -150,6 +150,7 @@ TEST(ComputeCorrection, BestReachableIsTheProjectionOffTheRange) {
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;  // exact data
+  options.min_relative_regularisation = 0.0;  // and no floor: the plain projection
   options.outlier_threshold = 0.0;
   const CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
@@ -181,6 +182,7 @@ TEST(ComputeCorrection, BestReachableBoundsEverySolverOnTheCutter) {
   grinder.Evaluate(nominal, true, &eval);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
+  options.min_relative_regularisation = 0.0;
   const CorrectionResult regularised = ComputeCorrection(options, input);
   options.solver = CorrectionSolver::kPlainLeastSquares;
   const CorrectionResult plain = ComputeCorrection(options, input);
