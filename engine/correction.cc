@@ -268,11 +268,6 @@ double Median(std::vector<double> v) {
   return m;
 }
 
-struct NamedEnum {
-  int value;
-  const char* name;
-};
-
 // Everything one regularised linear solve produces.
 struct LinearSolve {
   Svd svd;
