@@ -31,11 +31,11 @@ std::string DecodeBase64(const std::string& text) {
   static const std::string kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   int bits = 0;
-  int value = 0;
+  unsigned value = 0;
   for (char c : text) {
     const size_t index = kAlphabet.find(c);
     if (index == std::string::npos) continue;  // '=' padding
-    value = (value << 6) | static_cast<int>(index);
+    value = ((value << 6) | static_cast<unsigned>(index)) & 0xffffffu;
     bits += 6;
     if (bits >= 8) {
       bits -= 8;
