@@ -102,6 +102,22 @@ TEST_F(GearloopServerTest, AnswersHealthz) {
   EXPECT_EQ(answer.body["version"], ServerVersion());
 }
 
+TEST_F(GearloopServerTest, ServesTheDashboardPages) {
+  auto page = client_->Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->get_header_value("Content-Type").find("text/html"), std::string::npos);
+  auto script = client_->Get("/static/app.js");
+  ASSERT_TRUE(script);
+  EXPECT_EQ(script->status, 200);
+  auto report = client_->Get("/jobs/12/report");
+  ASSERT_TRUE(report);
+  EXPECT_EQ(report->status, 200);
+  const Answer missing = Send(*client_, "GET", "/static/no-such-file.js");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_EQ(missing.body["error"]["code"], "not_found");
+}
+
 TEST_F(GearloopServerTest, ExposesPrometheusMetricsByRouteAndStatus) {
   Send(*client_, "GET", "/healthz");
   Send(*client_, "GET", "/no/such/path");
