@@ -83,6 +83,15 @@ class CliTest(unittest.TestCase):
         self.assertIn("predicted residual", human.stdout)
         self.assertIn("row 5 tip", human.stdout)
 
+    def test_submit_several_teeth_shows_their_mean(self) -> None:
+        data = Path(__file__).resolve().parent / "data"
+        done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(data / "measurement_teeth.json"))
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        job = json.loads(done.stdout)
+        measured = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "measured").stdout, is_text=True)
+        self.assertEqual(measured[0][0], 2.0)   # mean of the two teeth
+        self.assertEqual(measured[4][8], 3.0)   # only the second tooth delivered the tip corner
+
     def test_submit_bad_csv_names_line_and_column(self) -> None:
         bad = self.dir / "bad.csv"
         lines = (EXAMPLES / "measurement.csv").read_text().splitlines()
