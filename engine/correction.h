@@ -48,7 +48,8 @@
 //     Rule, lambda and dof are reported.
 //  4. The change delta = T V_rank z is refined by Ceres (Levenberg-Marquardt) on the exact
 //     nonlinear model in the same subspace with the same lambda^2 |z|^2 term, starting from the
-//     linear answer (or from no change if the exact model loses a point there), within the
+//     linear answer (or from no change if the exact model loses a point there; and once more
+//     from no change when the first run does not converge, keeping the lower cost), within the
 //     per-coefficient bounds (then over the free monomials, with a penalty sigma_1 for leaving
 //     the subspace), and reported as the machine's monomial coefficients.
 //  Rework mode (material can only be removed): the exact predicted change d(zeta + dzeta) -
