@@ -287,6 +287,7 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
     contact.wheel_phi_rad = std::atan2(wx, wy);
   }
 
+  const double roll_guess = roll;
   Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
   const double r_j = setup_.gear.PitchRadiusMm();
   const Eigen::Vector4d step_scale(1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
@@ -314,7 +315,8 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
   contact.wheel_phi_rad = x(1);
   contact.roll_rad = x(2);
   contact.deviation_mm = x(3);
-  if (!converged || !x.allFinite()) {
+  if (!converged || !x.allFinite() || std::abs(x(2) - roll_guess) > options_.max_roll_excursion_rad ||
+      std::abs(x(3)) > options_.max_deviation_mm) {
     contact.status = PointStatus::kNotConverged;
   } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
     // The contact lies beyond the rim (or past the wheel centre): the real wheel does not reach it.

@@ -62,6 +62,12 @@ struct EnvelopeOptions {
   // A Newton step larger than this in u_w [mm] (or, scaled by R_w, in phi_w; by r_j, in phi1)
   // is shortened to it: keeps Newton on the branch of the nominal contact.
   double max_step_mm = 20.0;
+  // Far from the nominal flank the 4 x 4 system has other solutions (other branches of the
+  // envelope, or the wheel's far side). A converged contact whose roll angle lies more than this
+  // from the first guess [rad], or whose deviation exceeds this in size [mm], is reported as
+  // not converged rather than as a number: no finishing grind is millimetres off.
+  double max_roll_excursion_rad = 0.2;
+  double max_deviation_mm = 2.0;
 };
 
 // The solution of the 4 x 4 system of MODEL.md §4 at one grid point.

@@ -20,7 +20,8 @@ namespace gearloop {
 enum class PointStatus {
   kOk,            // the envelope was found; the deviation is a number
   kNotReached,    // the contact lies outside the real wheel (the rim does not reach it)
-  kNotConverged,  // Newton did not find the envelope point; no number is reported
+  kNotConverged,  // no trustworthy envelope point (Newton failed, or landed on another branch
+                  // far from the nominal contact); no number is reported
 };
 
 const char* PointStatusName(PointStatus status);

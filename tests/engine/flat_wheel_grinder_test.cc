@@ -300,6 +300,26 @@ TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
   }
 }
 
+TEST(FlatWheelGrinder, FarBranchesOfTheEnvelopeAreNotReportedAsNumbers) {
+  // Absurd settings (a correction gone wrong): the wheel 10 mm deeper (3.4 mm into the flank) and the work axis
+  // running 30 % fast. Whatever Newton finds there is never a number millimetres off.
+  const FlatWheelGrinder grinder(SpurSetup());
+  MachineSettings settings = grinder.nominal();
+  settings.axes[static_cast<int>(Axis::kY)][0] -= 10.0;
+  ModelEvaluation eval;
+  grinder.Evaluate(settings.ToVector(), false, &eval);
+  for (int i = 0; i < 45; ++i) EXPECT_NE(eval.status[i], PointStatus::kOk) << "point " << i;
+  settings = grinder.nominal();
+  settings.axes[static_cast<int>(Axis::kC)][1] = 1.3;
+  grinder.Evaluate(settings.ToVector(), false, &eval);
+  for (int i = 0; i < 45; ++i) {
+    if (eval.status[i] == PointStatus::kOk) {
+      EXPECT_LT(std::abs(eval.deviations_um(i)), 2000.0) << "point " << i;
+      EXPECT_LT(std::abs(eval.contact_roll_rad[i]), 1.0) << "point " << i;
+    }
+  }
+}
+
 TEST(FlatWheelGrinder, ParameterBlocksCoverEveryParameterOnce) {
   const FlatWheelGrinder grinder(CutterSetup());
   std::vector<int> seen(grinder.NumParameters(), 0);
