@@ -12,7 +12,9 @@
 #include <glog/logging.h>
 #include <pthread.h>
 #include <signal.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -112,13 +114,14 @@ int main(int argc, char** argv) {
   LOG(INFO) << "gearloop-server " << gearloop::ServerVersion() << " listening on http://" << options.host << ":"
             << port << " (database " << options.database_path << ")";
 
-  std::thread signal_waiter([&server, stop_signals] {
+  std::atomic<bool> signalled{false};
+  std::thread signal_waiter([&server, &signalled, stop_signals] {
     int signal_number = 0;
     sigwait(&stop_signals, &signal_number);
+    signalled = true;
     LOG(INFO) << "received " << strsignal(signal_number) << ": finishing requests in flight";
     server->Stop();
   });
-  signal_waiter.detach();
 
   std::thread serving([&server] { server->Serve(); });
   if (seed_demo) {
@@ -133,6 +136,10 @@ int main(int argc, char** argv) {
               << std::flush;
   }
   serving.join();
+  // Serve() returned: normally because the waiter called Stop(). Wake the waiter otherwise, and
+  // let it leave Stop() before the server goes away.
+  if (!signalled) kill(getpid(), SIGTERM);
+  signal_waiter.join();
   server.reset();  // closes the database after the batch workers have stopped
   LOG(INFO) << "stopped";
   return 0;
