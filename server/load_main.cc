@@ -4,6 +4,10 @@
 // server acknowledged (201) is stored (GET each one).
 //
 //   gearloop-load [--host 127.0.0.1] [--port 8080] [--clients 1] [--seconds 10] [--token T]
+//                 [--rate R]
+//
+// --rate R paces each client to R requests per second (0 = as fast as answers come), for a soak
+// at a steady load; the latency figures are then printed every 10 s as well.
 //
 // The measurement is simulated once by the server (/api/v1/simulations/measurement) so every
 // request is a realistic solve, not a trivial one.
@@ -46,6 +50,7 @@ int main(int argc, char** argv) {
   int clients = 1;
   double seconds = 10.0;
   std::string token;
+  double rate = 0.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string arg = argv[i];
     if (arg == "--host") {
@@ -58,6 +63,8 @@ int main(int argc, char** argv) {
       seconds = std::atof(argv[i + 1]);
     } else if (arg == "--token") {
       token = argv[i + 1];
+    } else if (arg == "--rate") {
+      rate = std::atof(argv[i + 1]);
     } else {
       std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
       return 2;
@@ -96,7 +103,12 @@ int main(int argc, char** argv) {
       client.set_read_timeout(60, 0);
       std::vector<double> local;
       std::vector<long long> local_ids;
+      auto next = std::chrono::steady_clock::now();
       while (std::chrono::steady_clock::now() < end) {
+        if (rate > 0.0) {
+          next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate));
+          std::this_thread::sleep_until(next);
+        }
         const auto t0 = std::chrono::steady_clock::now();
         auto result = client.Post("/api/v1/corrections", headers, body, "application/json");
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -106,6 +118,14 @@ int main(int argc, char** argv) {
         }
         local.push_back(ms);
         local_ids.push_back(nlohmann::json::parse(result->body)["id"].get<long long>());
+        if (rate > 0.0 && local.size() % static_cast<size_t>(std::max(1.0, 10.0 * rate)) == 0) {
+          const std::vector<double> window(local.end() - static_cast<long>(std::max(1.0, 10.0 * rate)), local.end());
+          std::lock_guard<std::mutex> lock(mutex);
+          std::printf("  t = %5.0f s: last 10 s p50 %.2f ms, p99 %.2f ms\n",
+                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                      Percentile(window, 0.5), Percentile(window, 0.99));
+          std::fflush(stdout);
+        }
       }
       std::lock_guard<std::mutex> lock(mutex);
       latencies_ms.insert(latencies_ms.end(), local.begin(), local.end());
