@@ -93,9 +93,21 @@ bool ParseModification(const nlohmann::json& value, const std::string& path, Tar
   return true;
 }
 
+nlohmann::json PointList(const std::vector<int>& indices, int columns) {
+  nlohmann::json list = nlohmann::json::array();
+  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+  return list;
+}
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
 // The measurement: one grid or several teeth averaged point by point.
-bool ParseMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
-                      ApiError* error) {
+bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
+                                ApiError* error) {
   if (!body.contains("measurement")) {
     *error = InvalidRequest("measurement", "missing required field measurement");
     return false;
@@ -138,18 +150,6 @@ bool ParseMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::
   *error = InvalidRequest("measurement.deviations_um", "missing required field measurement.deviations_um");
   return false;
 }
-
-nlohmann::json PointList(const std::vector<int>& indices, int columns) {
-  nlohmann::json list = nlohmann::json::array();
-  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
-  return list;
-}
-
-nlohmann::json FiniteOrNull(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
-}  // namespace
 
 bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setup, int rows, int columns,
                  Eigen::VectorXd* target_um, ApiError* error) {
@@ -316,7 +316,7 @@ bool ParseCorrectionRequest(const nlohmann::json& body, CorrectionRequest* reque
   } else {
     r.settings = NominalSettings(r.setup);
   }
-  if (!ParseMeasurement(body, rows, columns, &r.measured_um, error) ||
+  if (!ParseCorrectionMeasurement(body, rows, columns, &r.measured_um, error) ||
       !ParseCorrectionTarget(body, r.setup, rows, columns, &r.target_um, error) ||
       !ParseCorrectionOptions(body, rows, columns, &r.options, error)) {
     return false;

@@ -61,6 +61,11 @@ bool ParseCorrectionRequest(const nlohmann::json& body, CorrectionRequest* reque
 bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, CorrectionOptions* options,
                             ApiError* error);
 
+// Reads "measurement" of `body`: {"deviations_um": grid} (null = not delivered, NaN in
+// `measured_um`) or {"teeth": [grid, ...]} averaged point by point.
+bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
+                                ApiError* error);
+
 // Reads "target" of `body` (absent or null = no modification) into a row-major grid [um]:
 // {"deviations_um": grid} or {"modifications": [{kind, amount_um, length_fraction, shape,
 // second_amount_um, second_length_fraction, amount_gradient_um, second_amount_gradient_um}]}.

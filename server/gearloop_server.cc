@@ -25,6 +25,7 @@
 #include "engine/gear.h"
 #include "engine/machine_settings.h"
 #include "engine/sensitivity.h"
+#include "server/bevel_codec.h"
 #include "server/correction_codec.h"
 #include "server/json_codec.h"
 #include "server/metrics.h"
@@ -241,6 +242,9 @@ nlohmann::json JobSummaryJson(const JobRecord& job) {
           {"status", job.status},
           {"gear", gear},
           {"flank", job.flank},
+          // Bevel jobs store their flank side (convex / concave) as the flank.
+          {"machine_kind", job.flank == "convex" || job.flank == "concave" ? kFreeFormBevelGeneratorKind
+                                                                            : "flat-wheel-grinder"},
           {"residual_rms_um", OptionalToJson(job.residual_rms_um)},
           {"best_reachable_rms_um", OptionalToJson(job.best_reachable_rms_um)},
           {"rank", job.rank ? nlohmann::json(*job.rank) : nlohmann::json(nullptr)},
@@ -546,6 +550,12 @@ class GearloopServer::Impl {
                if (!SimulateMeasurement(body, &answer, &error)) return RespondError(res, error);
                RespondJson(res, 200, answer);
              });
+    Register("POST", "/api/v1/bevel/conversions", "POST /api/v1/bevel/conversions", Access::kRead,
+             [](const httplib::Request& req, httplib::Response& res) { HandleBevel(req, res, BevelConversion); });
+    Register("POST", "/api/v1/bevel/evaluate", "POST /api/v1/bevel/evaluate", Access::kRead,
+             [](const httplib::Request& req, httplib::Response& res) { HandleBevel(req, res, BevelEvaluate); });
+    Register("POST", "/api/v1/bevel/axis-sensitivity", "POST /api/v1/bevel/axis-sensitivity", Access::kRead,
+             [](const httplib::Request& req, httplib::Response& res) { HandleBevel(req, res, BevelAxisSensitivity); });
     Register("POST", "/api/v1/simulations/closed-loop", "POST /api/v1/simulations/closed-loop", Access::kWrite,
              [this](const httplib::Request& req, httplib::Response& res) { HandleClosedLoop(req, res); });
 
@@ -624,6 +634,16 @@ class GearloopServer::Impl {
     RespondJson(res, 200, EvaluationToJson(grinder.grid(), evaluation));
   }
 
+  // The bevel endpoints: parse, then one codec call that validates, runs the engine and renders.
+  static void HandleBevel(const httplib::Request& req, httplib::Response& res,
+                          bool (*run)(const nlohmann::json&, nlohmann::json*, ApiError*)) {
+    nlohmann::json body;
+    nlohmann::json answer;
+    ApiError error;
+    if (!ParseJsonBody(req.body, &body, &error) || !run(body, &answer, &error)) return RespondError(res, error);
+    RespondJson(res, 200, answer);
+  }
+
   void HandleSensitivity(const httplib::Request& req, httplib::Response& res) {
     GrindingSetup setup;
     MachineSettings settings;
@@ -672,6 +692,17 @@ class GearloopServer::Impl {
 
   // Parses, checks the lineage link, solves. On failure `error` holds the 4xx.
   bool SolveCorrection(const nlohmann::json& body, CorrectionRun* run, ApiError* error) {
+    if (IsBevelCorrectionRequest(body)) {
+      // A spiral-bevel pinion on the free-form generator (server/bevel_codec.h).
+      if (!RunBevelCorrection(body, run, error)) return false;
+      if (run->job.settings_source_job_id && !repository_->JobExists(*run->job.settings_source_job_id)) {
+        *error = InvalidValue("settings_source_job_id",
+                              "no stored job " + std::to_string(*run->job.settings_source_job_id));
+        return false;
+      }
+      metrics_.RecordSolve(run->solve_seconds);
+      return true;
+    }
     CorrectionRequest request;
     if (!ParseCorrectionRequest(body, &request, error)) return false;
     if (request.settings_source_job_id && !repository_->JobExists(*request.settings_source_job_id)) {

@@ -173,6 +173,9 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "GET /api/v1/batches/{id}",
       "POST /api/v1/simulations/measurement",
       "POST /api/v1/simulations/closed-loop",
+      "POST /api/v1/bevel/conversions",
+      "POST /api/v1/bevel/evaluate",
+      "POST /api/v1/bevel/axis-sensitivity",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json", "invalid_request", "invalid_value", "not_found", "method_not_allowed",
@@ -218,6 +221,8 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
     std::string bad_shape;
   };
   const std::string setup = DefaultSetup().dump();
+  const std::string bevel = R"({"job": {"side": "convex", "published": true}})";
+  const std::string bevel_impossible = R"({"job": {"side": "convex", "published": true, "machine": {"ratio_of_roll": 0}}})";
   const std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
@@ -239,6 +244,10 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
        {"/api/v1/simulations/measurement", closed_loop.dump(), impossible.dump(), "{\"gear\": 1}"}},
       {"POST /api/v1/simulations/closed-loop",
        {"/api/v1/simulations/closed-loop", closed_loop.dump(), impossible_loop.dump(), "{\"gear\": 1}"}},
+      {"POST /api/v1/bevel/conversions", {"/api/v1/bevel/conversions", bevel, bevel_impossible, "{\"job\": 1}"}},
+      {"POST /api/v1/bevel/evaluate", {"/api/v1/bevel/evaluate", bevel, bevel_impossible, "{\"job\": 1}"}},
+      {"POST /api/v1/bevel/axis-sensitivity",
+       {"/api/v1/bevel/axis-sensitivity", bevel, bevel_impossible, "{\"job\": 1}"}},
   };
 
   for (const Operation& op : api_.operations) {

@@ -1,0 +1,241 @@
+// Spiral-bevel pinion endpoints against a real server (issue 6): conversion of the published
+// cradle summary, evaluation of free-form motions, the axis-error table, and a bevel correction
+// job stored, listed, fetched and replayed that recovers hidden axis errors.
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "server/gearloop_server.h"
+#include "tests/server/server_test_util.h"
+
+namespace gearloop {
+namespace {
+
+using testing_util::ParseBody;
+using testing_util::RunningServer;
+using testing_util::TempPath;
+
+struct Answer {
+  int status = 0;
+  nlohmann::json body;
+};
+
+nlohmann::json PublishedJob(const std::string& side) { return {{"side", side}, {"published", true}}; }
+
+double GridRms(const nlohmann::json& grid) {
+  double sum = 0.0;
+  int n = 0;
+  for (const auto& row : grid) {
+    for (const auto& v : row) {
+      if (v.is_null()) continue;
+      sum += v.get<double>() * v.get<double>();
+      ++n;
+    }
+  }
+  return n ? std::sqrt(sum / n) : NAN;
+}
+
+class BevelEndpointsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ServerOptions options;
+    options.database_path = db_.path();
+    server_ = std::make_unique<RunningServer>(options);
+    ASSERT_GT(server_->port(), 0);
+    client_ = server_->Client();
+  }
+
+  Answer Post(const std::string& path, const nlohmann::json& body) {
+    auto result = client_->Post(path.c_str(), body.dump(), "application/json");
+    Answer answer;
+    if (!result) return answer;
+    answer.status = result->status;
+    answer.body = ParseBody(result);
+    return answer;
+  }
+  Answer Get(const std::string& path) {
+    auto result = client_->Get(path.c_str());
+    Answer answer;
+    if (!result) return answer;
+    answer.status = result->status;
+    answer.body = ParseBody(result);
+    return answer;
+  }
+
+  // The converted (nominal) motion of a side, with hidden errors added to some coefficients.
+  nlohmann::json WithHiddenErrors(nlohmann::json motion) {
+    motion["A_rad"][0] = motion["A_rad"][0].get<double>() + 0.004 * M_PI / 180.0;
+    motion["B_rad"][0] = motion["B_rad"][0].get<double>() - 0.003 * M_PI / 180.0;
+    motion["X_mm"][0] = motion["X_mm"][0].get<double>() + 0.008;
+    motion["Y_mm"][1] = motion["Y_mm"][1].get<double>() - 0.02;
+    motion["Z_mm"][0] = motion["Z_mm"][0].get<double>() + 0.005;
+    return motion;
+  }
+
+  TempPath db_;
+  std::unique_ptr<RunningServer> server_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+TEST_F(BevelEndpointsTest, ConvertsThePublishedConvexSummaryWithinATenthOfAMicrometre) {
+  const Answer a = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
+  ASSERT_EQ(a.status, 200) << a.body.dump();
+  EXPECT_EQ(a.body["degree"], 5);
+  EXPECT_EQ(a.body["motion"]["A_rad"].size(), 6u);
+  EXPECT_EQ(a.body["motion"]["C_rad"].size(), 6u);
+  EXPECT_LT(a.body["flank_distance"]["max_um"].get<double>(), 0.1);
+  EXPECT_EQ(a.body["flank_distance"]["points_found"], 45);
+  EXPECT_LT(a.body["exact"]["max_rotation_difference"].get<double>(), 1e-12);
+  EXPECT_LT(a.body["exact"]["max_translation_difference_mm"].get<double>(), 1e-9);
+  ASSERT_EQ(a.body["fit_residual"].size(), 6u);
+  EXPECT_EQ(a.body["fit_residual"][0]["axis"], "A");
+  EXPECT_TRUE(a.body["fit_residual"][0].contains("max_rad"));
+  EXPECT_TRUE(a.body["fit_residual"][2].contains("max_mm"));
+  EXPECT_EQ(a.body["points"].size(), 45u);
+  // The summary comes back in degrees: Q = 104 deg 56'.
+  EXPECT_NEAR(a.body["job"]["machine"]["cradle_angle_deg"].get<double>(), 104.0 + 56.0 / 60.0, 1e-9);
+}
+
+TEST_F(BevelEndpointsTest, ChoosesTheDegreeForAFlankTolerance) {
+  const Answer a = Post("/api/v1/bevel/conversions",
+                        {{"job", PublishedJob("concave")}, {"options", {{"max_flank_distance_um", 0.1}}}});
+  ASSERT_EQ(a.status, 200) << a.body.dump();
+  EXPECT_EQ(a.body["degree"], 4);
+  EXPECT_LT(a.body["flank_distance"]["max_um"].get<double>(), 0.1);
+}
+
+TEST_F(BevelEndpointsTest, EvaluatesTheConvertedMotionAsTheCradleFlank) {
+  const Answer conversion = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
+  ASSERT_EQ(conversion.status, 200);
+  const Answer a =
+      Post("/api/v1/bevel/evaluate", {{"job", PublishedJob("convex")}, {"motion", conversion.body["motion"]}});
+  ASSERT_EQ(a.status, 200) << a.body.dump();
+  ASSERT_EQ(a.body["deviations_um"].size(), 5u);
+  ASSERT_EQ(a.body["deviations_um"][0].size(), 9u);
+  EXPECT_EQ(a.body["reached"], 45);
+  EXPECT_LT(GridRms(a.body["deviations_um"]), 0.01);
+  EXPECT_EQ(a.body["points"][0]["normal"].size(), 3u);
+  // A 0.01 mm Z offset moves the flank by about 4.23 um (10 um sin 25 deg).
+  nlohmann::json shifted = conversion.body["motion"];
+  shifted["Z_mm"][0] = shifted["Z_mm"][0].get<double>() + 0.01;
+  const Answer b = Post("/api/v1/bevel/evaluate", {{"job", PublishedJob("convex")}, {"motion", shifted}});
+  ASSERT_EQ(b.status, 200);
+  EXPECT_NEAR(std::fabs(b.body["deviations_um"][2][4].get<double>()), 4.23, 0.05);
+}
+
+TEST_F(BevelEndpointsTest, RanksTheSwingAxisFirstInTheAxisErrorTable) {
+  const Answer a = Post("/api/v1/bevel/axis-sensitivity",
+                        {{"job", PublishedJob("convex")}, {"errors", {{"linear_error_mm", 0.01}, {"angular_error_deg", 0.01}}}});
+  ASSERT_EQ(a.status, 200) << a.body.dump();
+  ASSERT_EQ(a.body["offsets"].size(), 5u);
+  EXPECT_EQ(a.body["offset_ranking"][0], "B");
+  EXPECT_EQ(a.body["coefficient_ranking"][0], "B0");
+  for (const auto& entry : a.body["offsets"]) {
+    if (entry["axis"] == "Z") {
+      EXPECT_NEAR(entry["rms_um"].get<double>(), 4.23, 0.01);
+    }
+    EXPECT_EQ(entry["grid_um"].size(), 5u);
+  }
+}
+
+TEST_F(BevelEndpointsTest, RefusesBadBevelRequestsNamingTheField) {
+  Answer a = Post("/api/v1/bevel/conversions", {{"job", 3}});
+  EXPECT_EQ(a.status, 400);
+  EXPECT_EQ(a.body["error"]["field"], "job");
+  a = Post("/api/v1/bevel/conversions", {{"job", {{"side", "flat"}}}});
+  EXPECT_EQ(a.status, 422);
+  EXPECT_EQ(a.body["error"]["field"], "job.side");
+  nlohmann::json job = PublishedJob("convex");
+  job["cutter"] = {{"blade_angle_deg", 50}};
+  a = Post("/api/v1/bevel/conversions", {{"job", job}});
+  EXPECT_EQ(a.status, 422);
+  EXPECT_EQ(a.body["error"]["field"], "job.cutter.blade_angle_deg");
+  job = PublishedJob("convex");
+  job["machine"] = {{"ratio_of_roll", -1}};
+  a = Post("/api/v1/bevel/evaluate", {{"job", job}});
+  EXPECT_EQ(a.status, 422);
+  EXPECT_EQ(a.body["error"]["field"], "job.machine.ratio_of_roll");
+  a = Post("/api/v1/bevel/conversions", {{"job", {{"side", "convex"}}}});
+  EXPECT_EQ(a.status, 400);
+  EXPECT_EQ(a.body["error"]["field"], "job.cutter.point_radius_mm");
+  a = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}, {"options", {{"polynomial_degree", 20}}}});
+  EXPECT_EQ(a.status, 422);
+  EXPECT_EQ(a.body["error"]["field"], "options.polynomial_degree");
+  a = Post("/api/v1/bevel/evaluate",
+           {{"job", PublishedJob("convex")}, {"motion", {{"A_rad", {0, 1}}, {"B_rad", {0}}, {"X_mm", {0, 0}}, {"Y_mm", {0, 0}}, {"Z_mm", {0, 0}}}}});
+  EXPECT_EQ(a.status, 400);
+  EXPECT_EQ(a.body["error"]["field"], "motion.B_rad");
+  a = Post("/api/v1/bevel/axis-sensitivity", {{"job", PublishedJob("convex")}, {"errors", {{"linear_error_mm", 0}}}});
+  EXPECT_EQ(a.status, 422);
+  EXPECT_EQ(a.body["error"]["field"], "errors.linear_error_mm");
+  nlohmann::json correction = {{"machine", {{"kind", "free-form-bevel-generator"}}}, {"job", PublishedJob("convex")}};
+  a = Post("/api/v1/corrections", correction);
+  EXPECT_EQ(a.status, 400);
+  EXPECT_EQ(a.body["error"]["field"], "measurement");
+  correction["measurement"] = {{"deviations_um", {{1, 2, 3}}}};
+  a = Post("/api/v1/corrections", correction);
+  EXPECT_EQ(a.status, 400);
+  EXPECT_EQ(Get("/api/v1/corrections").body["total"], 0);
+}
+
+TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) {
+  const nlohmann::json job = PublishedJob("convex");
+  const Answer conversion = Post("/api/v1/bevel/conversions", {{"job", job}});
+  ASSERT_EQ(conversion.status, 200);
+  const nlohmann::json nominal = conversion.body["motion"];
+  // The machine runs the commanded motion with hidden axis errors; the CMM measures the result.
+  const Answer measured = Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", WithHiddenErrors(nominal)}});
+  ASSERT_EQ(measured.status, 200);
+  const double initial_rms = GridRms(measured.body["deviations_um"]);
+  EXPECT_GT(initial_rms, 1.0);
+
+  const nlohmann::json request = {{"machine", {{"kind", "free-form-bevel-generator"}}},
+                                  {"job", job},
+                                  {"motion", nominal},
+                                  {"measurement", {{"deviations_um", measured.body["deviations_um"]}}},
+                                  {"options", {{"default_max_order", 2}}}};
+  const Answer created = Post("/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  EXPECT_EQ(created.body["result"]["machine_kind"], "free-form-bevel-generator");
+  EXPECT_LT(created.body["result"]["residual_rms_um"].get<double>(), 0.05);
+  const int64_t id = created.body["id"].get<int64_t>();
+
+  // Cut again with the corrected motion on the same erring machine: the flank is back.
+  nlohmann::json corrected = created.body["result"]["motion"];
+  nlohmann::json delta = created.body["result"]["delta"];
+  nlohmann::json actual = WithHiddenErrors(nominal);
+  for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
+    for (size_t k = 0; k < actual[axis].size(); ++k) {
+      actual[axis][k] = actual[axis][k].get<double>() + delta[axis][k].get<double>();
+      EXPECT_NEAR(corrected[axis][k].get<double>(), nominal[axis][k].get<double>() + delta[axis][k].get<double>(),
+                  1e-9);
+    }
+  }
+  const Answer recut = Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", actual}});
+  ASSERT_EQ(recut.status, 200);
+  EXPECT_LT(GridRms(recut.body["deviations_um"]), 0.05 * initial_rms);
+
+  // Stored, listed and fetched like a grinder job.
+  const Answer fetched = Get("/api/v1/corrections/" + std::to_string(id));
+  ASSERT_EQ(fetched.status, 200);
+  EXPECT_EQ(fetched.body["flank"], "convex");
+  EXPECT_EQ(fetched.body["machine_kind"], "free-form-bevel-generator");
+  EXPECT_EQ(fetched.body["request"]["machine"]["kind"], "free-form-bevel-generator");
+  const Answer list = Get("/api/v1/corrections");
+  ASSERT_EQ(list.status, 200);
+  EXPECT_EQ(list.body["total"], 1);
+  EXPECT_EQ(list.body["jobs"][0]["machine_kind"], "free-form-bevel-generator");
+
+  const Answer replay = Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
+                             {{"options", {{"solver", "lsq-plain"}}}});
+  ASSERT_EQ(replay.status, 201) << replay.body.dump();
+  EXPECT_EQ(replay.body["parent_job_id"], id);
+  EXPECT_EQ(replay.body["result"]["solver"], "lsq-plain");
+  EXPECT_EQ(replay.body["result"]["motion"]["A_rad"].size(), 6u);
+}
+
+}  // namespace
+}  // namespace gearloop
