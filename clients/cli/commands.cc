@@ -413,7 +413,9 @@ int List(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global)
             << std::setw(10) << "rms um" << std::setw(8) << "parent" << "\n";
   for (const json& job : jobs) {
     std::string gear = "-";
-    if (job.contains("gear") && job["gear"].is_object()) {
+    if (job.value("machine_kind", "") == "free-form-bevel-generator") {
+      gear = "bevel pinion";  // a pinion flank carries no tooth count or module
+    } else if (job.contains("gear") && job["gear"].is_object()) {
       gear = Member(job["gear"], "teeth") + "z m" + Member(job["gear"], "normal_module_mm");
     }
     std::string parent = "-";
@@ -487,9 +489,36 @@ int Show(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global)
               << Member(gear, "normal_pressure_angle_deg") << " deg, beta " << Member(gear, "helix_angle_deg")
               << " deg " << Member(gear, "hand") << ", flank " << Member(request, "flank") << "\n";
   }
+  const bool bevel = request.contains("machine") && request["machine"].is_object() &&
+                     request["machine"].value("kind", "") == "free-form-bevel-generator";
+  if (bevel) {
+    const json bevel_job = request.value("job", json::object());
+    std::cout << "machine: free-form bevel generator, spiral bevel pinion, " << Member(bevel_job, "side")
+              << " flank" << (bevel_job.value("published", false) ? " (published summary, Tang 2011)" : "")
+              << "\n  grid rows root to face, columns toe to heel\n";
+  }
   const json measured = MeasuredGrid(job);
   if (!measured.is_null()) PrintGrid("measured", measured);
   PrintCorrectionSummary(job);
+  if (bevel && result.contains("motion") && result["motion"].is_object()) {
+    // The corrected axis polynomials and their change: coefficient k multiplies t^k.
+    const json& motion = result["motion"];
+    const json delta = result.value("delta", json::object());
+    std::cout << "corrected axis motions (coefficient k of t^k, t the roll in rad; change in brackets)\n";
+    for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
+      if (!motion.contains(axis) || !motion[axis].is_array()) continue;
+      std::cout << "  " << std::left << std::setw(6) << axis << std::right;
+      for (size_t k = 0; k < motion[axis].size(); ++k) {
+        std::ostringstream cell;
+        cell << std::setprecision(8) << motion[axis][k].get<double>();
+        if (delta.contains(axis) && delta[axis].is_array() && k < delta[axis].size()) {
+          cell << " (" << std::setprecision(3) << delta[axis][k].get<double>() << ")";
+        }
+        std::cout << " " << cell.str();
+      }
+      std::cout << "\n";
+    }
+  }
   return kExitOk;
 }
 

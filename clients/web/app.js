@@ -113,7 +113,8 @@
         P.html("a", { href: "/jobs/" + id + "/report", target: "_blank", class: "button", text: "Printable report" }),
       ]);
       const simulate = P.html("button", { type: "button", class: "button", text: "Simulate a closed loop on this setup" });
-      actions.appendChild(simulate);
+      // The simulated closed loop runs the grinder's scenario; a bevel job has none yet.
+      if (!P.isBevel(job)) actions.appendChild(simulate);
       actions.appendChild(replayControl(job));
       detail.appendChild(actions);
       detail.appendChild(nextPartPanel(job));
@@ -192,8 +193,9 @@
   function nextPartPanel(job) {
     const req = job.request || {};
     const grid = req.grid || {};
-    const rows = grid.profile_points || 5;
-    const columns = grid.lead_points || 9;
+    const bevel = P.isBevel(job);
+    const rows = (bevel ? (req.job || {}).grid || {} : grid).profile_points || 5;
+    const columns = (bevel ? ((req.job || {}).grid || {}).lengthwise_points : grid.lead_points) || 9;
     const input = P.html("input", { type: "file", accept: ".csv,.json,text/csv,application/json", id: "next-part-file" });
     const status = P.html("span", { class: "note", id: "next-part-status" });
     const panel = P.html("div", { class: "actions next-part" }, [
@@ -219,8 +221,10 @@
           measurement = { deviations_um: parseCsvGrid(text, rows, columns) };
         }
         const request = {};
-        for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options"]) if (req[k] !== undefined) request[k] = req[k];
-        request.settings = (job.result || {}).settings;
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options"]) if (req[k] !== undefined) request[k] = req[k];
+        // A bevel pinion was cut with the corrected axis motions, a gear ground with the settings.
+        if (bevel) request.motion = (job.result || {}).motion;
+        else request.settings = (job.result || {}).settings;
         request.settings_source_job_id = job.id;
         request.measurement = measurement;
         status.textContent = "correcting\u2026";

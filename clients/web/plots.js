@@ -297,9 +297,24 @@
 
   const AXES = ["X", "Y", "Z", "A", "B", "C"];
 
+  // A spiral-bevel pinion job on the free-form generator (machine.kind of its request): its
+  // motions are polynomials {A_rad, B_rad, X_mm, Y_mm, Z_mm} in the cradle roll t [rad].
+  function isBevel(job) {
+    const machine = ((job || {}).request || {}).machine || {};
+    return machine.kind === "free-form-bevel-generator" || (job || {}).machine_kind === "free-form-bevel-generator";
+  }
+  const BEVEL_AXES = [["X", "X_mm"], ["Y", "Y_mm"], ["Z", "Z_mm"], ["A", "A_rad"], ["B", "B_rad"]];
+  // A bevel motion change in the grinder's {axes: {X: [...]}} shape, for the same plots.
+  function bevelAxes(delta) {
+    const axes = {};
+    for (const [a, key] of BEVEL_AXES) if (Array.isArray((delta || {})[key])) axes[a] = delta[key];
+    return { axes: axes };
+  }
+
   // The change of each axis motion over the roll range: sum_k delta_k * phi^k.
-  function axisCurves(delta, rollRangeDeg) {
+  function axisCurves(delta, rollRangeDeg, bevel) {
     const axes = (delta || {}).axes || {};
+    const rollLabel = bevel ? "cradle roll t [deg]" : "roll angle \u03c6\u2081 [deg]";
     let lo = -10;
     let hi = 10;
     if (Array.isArray(rollRangeDeg) && isNum(rollRangeDeg[0]) && isNum(rollRangeDeg[1]) && rollRangeDeg[1] > rollRangeDeg[0]) {
@@ -321,10 +336,11 @@
         return v * scale;
       });
     const linear = ["X", "Y", "Z"].map((a) => ({ name: a, x: degs, y: curve(axes[a], 1000) }));
-    const rotary = ["A", "B", "C"].map((a, i) => ({ name: a, x: degs, y: curve(axes[a], 1e6), colour: PALETTE[i + 3] }));
+    const rotaryNames = bevel ? ["A", "B"] : ["A", "B", "C"];
+    const rotary = rotaryNames.map((a, i) => ({ name: a, x: degs, y: curve(axes[a], 1e6), colour: PALETTE[i + 3] }));
     const box = html("div", { class: "chart-row" });
-    box.appendChild(lineChart(linear, { title: "linear axes: change X, Y, Z", xLabel: "roll angle \u03c6\u2081 [deg]", yLabel: "\u0394 [\u00b5m]" }));
-    box.appendChild(lineChart(rotary, { title: "rotary axes: change A, B, C", xLabel: "roll angle \u03c6\u2081 [deg]", yLabel: "\u0394 [\u00b5rad]" }));
+    box.appendChild(lineChart(linear, { title: "linear axes: change X, Y, Z", xLabel: rollLabel, yLabel: "\u0394 [\u00b5m]" }));
+    box.appendChild(lineChart(rotary, { title: "rotary axes: change " + rotaryNames.join(", "), xLabel: rollLabel, yLabel: "\u0394 [\u00b5rad]" }));
     return box;
   }
 
@@ -355,6 +371,13 @@
     const r = job.result || {};
     const req = job.request || {};
     const gear = req.gear || job.gear || {};
+    const bevelJob = req.job || {};
+    const setupRows = isBevel(job)
+      ? [
+          ["machine", "free-form bevel generator"],
+          ["part", "spiral bevel pinion, " + (bevelJob.side || job.flank || "?") + " flank" + (bevelJob.published ? " (published summary)" : "")],
+        ]
+      : null;
     const rows = [
       ["job", job.id + " (" + (job.kind || "correction") + ")"],
       ["created", job.created_utc || "\u2013"],
@@ -369,11 +392,30 @@
       ["regularisation", r.regularisation ? r.regularisation.rule + " " + fmt(r.regularisation.level, 4) : "\u2013"],
       ["iterations, time", (r.iterations === undefined ? "\u2013" : r.iterations) + ", " + fmt(r.elapsed_ms, 1) + " ms"],
     ];
+    if (setupRows) rows.splice(2, 2, ...setupRows);
     if (job.parent_job_id) rows.push(["replay of job", String(job.parent_job_id)]);
     if (job.settings_source_job_id) rows.push(["ground with settings of job", String(job.settings_source_job_id)]);
     const table = html("table", { class: "summary" });
     for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));
     return table;
+  }
+
+  // The change of each bevel axis polynomial, coefficient k of t^k.
+  function bevelDeltaTable(delta) {
+    const degree = ((delta || {}).A_rad || []).length;
+    const table = html("table", { class: "delta" });
+    const head = html("tr", {}, [html("th", { text: "axis" })]);
+    for (let k = 0; k < degree; ++k) head.appendChild(html("th", { text: "\u00d7 t^" + k }));
+    table.appendChild(head);
+    for (const [a, key] of BEVEL_AXES) {
+      const tr = html("tr", {}, [html("th", { text: a + (key.endsWith("_mm") ? " [mm]" : " [rad]") })]);
+      for (let k = 0; k < degree; ++k) {
+        const v = ((delta || {})[key] || [])[k];
+        tr.appendChild(html("td", { text: isNum(v) ? v.toExponential(3) : "0" }));
+      }
+      table.appendChild(tr);
+    }
+    return html("div", {}, [table]);
   }
 
   function deltaTable(delta) {
@@ -415,12 +457,18 @@
     const absent = [["measured", measured], ["target", target], ["predicted residual", residual]].filter((e) => !e[1]).map((e) => e[0]);
     if (absent.length) section.appendChild(html("p", { class: "note", text: "Not stored with this job: " + absent.join(", ") + "." }));
     section.appendChild(html("h3", { text: "Axis corrections over the roll range" }));
-    section.appendChild(axisCurves(r.delta, r.roll_range_deg));
-    section.appendChild(deltaTable(r.delta));
+    if (isBevel(job)) {
+      section.appendChild(html("p", { class: "machine-kind", text: "machine: free-form bevel generator (grid rows root to face, columns toe to heel)" }));
+      section.appendChild(axisCurves(bevelAxes(r.delta), r.roll_range_deg, true));
+      section.appendChild(bevelDeltaTable(r.delta));
+    } else {
+      section.appendChild(axisCurves(r.delta, r.roll_range_deg));
+      section.appendChild(deltaTable(r.delta));
+    }
     section.appendChild(html("h3", { text: "Convergence" }));
     section.appendChild(convergence(lineage && lineage.length ? lineage : [job]));
     return section;
   }
 
-  global.GearloopPlots = { heatmap, lineChart, axisCurves, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
+  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
 })(window);

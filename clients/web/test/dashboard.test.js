@@ -220,6 +220,32 @@ async function main() {
       await offline.close();
     }
 
+    // 6b. A spiral-bevel pinion job (free-form generator): measured with hidden axis errors,
+    // corrected; the page shows its machine, its grids and the axis curves A, B, X, Y, Z.
+    const bevelJob = { side: "convex", published: true };
+    const nominal = (await api(base, "POST", "/api/v1/bevel/conversions", { job: bevelJob })).motion;
+    const erring = JSON.parse(JSON.stringify(nominal));
+    erring.X_mm[0] += 0.008;
+    erring.B_rad[0] -= (0.003 * Math.PI) / 180;
+    const bevelMeasured = (await api(base, "POST", "/api/v1/bevel/evaluate", { job: bevelJob, motion: erring })).deviations_um;
+    const bevel = await api(base, "POST", "/api/v1/corrections", {
+      machine: { kind: "free-form-bevel-generator" },
+      job: bevelJob,
+      motion: nominal,
+      measurement: { deviations_um: bevelMeasured },
+      options: { default_max_order: 2 },
+    });
+    check("bevel job stored", bevel.id > 0 && bevel.result.machine_kind === "free-form-bevel-generator", JSON.stringify(bevel).slice(0, 200));
+    await page.goto(base + "/#job=" + bevel.id, { waitUntil: "load" });
+    await page.waitForSelector("body[data-job-shown='" + bevel.id + "']", { timeout: 30000 });
+    const bevelText = await page.textContent("section.job-view");
+    check("bevel job names its machine", /machine: free-form bevel generator/.test(bevelText) && /convex flank/.test(bevelText), bevelText.slice(0, 300));
+    const bevelMaps = await page.$$eval("section.job-view svg.heatmap", (svgs) => svgs.map((s) => s.querySelectorAll("rect.cell").length));
+    check("bevel grids drawn", bevelMaps.length === 3 && bevelMaps.every((n) => n === 45), JSON.stringify(bevelMaps));
+    const bevelCurves = await page.$$eval("section.job-view svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
+    check("bevel axis curves", ["X", "Y", "Z", "A", "B"].every((a) => bevelCurves.includes(a)) && !bevelCurves.includes("C"), JSON.stringify(bevelCurves));
+    await page.screenshot({ path: path.join(outDir, "dashboard-bevel.png"), fullPage: true });
+
     // 7. Unknown pages stay 404 and the API is untouched by the static routes.
     const missing = await fetch(base + "/static/nope.js");
     check("unknown asset is 404", missing.status === 404);
