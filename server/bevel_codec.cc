@@ -8,6 +8,7 @@
 #include "engine/bevel_conversion.h"
 #include "engine/bevel_generator.h"
 #include "engine/correction.h"
+#include "engine/measurement_simulator.h"
 
 namespace gearloop {
 namespace {
@@ -489,6 +490,115 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
              {"coefficients", coefficients},
              {"offset_ranking", offset_ranking},
              {"coefficient_ranking", coefficient_ranking}};
+  return true;
+}
+
+bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
+  BevelSetup setup;
+  if (!PrepareBevel(body, &setup, error)) return false;
+  const int degree = setup.motion.degree;
+  FreeFormMotion hidden = FreeFormMotion::Zero(degree);
+  if (body.contains("hidden_errors") && !body.at("hidden_errors").is_null()) {
+    const nlohmann::json& h = body.at("hidden_errors");
+    if (!h.is_object()) {
+      *error = InvalidRequest("hidden_errors", "hidden_errors must be an object {\"A_rad\": [...], ..., \"Z_mm\": [...]}");
+      return false;
+    }
+    for (const auto& item : h.items()) {
+      int axis = -1;
+      for (int i = 0; i < kNumFreeFormAxes; ++i) {
+        if (item.key() == kAxisKeys[i]) axis = i;
+      }
+      const std::string field = JoinPath("hidden_errors", item.key());
+      if (axis < 0) {
+        *error = InvalidRequest(field, "hidden_errors takes A_rad, B_rad, X_mm, Y_mm, Z_mm");
+        return false;
+      }
+      if (!item.value().is_array() || item.value().size() > static_cast<size_t>(degree + 1)) {
+        *error = InvalidRequest(field, field + " must be an array of at most " + std::to_string(degree + 1) +
+                                           " coefficients (the motion's degree + 1)");
+        return false;
+      }
+      for (size_t k = 0; k < item.value().size(); ++k) {
+        const std::string entry = field + "[" + std::to_string(k) + "]";
+        if (!item.value()[k].is_number()) {
+          *error = InvalidRequest(entry, entry + " must be a number");
+          return false;
+        }
+        const double v = item.value()[k].get<double>();
+        if (!std::isfinite(v)) {
+          *error = InvalidValue(entry, entry + " must be finite");
+          return false;
+        }
+        hidden.coefficients[axis](k) = v;
+      }
+    }
+  }
+  MeasurementSimulationOptions m;
+  long long seed = 1, teeth = 1;
+  if (!ReadNumber(body, "", "noise_um", false, &m.probe_noise_um, error) ||
+      !ReadInteger(body, "", "seed", false, &seed, error) ||
+      !ReadNumber(body, "", "outlier_probability", false, &m.outlier_probability, error) ||
+      !ReadNumber(body, "", "outlier_size_um", false, &m.outlier_size_um, error) ||
+      !ReadNumber(body, "", "missing_probability", false, &m.missing_probability, error) ||
+      !ReadInteger(body, "", "teeth", false, &teeth, error)) {
+    return false;
+  }
+  if (seed < 0) {
+    *error = InvalidValue("seed", "seed must not be negative");
+    return false;
+  }
+  if (teeth < 1 || teeth > 50) {
+    *error = InvalidValue("teeth", "teeth (measured per flank) must lie in [1, 50]");
+    return false;
+  }
+  if (!(m.probe_noise_um >= 0.0 && m.probe_noise_um <= 1e3)) {
+    *error = InvalidValue("noise_um", "noise_um must lie in [0, 1000]");
+    return false;
+  }
+  if (!(std::fabs(m.outlier_size_um) <= 1e4)) {
+    *error = InvalidValue("outlier_size_um", "outlier_size_um must lie within 1e4");
+    return false;
+  }
+  m.seed = static_cast<std::uint64_t>(seed);
+  m.teeth = static_cast<int>(teeth);
+  std::string message;
+  if (!m.IsValid(&message)) {
+    std::string field = message.substr(0, message.find(' '));
+    if (field == "probe_noise_um") field = "noise_um";
+    *error = InvalidValue(field, message);
+    return false;
+  }
+  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
+  const SimulatedMeasurement cmm = SimulateMeasurement(generator, setup.motion.ToVector(), hidden.ToVector(), m);
+  const int rows = generator.GridRows();
+  const int columns = generator.GridColumns();
+  nlohmann::json not_reached = nlohmann::json::array();
+  for (size_t i = 0; i < cmm.status.size(); ++i) {
+    if (cmm.status[i] != PointStatus::kOk) {
+      not_reached.push_back({{"row", static_cast<int>(i) / columns},
+                             {"column", static_cast<int>(i) % columns},
+                             {"status", PointStatusName(cmm.status[i])}});
+    }
+  }
+  auto points = [columns](const std::vector<int>& indices) {
+    nlohmann::json list = nlohmann::json::array();
+    for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+    return list;
+  };
+  *answer = {{"machine_kind", kFreeFormBevelGeneratorKind},
+             {"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
+             {"true_deviations_um", GridToJson(cmm.true_deviations_um, {}, rows, columns)},
+             {"outliers", points(cmm.outlier_indices)},
+             {"missing", points(cmm.missing_indices)},
+             {"not_reached", not_reached},
+             {"hidden_errors", FreeFormMotionToJson(hidden)},
+             {"motion", FreeFormMotionToJson(setup.motion)}};
+  if (cmm.teeth_um.size() > 1) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const Eigen::VectorXd& tooth : cmm.teeth_um) list.push_back(GridToJson(tooth, {}, rows, columns));
+    (*answer)["measurement"]["teeth"] = list;
+  }
   return true;
 }
 

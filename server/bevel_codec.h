@@ -59,6 +59,12 @@ bool BevelEvaluate(const nlohmann::json& body, nlohmann::json* answer, ApiError*
 // exact} -> offsets and coefficients tables, rankings.
 bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, ApiError* error);
 
+// POST /api/v1/simulations/measurement with machine.kind "free-form-bevel-generator": job,
+// motion (commanded; default converted), hidden_errors (a motion of coefficient errors, any of
+// A_rad .. Z_mm, shorter arrays padded with 0), noise_um, seed, teeth, outlier_probability,
+// outlier_size_um, missing_probability -> the simulated CMM grid and the true one.
+bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error);
+
 // True when body.machine.kind is kFreeFormBevelGeneratorKind.
 bool IsBevelCorrectionRequest(const nlohmann::json& body);
 // A bevel correction (POST /api/v1/corrections): job, motion (the commanded motions the

@@ -547,7 +547,9 @@ class GearloopServer::Impl {
                ApiError error;
                if (!ParseJsonBody(req.body, &body, &error)) return RespondError(res, error);
                nlohmann::json answer;
-               if (!SimulateMeasurement(body, &answer, &error)) return RespondError(res, error);
+               const bool ok = IsBevelCorrectionRequest(body) ? BevelSimulateMeasurement(body, &answer, &error)
+                                                              : SimulateMeasurement(body, &answer, &error);
+               if (!ok) return RespondError(res, error);
                RespondJson(res, 200, answer);
              });
     Register("POST", "/api/v1/bevel/conversions", "POST /api/v1/bevel/conversions", Access::kRead,

@@ -237,5 +237,41 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   EXPECT_EQ(replay.body["result"]["motion"]["A_rad"].size(), 6u);
 }
 
+TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
+  const nlohmann::json job = PublishedJob("concave");
+  const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
+                                   {"job", job},
+                                   {"hidden_errors", {{"B_rad", {-0.003 * M_PI / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
+                                   {"noise_um", 0.2},
+                                   {"seed", 5}};
+  const Answer cmm = Post("/api/v1/simulations/measurement", scenario);
+  ASSERT_EQ(cmm.status, 200) << cmm.body.dump();
+  EXPECT_EQ(cmm.body["machine_kind"], "free-form-bevel-generator");
+  const double true_rms = GridRms(cmm.body["true_deviations_um"]);
+  EXPECT_GT(true_rms, 1.0);
+  EXPECT_GT(std::fabs(GridRms(cmm.body["measurement"]["deviations_um"]) - true_rms), 1e-6);  // noise added
+  const Answer created = Post("/api/v1/corrections", {{"machine", {{"kind", "free-form-bevel-generator"}}},
+                                                       {"job", job},
+                                                       {"measurement", cmm.body["measurement"]},
+                                                       {"options", {{"default_max_order", 2}, {"probe_noise_um", 0.2}}}});
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  // The same erring machine cuts the next pinion with the corrected motion.
+  nlohmann::json next = scenario;
+  next["motion"] = created.body["result"]["motion"];
+  next["noise_um"] = 0.0;
+  const Answer recut = Post("/api/v1/simulations/measurement", next);
+  ASSERT_EQ(recut.status, 200);
+  EXPECT_LT(GridRms(recut.body["true_deviations_um"]), 0.1 * true_rms);
+
+  nlohmann::json bad = scenario;
+  bad["hidden_errors"] = {{"W_mm", {1}}};
+  EXPECT_EQ(Post("/api/v1/simulations/measurement", bad).status, 400);
+  bad = scenario;
+  bad["noise_um"] = -1;
+  const Answer refused = Post("/api/v1/simulations/measurement", bad);
+  EXPECT_EQ(refused.status, 422);
+  EXPECT_EQ(refused.body["error"]["field"], "noise_um");
+}
+
 }  // namespace
 }  // namespace gearloop
