@@ -131,6 +131,30 @@ class CliTest(unittest.TestCase):
         self.assertGreater(target[2][4], target[2][0])
         self.assertEqual(self.run_cli("show", "999999").returncode, 3)
 
+    def test_bevel_pinion_job_in_list_and_show(self) -> None:
+        import urllib.request
+
+        def post(path: str, body: dict) -> dict:
+            request = urllib.request.Request(self.server.url + path, data=json.dumps(body).encode(),
+                                             headers={"Content-Type": "application/json"})
+            with urllib.request.urlopen(request, timeout=120) as answer:
+                return json.load(answer)
+
+        bevel = {"machine": {"kind": "free-form-bevel-generator"}, "job": {"side": "concave", "published": True}}
+        cmm = post("/api/v1/simulations/measurement", dict(bevel, hidden_errors={"X_mm": [0.008]}))
+        job = post("/api/v1/corrections", dict(bevel, measurement=cmm["measurement"]))
+        listed = self.run_cli("list", "--limit", "50")
+        self.assertEqual(listed.returncode, 0, listed.stderr)
+        self.assertRegex(listed.stdout, rf"(?m)^{job['id']}\s+.*bevel pinion\s+concave")
+        shown = self.run_cli("show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("machine: free-form bevel generator", shown.stdout)
+        self.assertIn("concave flank", shown.stdout)
+        self.assertRegex(shown.stdout, r"(?m)^  X_mm ")
+        measured = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "measured").stdout, is_text=True)
+        self.assertEqual(len(measured), 5)
+        self.assertAlmostEqual(measured[2][4], cmm["measurement"]["deviations_um"][2][4], places=4)
+
     def test_replay_with_changed_option(self) -> None:
         job = self.submit()
         done = self.run_cli("--json", "replay", str(job["id"]), "--set", "solver=lsq-plain")
