@@ -493,11 +493,16 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
   return true;
 }
 
-bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  BevelSetup setup;
+namespace {
+// The simulated machine of a bevel scenario: job, commanded motion, hidden axis errors (as
+// motion coefficients) and the measuring machine's options.
+bool ParseBevelSimulation(const nlohmann::json& body, BevelSetup* setup_out, FreeFormMotion* hidden_out,
+                          MeasurementSimulationOptions* measurement, ApiError* error) {
+  BevelSetup& setup = *setup_out;
   if (!PrepareBevel(body, &setup, error)) return false;
   const int degree = setup.motion.degree;
-  FreeFormMotion hidden = FreeFormMotion::Zero(degree);
+  FreeFormMotion& hidden = *hidden_out;
+  hidden = FreeFormMotion::Zero(degree);
   if (body.contains("hidden_errors") && !body.at("hidden_errors").is_null()) {
     const nlohmann::json& h = body.at("hidden_errors");
     if (!h.is_object()) {
@@ -534,7 +539,7 @@ bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer
       }
     }
   }
-  MeasurementSimulationOptions m;
+  MeasurementSimulationOptions& m = *measurement;
   long long seed = 1, teeth = 1;
   if (!ReadNumber(body, "", "noise_um", false, &m.probe_noise_um, error) ||
       !ReadInteger(body, "", "seed", false, &seed, error) ||
@@ -569,6 +574,16 @@ bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer
     *error = InvalidValue(field, message);
     return false;
   }
+  return true;
+}
+
+}  // namespace
+
+bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
+  BevelSetup setup;
+  FreeFormMotion hidden;
+  MeasurementSimulationOptions m;
+  if (!ParseBevelSimulation(body, &setup, &hidden, &m, error)) return false;
   const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
   const SimulatedMeasurement cmm = SimulateMeasurement(generator, setup.motion.ToVector(), hidden.ToVector(), m);
   const int rows = generator.GridRows();
@@ -599,6 +614,103 @@ bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer
     for (const Eigen::VectorXd& tooth : cmm.teeth_um) list.push_back(GridToJson(tooth, {}, rows, columns));
     (*answer)["measurement"]["teeth"] = list;
   }
+  return true;
+}
+
+bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError* error) {
+  BevelSetup setup;
+  FreeFormMotion hidden;
+  MeasurementSimulationOptions m;
+  if (!ParseBevelSimulation(body, &setup, &hidden, &m, error)) return false;
+  const int rows = setup.grid.rows;
+  const int columns = setup.grid.columns;
+  if (body.contains("target") && body.at("target").is_object() && body.at("target").contains("modifications")) {
+    *error = InvalidValue("target.modifications", "give a bevel target as target.deviations_um");
+    return false;
+  }
+  Eigen::VectorXd target_um;
+  if (!ParseCorrectionTarget(body, GrindingSetup(), rows, columns, &target_um, error)) return false;
+  long long corrections = 3;
+  if (!ReadInteger(body, "", "corrections", false, &corrections, error)) return false;
+  if (corrections < 1 || corrections > 20) {
+    *error = InvalidValue("corrections", "corrections must lie in [1, 20]");
+    return false;
+  }
+  // The solver knows the probe's noise unless told otherwise (as for the grinder).
+  nlohmann::json options_body = body.contains("options") ? body.at("options") : nlohmann::json::object();
+  if (options_body.is_object() && !options_body.contains("probe_noise_um")) {
+    options_body["probe_noise_um"] = m.probe_noise_um;
+  }
+  ClosedLoopOptions loop;
+  loop.corrections = static_cast<int>(corrections);
+  loop.measurement = m;
+  if (!ParseCorrectionOptions({{"options", options_body}}, rows, columns, &loop.correction, error)) return false;
+
+  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
+  const ClosedLoopResult result = SimulateClosedLoop(generator, setup.motion.ToVector(), hidden.ToVector(), target_um, loop);
+  const int degree = setup.motion.degree;
+  auto motion_json = [&](const Eigen::VectorXd& parameters) {
+    FreeFormMotion motion = FreeFormMotion::FromVector(degree, parameters);
+    motion.c_coefficients = setup.motion.c_coefficients;
+    return FreeFormMotionToJson(motion);
+  };
+  auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  nlohmann::json iterations = nlohmann::json::array();
+  run->jobs.clear();
+  for (size_t k = 0; k < result.iterations.size(); ++k) {
+    const ClosedLoopIteration& it = result.iterations[k];
+    nlohmann::json item = {{"part", it.part},
+                           {"motion", motion_json(it.commanded_parameters)},
+                           {"true_rms_um", finite_or_null(it.true_rms_um)},
+                           {"true_max_um", finite_or_null(it.true_max_um)},
+                           {"measured_rms_um", finite_or_null(it.measured_rms_um)},
+                           {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
+                           {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
+                                                       : nlohmann::json(nullptr)}};
+    if (it.corrected && it.correction.IsSolutionUsable()) {
+      // A stored job per correction, replayable: the request a client would have sent, with the
+      // measurement the simulated machine reported for this part (seed advanced by one per part).
+      MeasurementSimulationOptions part_measurement = m;
+      part_measurement.seed += k;
+      const SimulatedMeasurement cmm =
+          SimulateMeasurement(generator, it.commanded_parameters, hidden.ToVector(), part_measurement);
+      nlohmann::json request = {{"machine", {{"kind", kFreeFormBevelGeneratorKind}}},
+                                {"job", body.at("job")},
+                                {"motion", motion_json(it.commanded_parameters)},
+                                {"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
+                                {"target", {{"deviations_um", GridToJson(target_um, {}, rows, columns)}}},
+                                {"options", options_body}};
+      nlohmann::json result_json = CorrectionSummaryToJson(it.correction, columns);
+      result_json["machine_kind"] = kFreeFormBevelGeneratorKind;
+      result_json["side"] = BevelFlankSideName(setup.job.side);
+      result_json["commanded_motion"] = motion_json(it.commanded_parameters);
+      if (k + 1 < result.iterations.size()) {
+        const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
+        result_json["motion"] = motion_json(next);
+        result_json["delta"] = FreeFormMotionToJson(FreeFormMotion::FromVector(degree, next - it.commanded_parameters));
+      }
+      JobRecord job;
+      job.status = CorrectionStatusName(it.correction.status);
+      job.gear_hand = "left";
+      job.flank = BevelFlankSideName(setup.job.side);
+      job.request_json = request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+      job.result_json = result_json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+      if (std::isfinite(it.correction.residual_rms_um)) job.residual_rms_um = it.correction.residual_rms_um;
+      if (std::isfinite(it.correction.best_reachable_rms_um)) {
+        job.best_reachable_rms_um = it.correction.best_reachable_rms_um;
+      }
+      job.rank = it.correction.rank;
+      job.elapsed_ms = it.correction.elapsed_ms;
+      run->jobs.push_back(job);
+      item["job_index"] = static_cast<int>(run->jobs.size()) - 1;
+    }
+    iterations.push_back(item);
+  }
+  run->answer = {{"machine_kind", kFreeFormBevelGeneratorKind},
+                 {"completed", result.completed},
+                 {"message", result.message},
+                 {"hidden_errors", FreeFormMotionToJson(hidden)},
+                 {"iterations", iterations}};
   return true;
 }
 

@@ -34,6 +34,7 @@
 #include "engine/bevel_freeform_machine.h"
 #include "server/correction_codec.h"
 #include "server/json_codec.h"
+#include "server/simulation_handlers.h"
 
 namespace gearloop {
 
@@ -64,6 +65,11 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
 // A_rad .. Z_mm, shorter arrays padded with 0), noise_um, seed, teeth, outlier_probability,
 // outlier_size_um, missing_probability -> the simulated CMM grid and the true one.
 bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error);
+
+// POST /api/v1/simulations/closed-loop with the bevel machine kind: the scenario above plus
+// target {deviations_um}, corrections (1..20), options -> iterations of cut, measure, correct
+// (each with the commanded motion and the true error) and one replayable job per correction.
+bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError* error);
 
 // True when body.machine.kind is kFreeFormBevelGeneratorKind.
 bool IsBevelCorrectionRequest(const nlohmann::json& body);

@@ -923,7 +923,9 @@ class GearloopServer::Impl {
     ApiError error;
     if (!ParseJsonBody(req.body, &body, &error)) return RespondError(res, error);
     ClosedLoopRun run;
-    if (!SimulateClosedLoop(body, &run, &error)) return RespondError(res, error);
+    const bool ok = IsBevelCorrectionRequest(body) ? BevelSimulateClosedLoop(body, &run, &error)
+                                                   : SimulateClosedLoop(body, &run, &error);
+    if (!ok) return RespondError(res, error);
     // Optionally keep each iteration's correction as a job, linked revision after revision.
     bool store = false;
     if (!ReadBool(body, "", "store", false, &store, &error)) return RespondError(res, error);

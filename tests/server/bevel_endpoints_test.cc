@@ -273,5 +273,33 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
   EXPECT_EQ(refused.body["error"]["field"], "noise_um");
 }
 
+TEST_F(BevelEndpointsTest, ClosedLoopConvergesAndStoresReplayableJobs) {
+  const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
+                                   {"job", PublishedJob("concave")},
+                                   {"hidden_errors", {{"B_rad", {-0.003 * M_PI / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
+                                   {"noise_um", 0.2},
+                                   {"seed", 11},
+                                   {"corrections", 2},
+                                   {"options", {{"default_max_order", 2}}},
+                                   {"store", true}};
+  const Answer loop = Post("/api/v1/simulations/closed-loop", scenario);
+  ASSERT_EQ(loop.status, 200) << loop.body.dump();
+  ASSERT_EQ(loop.body["iterations"].size(), 3u);
+  EXPECT_TRUE(loop.body["completed"].get<bool>());
+  const double first = loop.body["iterations"][0]["true_rms_um"].get<double>();
+  const double last = loop.body["iterations"][2]["true_rms_um"].get<double>();
+  EXPECT_GT(first, 1.0);
+  EXPECT_LT(last, 0.1 * first);
+  const int64_t second_job = loop.body["iterations"][1]["job_id"].get<int64_t>();
+  const Answer fetched = Get("/api/v1/corrections/" + std::to_string(second_job));
+  ASSERT_EQ(fetched.status, 200);
+  EXPECT_EQ(fetched.body["machine_kind"], "free-form-bevel-generator");
+  EXPECT_EQ(fetched.body["settings_source_job_id"], loop.body["iterations"][0]["job_id"]);
+  const Answer replay = Post("/api/v1/corrections/" + std::to_string(second_job) + "/replay", nlohmann::json::object());
+  ASSERT_EQ(replay.status, 201) << replay.body.dump();
+  EXPECT_NEAR(replay.body["result"]["residual_rms_um"].get<double>(),
+              fetched.body["result"]["residual_rms_um"].get<double>(), 1e-6);
+}
+
 }  // namespace
 }  // namespace gearloop
