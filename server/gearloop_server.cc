@@ -199,8 +199,9 @@ bool ParseJobFilter(const httplib::Request& req, JobFilter* filter, ApiError* er
   }
   if (req.has_param("flank")) {
     const std::string flank = req.get_param_value("flank");
-    if (flank != "left" && flank != "right") {
-      *error = InvalidValue("query.flank", "query.flank must be \"left\" or \"right\"");
+    if (flank != "left" && flank != "right" && flank != "convex" && flank != "concave") {
+      *error = InvalidValue("query.flank",
+                            "query.flank must be \"left\" or \"right\" (a gear) or \"convex\" or \"concave\" (a bevel pinion)");
       return false;
     }
     filter->flank = flank;

@@ -228,6 +228,8 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   ASSERT_EQ(list.status, 200);
   EXPECT_EQ(list.body["total"], 1);
   EXPECT_EQ(list.body["jobs"][0]["machine_kind"], "free-form-bevel-generator");
+  EXPECT_EQ(Get("/api/v1/corrections?flank=convex").body["total"], 1);
+  EXPECT_EQ(Get("/api/v1/corrections?flank=concave").body["total"], 0);
 
   const Answer replay = Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
                              {{"options", {{"solver", "lsq-plain"}}}});
