@@ -1,0 +1,89 @@
+// tests/fuzz/correction_request_fuzzer.cc: libFuzzer target for the server's request parsing and
+// validation (issue 7). The input is an HTTP body as the handlers of POST /api/v1/corrections and
+// POST /api/v1/evaluate receive it; it runs through the same codec calls, without the network
+// and without the solve:
+//
+//   ParseJsonBody -> ParseCorrectionRequest               (corrections, replays, batch items)
+//   ParseJsonBody -> ParseGrindingSetup -> ParseMachineSettings   (nominal, evaluate, sensitivity)
+//
+// Besides the sanitizers' own findings it checks the codec's contract: a refusal is a 400 or a
+// 422 with a code from the closed list and an error body that renders; an accepted request has
+// grids of the grid's size, finite targets and options that pass IsValid.
+//
+//   build-fuzz/tests/fuzz/correction_request_fuzzer -max_total_time=60 tests/fuzz/corpus/correction_request
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "server/correction_codec.h"
+#include "server/json_codec.h"
+
+namespace {
+
+// Aborts (a libFuzzer crash with the input saved) when `condition` does not hold.
+void Check(bool condition, const char* what) {
+  if (!condition) {
+    std::fprintf(stderr, "contract violated: %s\n", what);
+    std::abort();
+  }
+}
+
+void CheckRefusal(const gearloop::ApiError& error) {
+  Check(error.status == 400 || error.status == 422, "a refusal is a 400 or a 422");
+  Check(error.code == "invalid_json" || error.code == "invalid_request" || error.code == "invalid_value",
+        "the error code is one of the codec's");
+  Check(!error.message.empty(), "a refusal says why");
+  // As the server renders it (gearloop_server.cc: invalid UTF-8 replaced, never thrown).
+  const std::string rendered =
+      gearloop::ErrorBody(error).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  Check(!rendered.empty(), "the error body renders");
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  nlohmann::json body;
+  gearloop::ApiError error;
+  if (!gearloop::ParseJsonBody(text, &body, &error)) {
+    CheckRefusal(error);
+    return 0;
+  }
+  Check(body.is_object(), "an accepted body is an object");
+
+  gearloop::CorrectionRequest request;
+  error = gearloop::ApiError();
+  if (gearloop::ParseCorrectionRequest(body, &request, &error)) {
+    const int rows = request.setup.grid.profile_points;
+    const int columns = request.setup.grid.lead_points;
+    Check(rows > 0 && columns > 0, "a positive grid");
+    Check(request.measured_um.size() == static_cast<Eigen::Index>(rows) * columns, "measurement of the grid's size");
+    Check(request.target_um.size() == static_cast<Eigen::Index>(rows) * columns, "target of the grid's size");
+    Check(request.target_um.allFinite(), "a finite target");
+    for (Eigen::Index i = 0; i < request.measured_um.size(); ++i) {
+      Check(!std::isinf(request.measured_um[i]), "no infinite measured point (NaN marks a missing one)");
+    }
+    std::string message;
+    Check(request.options.IsValid(&message), "accepted options are valid");
+  } else {
+    CheckRefusal(error);
+  }
+
+  gearloop::GrindingSetup setup;
+  gearloop::MachineSettings settings;
+  error = gearloop::ApiError();
+  if (gearloop::ParseGrindingSetup(body, &setup, &error)) {
+    if (body.contains("settings") && !body.at("settings").is_null() &&
+        !gearloop::ParseMachineSettings(body.at("settings"), "settings", &settings, &error)) {
+      CheckRefusal(error);
+    }
+  } else {
+    CheckRefusal(error);
+  }
+  return 0;
+}
