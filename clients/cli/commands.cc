@@ -369,7 +369,7 @@ const CommandSpec kList{"list",
                         "  --offset N       skip the N newest\n"
                         "  --kind K         correction | replay | batch_item | closed_loop\n"
                         "  --status S       converged | not_converged | ...\n"
-                        "  --flank F        left | right\n"
+                        "  --flank F        left | right (a gear), convex | concave (a bevel pinion)\n"
                         "  --teeth N        only gears with N teeth\n\n"
                         "columns: rms um is the predicted residual; parent N = a replay of job N,\n"
                         "<N = the part was ground with the corrected settings of job N.\n",
