@@ -200,7 +200,17 @@ TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
         }
       });
     }
+    // Kill once the load is sustained: at least 500 ms and 20 acknowledged jobs (an ASan build
+    // of the server needs longer than 500 ms for its first answers; scripts/test runs both).
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < deadline) {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (acknowledged.size() >= 20) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
     server.Kill();
     EXPECT_EQ(server.WaitExit(10.0), 128 + SIGKILL);
     stop = true;
