@@ -667,6 +667,11 @@ bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, Api
                            {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
                            {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
                                                        : nlohmann::json(nullptr)}};
+    Eigen::VectorXd delta;  // the step to the next part's motion (none after an unusable last correction)
+    if (it.corrected && k + 1 < result.iterations.size()) {
+      delta = result.iterations[k + 1].commanded_parameters - it.commanded_parameters;
+      item["correction"]["axis_motion"] = CorrectionAxisMotionJson(generator, delta, it.correction);
+    }
     if (it.corrected && it.correction.IsSolutionUsable()) {
       // A stored job per correction, replayable: the request a client would have sent, with the
       // measurement the simulated machine reported for this part (seed advanced by one per part).
@@ -687,7 +692,8 @@ bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, Api
       if (k + 1 < result.iterations.size()) {
         const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
         result_json["motion"] = motion_json(next);
-        result_json["delta"] = FreeFormMotionToJson(FreeFormMotion::FromVector(degree, next - it.commanded_parameters));
+        result_json["delta"] = FreeFormMotionToJson(FreeFormMotion::FromVector(degree, delta));
+        result_json["axis_motion"] = item["correction"]["axis_motion"];
       }
       JobRecord job;
       job.status = CorrectionStatusName(it.correction.status);
@@ -774,6 +780,7 @@ bool RunBevelCorrection(const nlohmann::json& body, CorrectionRun* run, ApiError
   run->result_json["commanded_motion"] = FreeFormMotionToJson(setup.motion);
   run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
   run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
+  run->result_json["axis_motion"] = CorrectionAxisMotionJson(generator, run->result.delta, s);
 
   JobRecord& job = run->job;
   job.status = CorrectionStatusName(s.status);

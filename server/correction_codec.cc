@@ -103,7 +103,48 @@ nlohmann::json FiniteOrNull(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
 }
 
+// A unit as a key suffix, the API's way: "um" -> "_um", "1/mm" -> "_per_mm".
+std::string UnitSuffix(const std::string& unit) {
+  std::string suffix;
+  for (size_t i = 0; i < unit.size(); ++i) {
+    if (unit.compare(i, 2, "1/") == 0 && (i == 0 || unit[i - 1] == '/')) {
+      suffix += "per_";
+      ++i;
+    } else if (unit[i] == '/') {
+      suffix += "_per_";
+    } else {
+      suffix += unit[i];
+    }
+  }
+  return "_" + suffix;
+}
+
 }  // namespace
+
+nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
+  nlohmann::json roll = nlohmann::json::array();
+  for (double r : motion.roll_rad) roll.push_back(FiniteOrNull(r));
+  nlohmann::json axes = nlohmann::json::object();
+  nlohmann::json wheel = nlohmann::json::object();
+  for (const BlockMotion& b : motion.blocks) {
+    const std::string suffix = UnitSuffix(b.unit);
+    if (!b.is_polynomial) {
+      wheel[b.name + suffix] = FiniteOrNull(b.change.empty() ? std::nan("") : b.change.front());
+      continue;
+    }
+    nlohmann::json change = nlohmann::json::array();
+    for (double v : b.change) change.push_back(FiniteOrNull(v));
+    axes[b.name] = {{"change" + suffix, change}, {"rms" + suffix, FiniteOrNull(b.rms)},
+                    {"max_abs" + suffix, FiniteOrNull(b.max_abs)}};
+  }
+  return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
+}
+
+nlohmann::json CorrectionAxisMotionJson(const MachineModel& model, const Eigen::VectorXd& delta,
+                                        const CorrectionSummary& summary) {
+  return AxisMotionToJson(
+      ComputeAxisMotion(model.ParameterBlocks(), delta, summary.roll_min_rad, summary.roll_max_rad));
+}
 
 // The measurement: one grid or several teeth averaged point by point.
 bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
@@ -359,6 +400,7 @@ bool RunCorrection(const CorrectionRequest& request, CorrectionRun* run, ApiErro
   run->result_json["delta"] = MachineSettingsToJson(delta);
   run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
   run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
+  run->result_json["axis_motion"] = CorrectionAxisMotionJson(grinder, run->result.delta, s);
 
   JobRecord& job = run->job;
   job.status = CorrectionStatusName(s.status);

@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "engine/axis_motion.h"
 #include "engine/correction.h"
 #include "engine/gear.h"
 #include "engine/machine_settings.h"
@@ -75,6 +76,17 @@ bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setu
 // The solver's summary as the API reports it (status, residuals, rank, regularisation, sizes,
 // outliers and missing points as {row, column}); `columns` is the grid's lead_points.
 nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& summary, int columns);
+
+// The axis motion of a correction as the API reports it (engine/axis_motion.h): the change of
+// each axis position at kAxisMotionSamples roll angles over the summary's roll range, with rms
+// and max |.|, and the scalar (wheel) changes; units in the keys:
+//   {"roll_rad": [...],
+//    "axes": {"X": {"change_um": [...], "rms_um": r, "max_abs_um": m}, ..., "A": {"change_urad": ...}},
+//    "wheel": {"cone_angle_rad": v, "parabola_coefficient_per_mm": v, "parabola_vertex_mm": v}}
+nlohmann::json AxisMotionToJson(const AxisMotion& motion);
+// The same for `delta` of a correction of `model` over the roll range of `summary`.
+nlohmann::json CorrectionAxisMotionJson(const MachineModel& model, const Eigen::VectorXd& delta,
+                                        const CorrectionSummary& summary);
 
 struct CorrectionRun {
   CorrectionResult result;

@@ -315,6 +315,13 @@ bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError
                            {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
                            {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
                                                        : nlohmann::json(nullptr)}};
+    // The delta of a correction is the step to the next part's settings; an unusable last
+    // correction has none.
+    Eigen::VectorXd delta;
+    if (it.corrected && k + 1 < result.iterations.size()) {
+      delta = result.iterations[k + 1].commanded_parameters - it.commanded_parameters;
+      item["correction"]["axis_motion"] = CorrectionAxisMotionJson(*grinder, delta, it.correction);
+    }
     iterations.push_back(item);
     if (!it.corrected || !it.correction.IsSolutionUsable()) continue;
 
@@ -336,7 +343,8 @@ bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError
     if (k + 1 < result.iterations.size()) {
       const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
       result_json["settings"] = MachineSettingsToJson(MachineSettings::FromVector(next));
-      result_json["delta"] = MachineSettingsToJson(MachineSettings::FromVector(next - it.commanded_parameters));
+      result_json["delta"] = MachineSettingsToJson(MachineSettings::FromVector(delta));
+      result_json["axis_motion"] = item["correction"]["axis_motion"];
     }
     JobRecord job;
     job.status = CorrectionStatusName(it.correction.status);

@@ -179,6 +179,58 @@ int InputError(const std::string& message) {
   return kExitInput;
 }
 
+// The result's axis_motion as a small table: the change of each axis position at the 9 roll
+// angles of the result's range (um for linear axes, urad for rotary ones), its rms and largest
+// magnitude over the range, then the wheel-parameter changes. Nothing for a job stored without it.
+void PrintAxisMotion(const json& result) {
+  if (!result.contains("axis_motion") || !result["axis_motion"].is_object()) return;
+  const json& motion = result["axis_motion"];
+  const json roll = motion.value("roll_rad", json::array());
+  const json axes = motion.value("axes", json::object());
+  if (!roll.is_array() || roll.empty() || !axes.is_object()) return;
+  constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+  std::cout << "axis motion of the correction over the roll range (change of the axis position)\n";
+  std::cout << std::left << std::setw(11) << "roll [deg]" << std::right;
+  for (const json& r : roll) std::cout << std::setw(9) << (r.is_number() ? Fixed(r.get<double>() * kDegPerRad, 2) : "-");
+  std::cout << std::setw(10) << "rms" << std::setw(10) << "max |.|" << "\n";
+  // Linear axes first, as the machine lists them; then any other axis the model has.
+  std::vector<std::string> names;
+  for (const char* name : {"X", "Y", "Z", "A", "B", "C"}) {
+    if (axes.contains(name)) names.push_back(name);
+  }
+  for (const auto& item : axes.items()) {
+    if (std::find(names.begin(), names.end(), item.key()) == names.end()) names.push_back(item.key());
+  }
+  for (const std::string& name : names) {
+    const json& axis = axes[name];
+    if (!axis.is_object()) continue;
+    // The unit is in the keys: change_um / change_urad.
+    std::string unit;
+    for (const char* u : {"um", "urad"}) {
+      if (axis.contains(std::string("change_") + u)) unit = u;
+    }
+    if (unit.empty()) continue;
+    std::cout << std::left << std::setw(11) << (name + " [" + unit + "]") << std::right;
+    for (const json& v : axis["change_" + unit]) std::cout << std::setw(9) << Fixed(v, 2);
+    std::cout << std::setw(10) << Fixed(axis.value("rms_" + unit, json()), 2) << std::setw(10)
+              << Fixed(axis.value("max_abs_" + unit, json()), 2) << "\n";
+  }
+  const json wheel = motion.value("wheel", json::object());
+  if (wheel.is_object() && !wheel.empty()) {
+    std::cout << "wheel change:";
+    for (const auto& [key, value] : wheel.items()) {
+      std::ostringstream number;
+      if (value.is_number()) {
+        number << std::setprecision(4) << value.get<double>();
+      } else {
+        number << "-";
+      }
+      std::cout << " " << key << " " << number.str();
+    }
+    std::cout << "\n";
+  }
+}
+
 void PrintCorrectionSummary(const json& answer) {
   const json& result = answer.contains("result") ? answer["result"] : json::object();
   std::cout << "job " << Member(answer, "id") << " (" << Member(answer, "kind") << ")  status "
@@ -209,6 +261,7 @@ void PrintCorrectionSummary(const json& answer) {
     std::cout << "  " << result["outliers"].size() << " points rejected as outliers\n";
   }
   if (result.contains("predicted_residual_um")) PrintGrid("predicted residual", result["predicted_residual_um"]);
+  PrintAxisMotion(result);
 }
 
 bool IsConverged(const json& answer) {

@@ -437,6 +437,37 @@
     return html("div", {}, [table, wheel]);
   }
 
+  // The correction as machine motion (result.axis_motion): the change of each axis position at
+  // the roll angles of the range (um for linear axes, urad for rotary ones), its rms and largest
+  // magnitude over the range, and the wheel-parameter changes. Null for a job stored without it.
+  function axisMotionTable(motion) {
+    if (!motion || !Array.isArray(motion.roll_rad) || !motion.roll_rad.length) return null;
+    const axes = motion.axes || {};
+    const names = ["X", "Y", "Z", "A", "B", "C"].filter((a) => axes[a]).concat(Object.keys(axes).filter((a) => !AXES.includes(a)));
+    const table = html("table", { class: "delta axis-motion" });
+    const head = html("tr", {}, [html("th", { text: "roll [\u00b0]" })]);
+    for (const r of motion.roll_rad) head.appendChild(html("th", { text: isNum(r) ? ((r * 180) / Math.PI).toFixed(2) : "\u2013" }));
+    head.appendChild(html("th", { text: "rms" }));
+    head.appendChild(html("th", { text: "max |\u0394|" }));
+    table.appendChild(head);
+    for (const a of names) {
+      const m = axes[a] || {};
+      const unit = m.change_um ? "um" : m.change_urad ? "urad" : null;
+      if (!unit) continue;
+      const tr = html("tr", { "data-axis": a }, [html("th", { text: a + (unit === "um" ? " [\u00b5m]" : " [\u00b5rad]") })]);
+      for (const v of m["change_" + unit]) tr.appendChild(html("td", { text: fmt(v, 2) }));
+      tr.appendChild(html("td", { text: fmt(m["rms_" + unit], 2) }));
+      tr.appendChild(html("td", { text: fmt(m["max_abs_" + unit], 2) }));
+      table.appendChild(tr);
+    }
+    const box = html("div", {}, [html("p", { class: "note", text: "Axis motion of the correction: change of each axis position over the roll range." }), table]);
+    const wheel = Object.entries(motion.wheel || {});
+    if (wheel.length) {
+      box.appendChild(html("p", { class: "wheel-delta", text: "wheel change: " + wheel.map(([k, v]) => k + " " + (isNum(v) ? v.toPrecision(4) : "\u2013")).join(", ") }));
+    }
+    return box;
+  }
+
   // The whole view of one job: summary, three topographies on one colour scale, the axis
   // corrections and the convergence of its lineage.
   function renderJob(job, lineage) {
@@ -465,10 +496,12 @@
       section.appendChild(axisCurves(r.delta, r.roll_range_deg));
       section.appendChild(deltaTable(r.delta));
     }
+    const motionTable = axisMotionTable(r.axis_motion);
+    if (motionTable) section.appendChild(motionTable);
     section.appendChild(html("h3", { text: "Convergence" }));
     section.appendChild(convergence(lineage && lineage.length ? lineage : [job]));
     return section;
   }
 
-  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
+  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
 })(window);

@@ -129,6 +129,14 @@ class CliTest(unittest.TestCase):
         target = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "target").stdout, is_text=True)
         # Lead crowning of 4 um: the middle of the lead is highest.
         self.assertGreater(target[2][4], target[2][0])
+        # The correction as axis motion: one row per axis, its change at 9 roll angles, rms and max.
+        self.assertIn("axis motion of the correction", shown.stdout)
+        x_row = next(line for line in shown.stdout.splitlines() if line.startswith("X [um]"))
+        x_motion = job["result"]["axis_motion"]["axes"]["X"]
+        self.assertEqual(len(x_row.split()), 2 + 9 + 2)
+        self.assertEqual(x_row.split()[-1], f"{x_motion['max_abs_um']:.2f}")
+        self.assertEqual(x_row.split()[2], f"{x_motion['change_um'][0]:.2f}")
+        self.assertRegex(shown.stdout, r"(?m)^A \[urad\] ")
         self.assertEqual(self.run_cli("show", "999999").returncode, 3)
 
     def test_bevel_pinion_job_in_list_and_show(self) -> None:

@@ -202,6 +202,20 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   EXPECT_EQ(created.body["result"]["machine_kind"], "free-form-bevel-generator");
   EXPECT_LT(created.body["result"]["residual_rms_um"].get<double>(), 0.05);
   const int64_t id = created.body["id"].get<int64_t>();
+  // The result carries the axis motion over the cradle roll range:
+  // dX(t) = sum_k delta_X_mm[k] t^k, in um.
+  const nlohmann::json& result = created.body["result"];
+  const nlohmann::json& motion = result["axis_motion"];
+  ASSERT_EQ(motion["roll_rad"].size(), 9u);
+  for (int i = 0; i < 9; ++i) {
+    const double t = motion["roll_rad"][i].get<double>();
+    double expected_um = 0.0;
+    for (size_t k = 0; k < result["delta"]["X_mm"].size(); ++k) {
+      expected_um += 1e3 * result["delta"]["X_mm"][k].get<double>() * std::pow(t, k);
+    }
+    EXPECT_NEAR(motion["axes"]["X"]["change_um"][i].get<double>(), expected_um, 1e-9 * (1.0 + std::fabs(expected_um)));
+  }
+  EXPECT_TRUE(motion["axes"]["B"].contains("rms_urad"));
 
   // Cut again with the corrected motion on the same erring machine: the flank is back.
   nlohmann::json corrected = created.body["result"]["motion"];

@@ -264,6 +264,57 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   EXPECT_NE(metrics->body.find("route=\"POST /api/v1/corrections\",status=\"201\""), std::string::npos);
 }
 
+// The axis motion of a correction: dC(phi1) = sum_k delta_k phi1^k at 9 roll angles over the
+// summary's roll range, recomputed here from the answer's own delta and roll angles.
+TEST_F(GearloopServerTest, ReportsTheAxisMotionOfACorrection) {
+  const Answer created = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  ASSERT_TRUE(result.contains("axis_motion"));
+  const nlohmann::json& motion = result["axis_motion"];
+  ASSERT_EQ(motion["roll_rad"].size(), 9u);
+  const double deg = 3.14159265358979323846 / 180.0;
+  EXPECT_NEAR(motion["roll_rad"][0].get<double>(), result["roll_range_deg"][0].get<double>() * deg, 1e-12);
+  EXPECT_NEAR(motion["roll_rad"][8].get<double>(), result["roll_range_deg"][1].get<double>() * deg, 1e-12);
+  for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
+    const bool linear = std::string("XYZ").find(axis[0]) != std::string::npos;
+    const std::string unit = linear ? "_um" : "_urad";
+    const double factor = linear ? 1e3 : 1e6;
+    ASSERT_TRUE(motion["axes"].contains(axis)) << axis;
+    const nlohmann::json& m = motion["axes"][axis];
+    ASSERT_EQ(m["change" + unit].size(), 9u) << axis;
+    const nlohmann::json& coefficients = result["delta"]["axes"][axis];
+    double largest = 0.0;
+    for (int i = 0; i < 9; ++i) {
+      const double phi = motion["roll_rad"][i].get<double>();
+      double expected = 0.0;
+      for (size_t k = 0; k < coefficients.size(); ++k) expected += coefficients[k].get<double>() * std::pow(phi, k);
+      expected *= factor;
+      const double reported = m["change" + unit][i].get<double>();
+      EXPECT_NEAR(reported, expected, 1e-9 * (1.0 + std::fabs(expected))) << axis << " sample " << i;
+      largest = std::max(largest, std::fabs(reported));
+    }
+    EXPECT_GE(m["max_abs" + unit].get<double>(), largest * (1.0 - 1e-12)) << axis;
+    EXPECT_LE(m["rms" + unit].get<double>(), m["max_abs" + unit].get<double>() * (1.0 + 1e-12)) << axis;
+  }
+  // The hidden errors are 3 um of axis motion: the correction moves the axes by microns, not mm.
+  EXPECT_LT(motion["axes"]["X"]["max_abs_um"].get<double>(), 100.0);
+  EXPECT_GT(motion["axes"]["X"]["max_abs_um"].get<double>() + motion["axes"]["Y"]["max_abs_um"].get<double>() +
+                motion["axes"]["Z"]["max_abs_um"].get<double>(),
+            0.1);
+  const double cone_rad = motion["wheel"]["cone_angle_rad"].get<double>();
+  EXPECT_NEAR(cone_rad, result["delta"]["wheel"]["cone_angle_deg"].get<double>() * deg, 1e-15);
+  EXPECT_EQ(motion["wheel"]["parabola_vertex_mm"], result["delta"]["wheel"]["parabola_vertex_mm"]);
+  EXPECT_EQ(motion["wheel"]["parabola_coefficient_per_mm"], result["delta"]["wheel"]["parabola_coefficient_per_mm"]);
+
+  // Stored and replayed alike.
+  EXPECT_EQ(Send(*client_, "GET", created.location).body["result"]["axis_motion"], motion);
+  const Answer replay =
+      Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(created.body["id"].get<int64_t>()) + "/replay", "");
+  ASSERT_EQ(replay.status, 201);
+  EXPECT_EQ(replay.body["result"]["axis_motion"]["roll_rad"].size(), 9u);
+}
+
 TEST_F(GearloopServerTest, StoresANonConvergedValidSolveWithItsStatus) {
   nlohmann::json request = CorrectionRequest();
   // One Levenberg-Marquardt iteration cannot finish the refinement.

@@ -147,6 +147,12 @@ async function main() {
     const curves = await page.$$eval("svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
     check("axis corrections drawn as curves", ["X", "Y", "Z", "A", "B", "C"].every((a) => curves.includes(a)), JSON.stringify(curves));
     check("convergence plot present", (await page.$$("svg.convergence")).length === 1);
+    const motionRows = await page.$$eval("table.axis-motion tr[data-axis]", (trs) =>
+      trs.map((tr) => ({ axis: tr.getAttribute("data-axis"), cells: Array.from(tr.querySelectorAll("td")).map((td) => td.textContent) }))
+    );
+    const xMotion = job.result.axis_motion.axes.X;
+    check("axis motion table, one row per axis", motionRows.map((r) => r.axis).join() === "X,Y,Z,A,B,C" && motionRows.every((r) => r.cells.length === 11), JSON.stringify(motionRows.map((r) => r.axis)));
+    check("axis motion in um", motionRows.length > 0 && Number(motionRows[0].cells[0]) === Number(xMotion.change_um[0].toFixed(2)) && Number(motionRows[0].cells[10]) === Number(xMotion.max_abs_um.toFixed(2)), JSON.stringify(motionRows[0]));
     const csv = await page.evaluate(async (name) => {
       const link = document.querySelector("a[download='" + name + "']");
       return link ? (await fetch(link.href)).text() : "";
