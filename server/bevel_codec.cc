@@ -780,6 +780,8 @@ bool RunBevelCorrection(const nlohmann::json& body, CorrectionRun* run, ApiError
   run->result_json["commanded_motion"] = FreeFormMotionToJson(setup.motion);
   run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
   run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
+  run->result_json["measured_um"] = GridToJson(measured_um, {}, rows, columns);
+  run->result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
   run->result_json["axis_motion"] = CorrectionAxisMotionJson(generator, run->result.delta, s);
 
   JobRecord& job = run->job;

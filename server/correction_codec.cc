@@ -400,6 +400,8 @@ bool RunCorrection(const CorrectionRequest& request, CorrectionRun* run, ApiErro
   run->result_json["delta"] = MachineSettingsToJson(delta);
   run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
   run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
+  run->result_json["measured_um"] = GridToJson(request.measured_um, {}, rows, columns);
+  run->result_json["target_um"] = GridToJson(request.target_um, {}, rows, columns);
   run->result_json["axis_motion"] = CorrectionAxisMotionJson(grinder, run->result.delta, s);
 
   JobRecord& job = run->job;

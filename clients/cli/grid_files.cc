@@ -230,8 +230,8 @@ bool WriteTextFile(const std::string& path, const std::string& text, std::string
   return true;
 }
 
-// The measured grid of a stored job: the result's own copy when the server sends one, else the
-// request's grid, else the point-by-point mean of the request's teeth.
+// The measured grid of a stored job: the result's copy (what the solver used), else, for a job
+// stored before the server sent it, the request's grid or the point-by-point mean of its teeth.
 json MeasuredGrid(const json& job) {
   const json result = job.value("result", json::object());
   if (result.contains("measured_um")) return result["measured_um"];
@@ -266,38 +266,20 @@ json MeasuredGrid(const json& job) {
   return CsvGridToJson(sum);
 }
 
-// The target grid: the result's copy when sent, the request's grid, or (for a target given as
-// modifications) recovered from measured + change - residual, where all three are known.
+// The target grid: the result's copy, else (a job stored before the server sent it) the
+// request's own grid, or zeros when there was no target. A target given as modifications is
+// evaluated by the server only; an older job without target_um then has no target grid here.
 json TargetGrid(const json& job) {
   const json result = job.value("result", json::object());
   if (result.contains("target_um")) return result["target_um"];
   const json request = job.value("request", json::object());
   const json target = request.value("target", json());
   if (target.is_object() && target.contains("deviations_um")) return target["deviations_um"];
+  if (!target.is_null()) return json();
   CsvGrid measured;
-  CsvGrid change;
-  CsvGrid residual;
-  if (!JsonToCsvGrid(MeasuredGrid(job), &measured) ||
-      !JsonToCsvGrid(result.value("predicted_change_um", json()), &change) ||
-      !JsonToCsvGrid(result.value("predicted_residual_um", json()), &residual) ||
-      measured.values.size() != change.values.size() || measured.values.size() != residual.values.size()) {
-    return json();
-  }
-  if (!target.is_object()) {  // no target: the designed flank is the exact involute
-    for (auto& v : measured.values) v = 0.0;
-    return CsvGridToJson(measured);
-  }
-  CsvGrid out = measured;
-  for (size_t i = 0; i < out.values.size(); ++i) {
-    if (measured.values[i] && change.values[i] && residual.values[i]) {
-      // Rounded to 1e-6 um: the three grids are computed separately and their sum carries
-      // rounding noise far below anything a measuring machine resolves.
-      out.values[i] = std::round((*measured.values[i] + *change.values[i] - *residual.values[i]) * 1e6) / 1e6;
-    } else {
-      out.values[i] = std::nullopt;
-    }
-  }
-  return CsvGridToJson(out);
+  if (!JsonToCsvGrid(MeasuredGrid(job), &measured)) return json();
+  for (auto& v : measured.values) v = 0.0;  // no target: the designed flank is the exact involute
+  return CsvGridToJson(measured);
 }
 
 }  // namespace gearloop

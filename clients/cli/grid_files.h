@@ -61,11 +61,11 @@ bool ReadMeasurementFile(const std::string& path,
 bool ReadTargetFile(const std::string& path, int rows, int columns, nlohmann::json* target, std::string* error);
 
 // The grids of a stored job (the answer of GET /api/v1/corrections/{id}); null when unknown.
-//   MeasuredGrid: result.measured_um when the server sends it, else the request's grid, else the
-//                 point-by-point mean of the request's teeth.
-//   TargetGrid:   result.target_um when sent, else the request's target grid; for a target
-//                 given as modifications, measured + predicted change - predicted residual
-//                 (where all three are known); zeros when the request had no target.
+//   MeasuredGrid: result.measured_um (the grid the solver used), else, for a job stored before
+//                 the server sent it, the request's grid or the point-by-point mean of its teeth.
+//   TargetGrid:   result.target_um, else the request's target grid, zeros when the request had
+//                 no target, null for an older job whose target was given as modifications (the
+//                 grid is the server's to evaluate; it is not rebuilt from the other grids).
 nlohmann::json MeasuredGrid(const nlohmann::json& job);
 nlohmann::json TargetGrid(const nlohmann::json& job);
 

@@ -277,22 +277,17 @@
     );
   }
 
-  // The designed topography: the server's grid when sent; the request's grid; for a target
-  // given as modifications, measured + predicted change - predicted residual; zero without one.
+  // The designed topography: the server's grid (result.target_um); for a job stored before the
+  // server sent it, the request's grid, or zero without a target. A target given as
+  // modifications is the server's to evaluate: such an older job has no target grid here.
   function targetGrid(job) {
     const result = job.result || {};
     if (result.target_um) return result.target_um;
     const target = (job.request || {}).target;
     if (target && target.deviations_um) return target.deviations_um;
+    if (target) return null;
     const meas = measuredGrid(job);
-    const change = result.predicted_change_um;
-    const resid = result.predicted_residual_um;
-    if (!meas) return null;
-    if (!target) return meas.map((row) => row.map(() => 0));
-    if (!change || !resid) return null;
-    return meas.map((row, r) =>
-      row.map((v, c) => (isNum(v) && isNum(change[r][c]) && isNum(resid[r][c]) ? v + change[r][c] - resid[r][c] : null))
-    );
+    return meas ? meas.map((row) => row.map(() => 0)) : null;
   }
 
   const AXES = ["X", "Y", "Z", "A", "B", "C"];

@@ -82,7 +82,21 @@ TEST(ReadTargetFile, RefusesMissingPointAndReadsModifications) {
   EXPECT_EQ(target["modifications"][0]["kind"], "lead_crowning");
 }
 
-TEST(StoredJobGrids, AverageTeethAndRecoverTargetFromModifications) {
+// The server's own grids win; the request's grids serve jobs stored before it sent them.
+TEST(StoredJobGrids, TakeTheResultsMeasuredAndTargetGrids) {
+  const json job = {
+      {"request",
+       {{"measurement", {{"deviations_um", {{9.0, 9.0}}}}}, {"target", {{"modifications", json::array()}}}}},
+      {"result",
+       {{"measured_um", {{1.5, nullptr}}},
+        {"target_um", {{-0.5, -1.0}}},
+        {"predicted_change_um", {{-1.0, 0.5}}},
+        {"predicted_residual_um", {{0.25, 0.0}}}}}};
+  EXPECT_EQ(MeasuredGrid(job), json({{1.5, nullptr}}));
+  EXPECT_EQ(TargetGrid(job), json({{-0.5, -1.0}}));
+}
+
+TEST(StoredJobGrids, OlderJobsFallBackToTheRequestWithoutRebuildingTheTarget) {
   const json job = {
       {"request",
        {{"measurement", {{"teeth", {{{1.0, 2.0}}, {{3.0, nullptr}}}}}},
@@ -91,9 +105,12 @@ TEST(StoredJobGrids, AverageTeethAndRecoverTargetFromModifications) {
   const json measured = MeasuredGrid(job);
   EXPECT_DOUBLE_EQ(measured[0][0].get<double>(), 2.0);  // mean of 1 and 3
   EXPECT_DOUBLE_EQ(measured[0][1].get<double>(), 2.0);  // the only tooth that delivered it
-  const json target = TargetGrid(job);
-  EXPECT_DOUBLE_EQ(target[0][0].get<double>(), 2.0 - 1.0 - 0.25);
-  EXPECT_DOUBLE_EQ(target[0][1].get<double>(), 2.0 + 0.5 - 0.0);
+  // Modifications are the server's to evaluate: no grid rather than one pieced together.
+  EXPECT_TRUE(TargetGrid(job).is_null());
+  // A target grid in the request is the target.
+  json grid_target = job;
+  grid_target["request"]["target"] = {{"deviations_um", {{-2.0, -3.0}}}};
+  EXPECT_EQ(TargetGrid(grid_target), json({{-2.0, -3.0}}));
   // Without a target the designed flank is the involute itself.
   json plain = job;
   plain["request"].erase("target");

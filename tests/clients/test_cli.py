@@ -129,6 +129,10 @@ class CliTest(unittest.TestCase):
         target = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "target").stdout, is_text=True)
         # Lead crowning of 4 um: the middle of the lead is highest.
         self.assertGreater(target[2][4], target[2][0])
+        # The server's target grid (the modifications it evaluated), not one rebuilt from the others.
+        for row, server_row in zip(target, job["result"]["target_um"]):
+            for value, server_value in zip(row, server_row):
+                self.assertAlmostEqual(value, server_value, places=6)
         # The correction as axis motion: one row per axis, its change at 9 roll angles, rms and max.
         self.assertIn("axis motion of the correction", shown.stdout)
         x_row = next(line for line in shown.stdout.splitlines() if line.startswith("X [um]"))

@@ -202,9 +202,11 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   EXPECT_EQ(created.body["result"]["machine_kind"], "free-form-bevel-generator");
   EXPECT_LT(created.body["result"]["residual_rms_um"].get<double>(), 0.05);
   const int64_t id = created.body["id"].get<int64_t>();
-  // The result carries the axis motion over the cradle roll range:
+  // The result carries the grids it used and the axis motion over the cradle roll range:
   // dX(t) = sum_k delta_X_mm[k] t^k, in um.
   const nlohmann::json& result = created.body["result"];
+  EXPECT_EQ(result["measured_um"], measured.body["deviations_um"]);
+  EXPECT_EQ(result["target_um"].size(), measured.body["deviations_um"].size());
   const nlohmann::json& motion = result["axis_motion"];
   ASSERT_EQ(motion["roll_rad"].size(), 9u);
   for (int i = 0; i < 9; ++i) {

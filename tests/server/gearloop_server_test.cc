@@ -315,6 +315,61 @@ TEST_F(GearloopServerTest, ReportsTheAxisMotionOfACorrection) {
   EXPECT_EQ(replay.body["result"]["axis_motion"]["roll_rad"].size(), 9u);
 }
 
+// The measured and target grids travel with the result, so a client need not rebuild them.
+TEST_F(GearloopServerTest, ResultCarriesTheMeasuredAndTargetGrids) {
+  nlohmann::json request = CorrectionRequest();
+  request["measurement"]["deviations_um"][1][3] = nullptr;  // not delivered
+  request["target"] = {{"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 4.0}}}}};
+  const Answer created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  ASSERT_TRUE(result.contains("measured_um"));
+  ASSERT_TRUE(result.contains("target_um"));
+  EXPECT_EQ(result["measured_um"], request["measurement"]["deviations_um"]);
+  ASSERT_EQ(result["target_um"].size(), 5u);
+  // Lead crowning C_b: -C_b eta^2, 0 mid-face and -C_b at both ends of each row.
+  for (int r = 0; r < 5; ++r) {
+    ASSERT_EQ(result["target_um"][r].size(), 9u);
+    EXPECT_NEAR(result["target_um"][r][4].get<double>(), 0.0, 1e-9);
+    EXPECT_NEAR(result["target_um"][r][0].get<double>(), -4.0, 1e-9);
+    EXPECT_NEAR(result["target_um"][r][8].get<double>(), -4.0, 1e-9);
+  }
+  // residual = measured - target + change wherever all are known.
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 9; ++c) {
+      const nlohmann::json& m = result["measured_um"][r][c];
+      const nlohmann::json& change = result["predicted_change_um"][r][c];
+      const nlohmann::json& residual = result["predicted_residual_um"][r][c];
+      if (m.is_null() || change.is_null()) {
+        EXPECT_TRUE(residual.is_null()) << r << "," << c;
+        continue;
+      }
+      EXPECT_NEAR(residual.get<double>(),
+                  m.get<double>() - result["target_um"][r][c].get<double>() + change.get<double>(), 1e-9);
+    }
+  }
+  EXPECT_TRUE(result["measured_um"][1][3].is_null());
+  EXPECT_EQ(Send(*client_, "GET", created.location).body["result"]["target_um"], result["target_um"]);
+
+  // Several teeth: the grid the solver used is their point-by-point mean.
+  nlohmann::json teeth = CorrectionRequest();
+  const nlohmann::json first = teeth["measurement"]["deviations_um"];
+  nlohmann::json second = first;
+  for (auto& row : second) {
+    for (auto& v : row) v = v.get<double>() + 1.0;
+  }
+  second[0][0] = nullptr;
+  teeth["measurement"] = {{"teeth", {first, second}}};
+  const Answer averaged = Post(*client_, "/api/v1/corrections", teeth);
+  ASSERT_EQ(averaged.status, 201) << averaged.body.dump();
+  const nlohmann::json& mean = averaged.body["result"]["measured_um"];
+  EXPECT_NEAR(mean[2][5].get<double>(), first[2][5].get<double>() + 0.5, 1e-12);
+  EXPECT_NEAR(mean[0][0].get<double>(), first[0][0].get<double>(), 1e-12);
+  for (const auto& row : averaged.body["result"]["target_um"]) {
+    for (const auto& v : row) EXPECT_EQ(v.get<double>(), 0.0);  // no target: the involute
+  }
+}
+
 TEST_F(GearloopServerTest, StoresANonConvergedValidSolveWithItsStatus) {
   nlohmann::json request = CorrectionRequest();
   // One Levenberg-Marquardt iteration cannot finish the refinement.
