@@ -151,6 +151,8 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
       const CorrectionResult correction = ComputeCorrection(options.correction, input);
       it.correction = correction.summary;
       it.corrected = true;
+      it.predicted_residual_um = correction.predicted_residual_um;
+      it.predicted_change_um = correction.predicted_change_um;
       result.iterations.push_back(it);
       if (!correction.summary.IsSolutionUsable()) {
         result.message = "correction " + std::to_string(part) + " unusable: " + correction.summary.message;

@@ -103,6 +103,9 @@ struct ClosedLoopIteration {
   double measured_rms_um = 0.0;          // of measured - target over the delivered points
   CorrectionSummary correction;          // the correction computed from this part (not for the last)
   bool corrected = false;                // whether `correction` was computed
+  // The correction's predicted grids (CorrectionResult), row-major [um]; empty when not corrected.
+  Eigen::VectorXd predicted_residual_um;
+  Eigen::VectorXd predicted_change_um;
 };
 
 struct ClosedLoopResult {

@@ -695,6 +695,10 @@ bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, Api
         result_json["delta"] = FreeFormMotionToJson(FreeFormMotion::FromVector(degree, delta));
         result_json["axis_motion"] = item["correction"]["axis_motion"];
       }
+      result_json["predicted_residual_um"] = GridToJson(it.predicted_residual_um, {}, rows, columns);
+      result_json["predicted_change_um"] = GridToJson(it.predicted_change_um, {}, rows, columns);
+      result_json["measured_um"] = GridToJson(cmm.measured_um, {}, rows, columns);
+      result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
       JobRecord job;
       job.status = CorrectionStatusName(it.correction.status);
       job.gear_hand = "left";

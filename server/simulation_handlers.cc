@@ -346,6 +346,10 @@ bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError
       result_json["delta"] = MachineSettingsToJson(MachineSettings::FromVector(delta));
       result_json["axis_motion"] = item["correction"]["axis_motion"];
     }
+    result_json["predicted_residual_um"] = GridToJson(it.predicted_residual_um, {}, rows, columns);
+    result_json["predicted_change_um"] = GridToJson(it.predicted_change_um, {}, rows, columns);
+    result_json["measured_um"] = GridToJson(cmm.measured_um, {}, rows, columns);
+    result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
     JobRecord job;
     job.status = CorrectionStatusName(it.correction.status);
     job.gear_teeth = sim.setup.gear.teeth;

@@ -313,6 +313,17 @@ TEST_F(BevelEndpointsTest, ClosedLoopConvergesAndStoresReplayableJobs) {
   ASSERT_EQ(fetched.status, 200);
   EXPECT_EQ(fetched.body["machine_kind"], "free-form-bevel-generator");
   EXPECT_EQ(fetched.body["settings_source_job_id"], loop.body["iterations"][0]["job_id"]);
+  // The stored round has the grids and the axis motion of any bevel correction: A, B in urad,
+  // X, Y, Z in um over the cradle roll range, no wheel parameters.
+  const nlohmann::json& stored = fetched.body["result"];
+  for (const char* key : {"predicted_residual_um", "predicted_change_um", "measured_um", "target_um"}) {
+    EXPECT_TRUE(stored.contains(key) && stored[key].is_array() && !stored[key].empty()) << key;
+  }
+  ASSERT_TRUE(stored.contains("axis_motion"));
+  EXPECT_EQ(stored["axis_motion"], loop.body["iterations"][1]["correction"]["axis_motion"]);
+  EXPECT_EQ(stored["axis_motion"]["axes"]["A"]["change_urad"].size(), 9u);
+  EXPECT_EQ(stored["axis_motion"]["axes"]["X"]["change_um"].size(), 9u);
+  EXPECT_TRUE(stored["axis_motion"]["wheel"].empty());
   const Answer replay = Post("/api/v1/corrections/" + std::to_string(second_job) + "/replay", nlohmann::json::object());
   ASSERT_EQ(replay.status, 201) << replay.body.dump();
   EXPECT_NEAR(replay.body["result"]["residual_rms_um"].get<double>(),

@@ -712,6 +712,36 @@ TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
   EXPECT_LT(iterations[1]["true_rms_um"].get<double>(), 0.3 * iterations[0]["true_rms_um"].get<double>());
   ASSERT_TRUE(iterations[1].contains("job_id"));
   const int64_t last = iterations[1]["job_id"];
+  // Each stored round carries its predicted residual (and the other grids) like any correction.
+  for (int k = 0; k < 2; ++k) {
+    const Answer job = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(iterations[k]["job_id"].get<int64_t>()));
+    ASSERT_EQ(job.status, 200);
+    const nlohmann::json& result = job.body["result"];
+    for (const char* key : {"predicted_residual_um", "predicted_change_um", "measured_um", "target_um"}) {
+      ASSERT_TRUE(result.contains(key)) << key << " in round " << k;
+      ASSERT_EQ(result[key].size(), 5u) << key;
+      EXPECT_EQ(result[key][2].size(), 9u) << key;
+    }
+    EXPECT_EQ(result["measured_um"], job.body["request"]["measurement"]["deviations_um"]);
+    EXPECT_EQ(result["target_um"], job.body["request"]["target"]["deviations_um"]);
+    // Its rms over the points used is the stored residual_rms_um.
+    double sum2 = 0.0;
+    int count = 0;
+    for (const auto& row : result["predicted_residual_um"]) {
+      for (const auto& v : row) {
+        if (v.is_null()) continue;
+        sum2 += v.get<double>() * v.get<double>();
+        ++count;
+      }
+    }
+    ASSERT_GT(count, 40);
+    EXPECT_NEAR(std::sqrt(sum2 / count), result["residual_rms_um"].get<double>(), 1e-9);
+    // The axis motion of the step to the next part, as in the answer's iteration.
+    ASSERT_TRUE(iterations[k]["correction"].contains("axis_motion"));
+    EXPECT_EQ(result["axis_motion"], iterations[k]["correction"]["axis_motion"]);
+    EXPECT_EQ(result["axis_motion"]["roll_rad"].size(), 9u);
+  }
+  EXPECT_TRUE(iterations[2]["correction"].is_null());
   const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(last) + "/lineage");
   ASSERT_EQ(lineage.body["jobs"].size(), 2u);
   EXPECT_EQ(lineage.body["jobs"][0]["id"], iterations[0]["job_id"]);
