@@ -384,11 +384,24 @@ class GearloopServer::Impl {
     http_.set_tcp_nodelay(true);
 
     const size_t payload_max_bytes = options_.payload_max_bytes;
-    httplib::Server::HandlerWithResponse pre_routing = [payload_max_bytes](const httplib::Request& req,
-                                                                           httplib::Response& res) {
+    httplib::Server::HandlerWithResponse pre_routing = [this, payload_max_bytes](const httplib::Request& req,
+                                                                                 httplib::Response& res) {
       t_request.start = Clock::now();
       t_request.started = true;
       t_request.route = "unmatched";
+      // cpp-httplib routes GET, HEAD (to the GET handlers), POST, PUT, PATCH, DELETE and
+      // OPTIONS, and answers any other method it parses (TRACE, CONNECT) 400 without looking
+      // at the path. On one of our paths that is a method the resource does not serve: 405.
+      static const std::set<std::string> kRouted = {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"};
+      if (!kRouted.count(req.method)) {
+        for (const auto& [route, allow] : allow_by_route_) {
+          if (!std::regex_match(req.path, route)) continue;
+          t_request.route = "method_not_allowed";
+          res.set_header("Allow", allow);
+          RespondError(res, ApiError{405, "method_not_allowed", req.method + " is not allowed here; use " + allow, ""});
+          return httplib::Server::HandlerResponse::Handled;
+        }
+      }
       // Refuse an announced oversized body before reading it (cpp-httplib would first read and
       // discard it all, holding a worker for as long as the client cares to send), and close.
       const std::string length = req.get_header_value("Content-Length");
@@ -579,6 +592,7 @@ class GearloopServer::Impl {
     for (const auto& [pattern, methods] : allowed_methods_) {
       std::string allow;
       for (const std::string& m : methods) allow += (allow.empty() ? "" : ", ") + m;
+      allow_by_route_.emplace_back(std::regex(pattern), allow);
       Handler not_allowed = Route("method_not_allowed", Access::kOpen,
                                   [allow](const httplib::Request& req, httplib::Response& res) {
                                     res.set_header("Allow", allow);
@@ -955,6 +969,10 @@ class GearloopServer::Impl {
   httplib::Server http_;
   std::unique_ptr<BatchRunner> batches_;
   std::map<std::string, std::set<std::string>> allowed_methods_;
+  // Each route pattern with its Allow header, for the methods cpp-httplib has no handler table
+  // for (TRACE, CONNECT): the pre-routing handler answers those 405 itself. Filled once by
+  // RegisterRoutes before the server runs; read-only afterwards.
+  std::vector<std::pair<std::regex, std::string>> allow_by_route_;
   int port_ = -1;
 };
 

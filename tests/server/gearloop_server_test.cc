@@ -523,6 +523,55 @@ TEST_F(GearloopServerTest, AnswersNotFoundAndMethodNotAllowedAsJson) {
   EXPECT_EQ(answer.status, 405);
 }
 
+// HEAD goes to the GET handlers in cpp-httplib, TRACE and CONNECT to none; on a path that
+// serves only POST each is a 405 with Allow and the JSON error body (empty for HEAD, which never
+// carries one, but announced as JSON with its length).
+TEST_F(GearloopServerTest, AnswersHeadAndUnroutedMethodsOnAPostOnlyPathWith405) {
+  for (const char* path : {"/api/v1/nominal", "/api/v1/evaluate", "/api/v1/sensitivity", "/api/v1/batches",
+                           "/api/v1/simulations/measurement", "/api/v1/simulations/closed-loop",
+                           "/api/v1/bevel/conversions", "/api/v1/corrections/1/replay"}) {
+    auto head = client_->Head(path);
+    ASSERT_TRUE(head) << path;
+    EXPECT_EQ(head->status, 405) << path;
+    EXPECT_EQ(head->get_header_value("Allow"), "POST") << path;
+    EXPECT_EQ(head->get_header_value("Content-Type"), "application/json") << path;
+    EXPECT_TRUE(head->body.empty()) << path;
+
+    for (const char* method : {"TRACE", "OPTIONS"}) {
+      httplib::Request request;
+      request.method = method;
+      request.path = path;
+      auto answer = client_->send(request);
+      ASSERT_TRUE(answer) << method << " " << path;
+      EXPECT_EQ(answer->status, 405) << method << " " << path;
+      EXPECT_EQ(answer->get_header_value("Allow"), "POST") << method << " " << path;
+      const nlohmann::json body = ParseBody(answer);
+      EXPECT_EQ(body["error"]["code"], "method_not_allowed") << method << " " << path << ": " << answer->body;
+      EXPECT_NE(body["error"]["message"].get<std::string>().find(method), std::string::npos);
+    }
+  }
+  // A path serving both names both; HEAD where GET is served is answered as GET.
+  httplib::Request trace;
+  trace.method = "TRACE";
+  trace.path = "/api/v1/corrections";
+  auto both = client_->send(trace);
+  ASSERT_TRUE(both);
+  EXPECT_EQ(both->status, 405);
+  EXPECT_EQ(both->get_header_value("Allow"), "GET, POST");
+  auto healthz = client_->Head("/healthz");
+  ASSERT_TRUE(healthz);
+  EXPECT_EQ(healthz->status, 200);
+  // A path we do not serve stays unknown, whatever the method.
+  auto unknown = client_->Head("/api/v1/nothing-here");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 404);
+  trace.path = "/api/v1/nothing-here";
+  auto unknown_trace = client_->send(trace);
+  ASSERT_TRUE(unknown_trace);
+  EXPECT_NE(unknown_trace->status, 405);
+  EXPECT_EQ(StoredJobs(), 0);
+}
+
 TEST_F(GearloopServerTest, RefusesOversizedBodiesWith413) {
   ServerOptions options;
   options.payload_max_bytes = 64 * 1024;
