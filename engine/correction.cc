@@ -322,6 +322,7 @@ bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode) {
 
 const char* RegularisationRuleName(RegularisationRule rule) {
   switch (rule) {
+    case RegularisationRule::kUnbiasedPredictiveRisk: return "upre";
     case RegularisationRule::kDiscrepancyPrinciple: return "discrepancy-principle";
     case RegularisationRule::kGeneralisedCrossValidation: return "gcv";
     case RegularisationRule::kNone: return "none";
@@ -458,7 +459,10 @@ Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen
 
 // -----------------------------------------------------------------------------------------------
 
-CorrectionResult ComputeCorrection(const CorrectionOptions& options, const CorrectionInput& input) {
+namespace {
+
+// Steps 1-4 of the file comment (and the other solvers) at input.current_parameters.
+CorrectionResult SolveCorrection(const CorrectionOptions& options, const CorrectionInput& input) {
   const auto start = std::chrono::steady_clock::now();
   CorrectionResult result;
   CorrectionSummary& summary = result.summary;
@@ -639,6 +643,20 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
     const double lambda_lo = 1e-8 * sigma1, lambda_hi = 1e4 * sigma1;
     if (rank == 0) {
       ls.lambda = 0.0;
+    } else if (options.probe_noise_um > 0.0 && !options.use_discrepancy_principle) {
+      // Unbiased predictive risk: minimise the in-range residual + 2 sigma^2 dof over a
+      // logarithmic grid (the part of b off the range is the same for every lambda).
+      const double noise_per_direction = noise2_total / rank;
+      double best_risk = std::numeric_limits<double>::infinity();
+      const int kGrid = 193;
+      for (int g = 0; g < kGrid; ++g) {
+        const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
+        const double risk = in_range2(lambda) + 2.0 * noise_per_direction * dof(lambda);
+        if (risk < best_risk) {
+          best_risk = risk;
+          ls.lambda = lambda;
+        }
+      }
     } else if (options.probe_noise_um >= 0.0) {
       // Discrepancy principle on the part of b inside the range of A (the part outside cannot
       // be fitted by any correction): the in-range residual, increasing in lambda, equals the
@@ -769,8 +787,10 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   };
 
   if (options.solver == CorrectionSolver::kRegularised) {
-    summary.rule = options.probe_noise_um >= 0.0 ? RegularisationRule::kDiscrepancyPrinciple
-                                                : RegularisationRule::kGeneralisedCrossValidation;
+    summary.rule = options.probe_noise_um > 0.0 && !options.use_discrepancy_principle
+                       ? RegularisationRule::kUnbiasedPredictiveRisk
+                       : options.probe_noise_um >= 0.0 ? RegularisationRule::kDiscrepancyPrinciple
+                                                       : RegularisationRule::kGeneralisedCrossValidation;
     const int k = ls.k;
     const double lambda = ls.lambda;
     summary.regularisation_level = lambda;
@@ -1091,6 +1111,89 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   summary.status = not_converged.empty() ? CorrectionStatus::kConverged : CorrectionStatus::kNotConverged;
   summary.message = not_converged;
   summary.elapsed_ms = elapsed();
+  return result;
+}
+
+}  // namespace
+
+CorrectionResult ComputeCorrection(const CorrectionOptions& options, const CorrectionInput& input) {
+  const auto start = std::chrono::steady_clock::now();
+  CorrectionOptions plain = options;
+  plain.estimate_machine_state = false;
+  if (!options.estimate_machine_state || options.solver != CorrectionSolver::kRegularised || input.model == nullptr ||
+      input.current_parameters.size() != input.model->NumParameters() || !input.current_parameters.allFinite()) {
+    return SolveCorrection(plain, input);
+  }
+  const MachineModel& model = *input.model;
+  const int n = model.NumPoints();
+
+  // Step 0: the state h^ with d(commanded + h^) ~ measured, within the reachable directions of
+  // every parameter (the user's freedom and bounds restrict the correction, not the machine's
+  // errors), as a next-part problem whose "measurement" is the model's own flank.
+  Eigen::VectorXd measured = input.measured_um;
+  double noise_um = options.probe_noise_um;
+  if (!input.measured_teeth_um.empty()) {
+    for (const Eigen::VectorXd& tooth : input.measured_teeth_um) {
+      if (tooth.size() != n) return SolveCorrection(plain, input);  // reports the bad size
+    }
+    Eigen::VectorXi counts;
+    measured = AverageTeeth(input.measured_teeth_um, &counts);
+    double count_sum = 0.0;
+    int delivered = 0;
+    for (int i = 0; i < n; ++i) {
+      if (counts(i) > 0) {
+        count_sum += counts(i);
+        ++delivered;
+      }
+    }
+    if (noise_um > 0.0 && delivered > 0) noise_um /= std::sqrt(count_sum / delivered);
+  }
+  if (measured.size() != n) return SolveCorrection(plain, input);
+  ModelEvaluation own;
+  model.Evaluate(input.current_parameters, false, &own);
+  CorrectionInput state_input;
+  state_input.model = input.model;
+  state_input.current_parameters = input.current_parameters;
+  state_input.measured_um = own.deviations_um;
+  for (int i = 0; i < n; ++i) {
+    if (own.status[i] != PointStatus::kOk) state_input.measured_um(i) = kNaN;
+  }
+  state_input.target_um = measured;
+  state_input.roll_min_rad = input.roll_min_rad;
+  state_input.roll_max_rad = input.roll_max_rad;
+  state_input.jacobian_um = input.jacobian_um;
+  CorrectionOptions state_options = plain;
+  state_options.mode = CorrectionMode::kNextPart;
+  state_options.max_order.clear();
+  state_options.default_max_order = std::numeric_limits<int>::max();
+  state_options.lower_delta.resize(0);
+  state_options.upper_delta.resize(0);
+  state_options.probe_noise_um = noise_um;
+  const CorrectionResult state = SolveCorrection(state_options, state_input);
+
+  CorrectionInput shifted = input;
+  shifted.roll_min_rad = state.summary.roll_min_rad;
+  shifted.roll_max_rad = state.summary.roll_max_rad;
+  shifted.jacobian_um.resize(0, 0);
+  bool use_state = state.summary.IsSolutionUsable() && state.delta.size() == input.current_parameters.size() &&
+                   state.delta.allFinite();
+  if (use_state) {
+    shifted.current_parameters = input.current_parameters + state.delta;
+    ModelEvaluation at_state;
+    model.Evaluate(shifted.current_parameters, false, &at_state);
+    for (int i = 0; i < n; ++i) {
+      if (own.status[i] == PointStatus::kOk && at_state.status[i] != PointStatus::kOk) use_state = false;
+    }
+  }
+  if (!use_state) return SolveCorrection(plain, input);
+
+  CorrectionResult result = SolveCorrection(plain, shifted);
+  if (!result.summary.IsSolutionUsable()) return SolveCorrection(plain, input);
+  result.parameters = input.current_parameters + result.delta;
+  result.summary.machine_state_estimated = true;
+  result.summary.machine_state_size = state.summary.correction_size;
+  result.summary.machine_state_misfit_rms_um = state.summary.residual_rms_um;
+  result.summary.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

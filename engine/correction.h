@@ -27,6 +27,13 @@
 // 1 um / r_j for A, B, C, 1 um / R_w for theta_w, 1e-5 /mm for a_w, 1 mm for d_w).
 //
 // Default solver "regularised" (what the product uses):
+//  0. (estimate_machine_state) The machine really runs commanded + unknown errors h. Steps 1-4
+//     are first run with the model's own flank d(commanded) as the "measurement" and the
+//     measured flank as the "target": their change is an estimate h^ of h within the reachable
+//     directions. Steps 1-4 then run for the real problem at commanded + h^ (S, the roll range
+//     kept from the commanded point, the exact change d(commanded + h^ + delta) -
+//     d(commanded + h^)); the answer is commanded + delta. If the estimate is unusable or loses
+//     a used grid point, the commanded point is used, as without the option.
 //  1. Each free polynomial block is written in orthonormal Legendre coordinates over the roll
 //     range: dC(phi1) = s sum_k y_k sqrt(2k+1) P_k((phi1 - c) / h), c and h the centre and half
 //     width of the range, so that the correction size is exactly |y| (Euclidean). Scalar blocks:
@@ -38,14 +45,20 @@
 //     never enters a correction. "Best reachable" is b projected off U over that rank.
 //  3. Tikhonov regularisation inside those directions: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i
 //     with f_i = sigma_i^2 / (sigma_i^2 + lambda^2), i.e. min |A y - b|^2 + lambda^2 |y|^2 over
-//     y in span(v_0..v_rank-1). lambda by a stated rule: the discrepancy principle when the probe
-//     noise sigma is known, >= 0 (the in-range residual sum_i (1 - f_i)^2 (u_i'b)^2 equals the
-//     noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2; sigma = 0: exact data,
-//     lambda = min_relative_regularisation * sigma_1, the floor that GCV also respects),
-//     generalised cross-validation (minimum of |A y - b|^2 / (m - dof)^2, dof = sum f_i, m the
-//     points used) when sigma is unknown (negative). GCV reads a systematic misfit (a target the
-//     model cannot reach) as noise and then corrects less; with exact data give sigma = 0.
-//     Rule, lambda and dof are reported.
+//     y in span(v_0..v_rank-1). lambda by a stated rule, reported with lambda and dof:
+//     - probe noise sigma known, > 0: the unbiased predictive risk estimator (UPRE, Mallows'
+//       C_L; Vogel, Computational Methods for Inverse Problems, 2002, ch. 7): minimise
+//       sum_i (1 - f_i)^2 (u_i'b)^2 + 2 sigma^2 dof(lambda) over a logarithmic grid, dof = sum
+//       f_i (with point weights or averaged teeth, sigma^2 is the mean noise variance of the
+//       reachable directions). This minimises the expected error left in the reachable
+//       directions after the correction, i.e. the true residual of the next part. On request
+//       (use_discrepancy_principle) the discrepancy principle instead: the in-range residual
+//       equals the noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2;
+//     - sigma = 0, exact data: lambda = min_relative_regularisation * sigma_1 (reported as the
+//       discrepancy principle with no noise), the floor that GCV also respects;
+//     - sigma unknown (negative): generalised cross-validation (minimum of
+//       |A y - b|^2 / (m - dof)^2, m the points used). GCV reads a systematic misfit (a target
+//       the model cannot reach) as noise and then corrects less; with exact data give sigma = 0.
 //  4. The change delta = T V_rank z is refined by Ceres (Levenberg-Marquardt) on the exact
 //     nonlinear model in the same subspace with the same lambda^2 |z|^2 term, starting from the
 //     linear answer (or from no change if the exact model loses a point there; and once more
@@ -105,7 +118,8 @@ const char* CorrectionModeName(CorrectionMode mode);
 bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode);
 
 enum class RegularisationRule {
-  kDiscrepancyPrinciple,          // "discrepancy-principle" (probe noise sigma known, >= 0)
+  kUnbiasedPredictiveRisk,        // "upre" (probe noise sigma known, > 0; the default there)
+  kDiscrepancyPrinciple,          // "discrepancy-principle" (sigma known, on request; sigma = 0: exact data)
   kGeneralisedCrossValidation,    // "gcv" (sigma unknown)
   kNone,                          // "none" (pso, lsq-plain)
 };
@@ -132,22 +146,38 @@ struct CorrectionOptions {
   Eigen::VectorXd lower_delta;
   Eigen::VectorXd upper_delta;
 
-  // Standard deviation of the probe noise [um]. Known (>= 0): the discrepancy principle chooses
-  // lambda (0 = exact measurements: lambda = 0, every reachable direction is fitted). Unknown
-  // (negative, the default): generalised cross-validation chooses it.
+  // Standard deviation of the probe noise [um]. Known (> 0): the unbiased predictive risk
+  // estimator chooses lambda (or the discrepancy principle, see below); 0 = exact measurements
+  // (lambda at its floor, every reachable direction is fitted). Unknown (negative, the
+  // default): generalised cross-validation chooses it.
   double probe_noise_um = -1.0;
+  // With a known noise > 0: the discrepancy principle instead of the unbiased predictive risk
+  // estimator. It leaves as much misfit in the reachable directions as the noise there, which
+  // under-corrects: after two corrections the error sits above the least-squares noise floor
+  // on about 1 seed in 5 (BENCHMARKS.md).
+  bool use_discrepancy_principle = false;
+
+  // Regularised solver: first estimate the machine's real state from the measurement (the
+  // parameter change, in the same reachable directions and with the same rule, that makes the
+  // model reproduce the measured flank), then linearise and refine the correction there rather
+  // than at the commanded parameters. The commanded parameters differ from what the machine
+  // really runs by its unknown errors; S and the exact change depend on that state, and a
+  // correction computed at the commanded point is off by (S(real) - S(commanded)) * delta.
+  bool estimate_machine_state = true;
 
   // Correction-size scales per block name, overriding ParameterBlock::default_scale (> 0).
   std::map<std::string, double> block_scales;
 
   // A direction of the scaled S counts toward its numerical rank (and may be corrected) when one
   // unit of correction size (1 um of axis motion with the default scales) moves the flank by at
-  // least this much, rms over the points [um]. 0.01 refuses corrections that need more than
-  // ~100 um of axis motion per um of flank. Weaker directions are the first-order null space
+  // least this much, rms over the points [um]. 0.03 refuses corrections that need more than
+  // ~33 um of axis motion per um of flank. Weaker directions are the first-order null space
   // (whose singular values leave zero as soon as the settings leave nominal) and directions so
   // nonlinear that a correction along them is not predicted by S (rate terms of A, the vertex
-  // d_w while a_w is small): fitting them makes the closed loop diverge.
-  double min_flank_effect_um = 0.01;
+  // d_w while a_w is small): fitting them makes the closed loop diverge. With 0.01 such
+  // directions open up after the first correction (the rank grows from 14 to 15) and a second
+  // correction of 44 um predicted 0.78 um and ground 3.8 um (BENCHMARKS.md, "Correction").
+  double min_flank_effect_um = 0.03;
 
   // Floor of the Tikhonov level lambda, relative to the largest singular value of the scaled S
   // (0 = none), for exact data (probe_noise_um = 0) and GCV: there lambda >=
@@ -251,6 +281,12 @@ struct CorrectionSummary {
   // Ceres cost 1/2 |residuals|^2 of the exact-model refinement before and after (0 if none).
   double refinement_initial_cost = 0.0;
   double refinement_final_cost = 0.0;
+
+  // The estimated machine state (estimate_machine_state): whether it was used, its correction
+  // size relative to the commanded parameters, and the rms flank misfit it leaves (um).
+  bool machine_state_estimated = false;
+  double machine_state_size = 0.0;
+  double machine_state_misfit_rms_um = 0.0;
 
   int iterations = 0;                 // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;
