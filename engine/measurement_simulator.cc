@@ -137,9 +137,11 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
         ++mcount;
       }
     }
-    it.true_rms_um = count > 0 ? std::sqrt(sum2 / count) : 0.0;
-    it.true_max_um = max_abs;
-    it.measured_rms_um = mcount > 0 ? std::sqrt(msum2 / mcount) : 0.0;
+    // A part on which the wheel reaches no grid point has no error figure (NaN), never 0.
+    const double no_figure = std::numeric_limits<double>::quiet_NaN();
+    it.true_rms_um = count > 0 ? std::sqrt(sum2 / count) : no_figure;
+    it.true_max_um = count > 0 ? max_abs : no_figure;
+    it.measured_rms_um = mcount > 0 ? std::sqrt(msum2 / mcount) : no_figure;
     if (part < options.corrections) {
       CorrectionInput input;
       input.model = &model;

@@ -98,9 +98,9 @@ struct ClosedLoopIteration {
   int part = 0;                          // 0 = ground with the initial settings
   Eigen::VectorXd commanded_parameters;  // what the machine was told
   Eigen::VectorXd true_error_um;         // true deviations - target (NaN where not reached)
-  double true_rms_um = 0.0;              // over the reached points
+  double true_rms_um = 0.0;              // over the reached points (NaN when none is reached)
   double true_max_um = 0.0;
-  double measured_rms_um = 0.0;          // of measured - target over the delivered points
+  double measured_rms_um = 0.0;          // of measured - target over the delivered points (NaN: none)
   CorrectionSummary correction;          // the correction computed from this part (not for the last)
   bool corrected = false;                // whether `correction` was computed
   // The correction's predicted grids (CorrectionResult), row-major [um]; empty when not corrected.
