@@ -1128,8 +1128,10 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   const int n = model.NumPoints();
 
   // Step 0: the state h^ with d(commanded + h^) ~ measured, within the reachable directions of
-  // every parameter (the user's freedom and bounds restrict the correction, not the machine's
-  // errors), as a next-part problem whose "measurement" is the model's own flank.
+  // the same freedom as the correction (max orders; not the bounds, which restrict the
+  // correction, not the machine's errors), as a next-part problem whose "measurement" is the
+  // model's own flank. A state estimate in orders 4-6 makes the spur gear's root contacts
+  // singular just as a correction in them does (see default_max_order).
   Eigen::VectorXd measured = input.measured_um;
   double noise_um = options.probe_noise_um;
   if (!input.measured_teeth_um.empty()) {
@@ -1164,8 +1166,6 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options, const Corre
   state_input.jacobian_um = input.jacobian_um;
   CorrectionOptions state_options = plain;
   state_options.mode = CorrectionMode::kNextPart;
-  state_options.max_order.clear();
-  state_options.default_max_order = std::numeric_limits<int>::max();
   state_options.lower_delta.resize(0);
   state_options.upper_delta.resize(0);
   state_options.probe_noise_um = noise_um;
