@@ -1,6 +1,7 @@
 #include "engine/correction.h"
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <random>
 
@@ -317,24 +318,36 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
   }
 }
 
+// The cutter with hidden errors (every axis up to order 2 and the wheel) measured with 0.5 um of
+// probe noise, to be corrected toward the involute. Not copyable: input.model points at grinder.
+struct NoisyCutterMeasurement {
+  explicit NoisyCutterMeasurement(std::uint64_t seed)
+      : grinder(testing::CutterSetup()),
+        nominal(grinder.nominal().ToVector()),
+        hidden(RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, seed)) {
+    MeasurementSimulationOptions cmm;
+    cmm.probe_noise_um = 0.5;
+    cmm.seed = seed;
+    input.model = &grinder;
+    input.current_parameters = nominal;
+    input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
+    input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  }
+  NoisyCutterMeasurement(const NoisyCutterMeasurement&) = delete;
+  NoisyCutterMeasurement& operator=(const NoisyCutterMeasurement&) = delete;
+
+  const FlatWheelGrinder grinder;
+  const Eigen::VectorXd nominal;
+  const Eigen::VectorXd hidden;
+  CorrectionInput input;
+};
+
 // Unknown probe noise (the default): generalised cross-validation picks lambda; it corrects the
 // machine errors without chasing the noise into weak directions.
 TEST(ComputeCorrection, UnknownNoiseUsesGeneralisedCrossValidation) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 21);
-  MeasurementSimulationOptions cmm;
-  cmm.probe_noise_um = 0.5;
-  cmm.seed = 21;
-  CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
-  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  const NoisyCutterMeasurement c(21);
   const CorrectionOptions options;  // probe_noise_um < 0: unknown
-  const CorrectionResult result = ComputeCorrection(options, input);
+  const CorrectionResult result = ComputeCorrection(options, c.input);
   ASSERT_EQ(result.summary.status, CorrectionStatus::kConverged) << result.summary.message;
   EXPECT_EQ(result.summary.rule, RegularisationRule::kGeneralisedCrossValidation);
   EXPECT_GT(result.summary.regularisation_level, 0.0);
@@ -342,33 +355,23 @@ TEST(ComputeCorrection, UnknownNoiseUsesGeneralisedCrossValidation) {
   // The fit leaves about the noise: neither the raw error nor an exact fit of the noise.
   EXPECT_GT(result.summary.residual_rms_um, 0.2);
   EXPECT_LT(result.summary.residual_rms_um, 0.6);
-  const SimulatedMeasurement next = SimulateMeasurement(grinder, result.parameters, hidden, {});
-  EXPECT_LT(Rms(next.true_deviations_um), 0.25 * Rms(SimulateMeasurement(grinder, nominal, hidden, {}).true_deviations_um));
+  const SimulatedMeasurement next = SimulateMeasurement(c.grinder, result.parameters, c.hidden, {});
+  EXPECT_LT(Rms(next.true_deviations_um),
+            0.25 * Rms(SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).true_deviations_um));
 }
 
 // A known probe noise: the unbiased predictive risk estimator by default, the discrepancy
 // principle on request; both reported. The discrepancy principle leaves at least as much misfit.
 TEST(ComputeCorrection, KnownNoiseUsesThePredictiveRiskOrOnRequestTheDiscrepancyPrinciple) {
-  const FlatWheelGrinder grinder(testing::CutterSetup());
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 22);
-  MeasurementSimulationOptions cmm;
-  cmm.probe_noise_um = 0.5;
-  cmm.seed = 22;
-  CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
-  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  const NoisyCutterMeasurement c(22);
   CorrectionOptions options;
   options.probe_noise_um = 0.5;
-  const CorrectionResult upre = ComputeCorrection(options, input);
+  const CorrectionResult upre = ComputeCorrection(options, c.input);
   ASSERT_EQ(upre.summary.status, CorrectionStatus::kConverged) << upre.summary.message;
   EXPECT_EQ(upre.summary.rule, RegularisationRule::kUnbiasedPredictiveRisk);
   EXPECT_STREQ(RegularisationRuleName(upre.summary.rule), "upre");
   options.use_discrepancy_principle = true;
-  const CorrectionResult dp = ComputeCorrection(options, input);
+  const CorrectionResult dp = ComputeCorrection(options, c.input);
   ASSERT_EQ(dp.summary.status, CorrectionStatus::kConverged) << dp.summary.message;
   EXPECT_EQ(dp.summary.rule, RegularisationRule::kDiscrepancyPrinciple);
   EXPECT_GE(dp.summary.regularisation_level, upre.summary.regularisation_level);
