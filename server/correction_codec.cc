@@ -249,6 +249,10 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) 
         {"level", FiniteOrNull(s.regularisation_level)},
         {"effective_dof", FiniteOrNull(s.effective_dof)},
         {"truncation_rank", s.truncation_rank}}},
+      {"machine_state",
+       {{"estimated", s.machine_state_estimated},
+        {"size", FiniteOrNull(s.machine_state_size)},
+        {"misfit_rms_um", FiniteOrNull(s.machine_state_misfit_rms_um)}}},
       {"solver", CorrectionSolverName(s.solver)},
       {"mode", CorrectionModeName(s.mode)},
       {"iterations", s.iterations},
@@ -311,6 +315,19 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
       *error = InvalidValue("options.probe_noise_um", "options.probe_noise_um must lie in [0, 1000] um");
       return false;
     }
+    std::string rule;
+    bool rule_found = false;
+    if (!ReadString(j, path, "regularisation_rule", false, &rule, error, &rule_found)) return false;
+    if (rule_found) {
+      if (rule != "upre" && rule != "discrepancy-principle") {
+        *error = InvalidValue("options.regularisation_rule",
+                              "options.regularisation_rule must be \"upre\" or \"discrepancy-principle\" "
+                              "(it applies when probe_noise_um > 0)");
+        return false;
+      }
+      o.use_discrepancy_principle = rule == "discrepancy-principle";
+    }
+    if (!ReadBool(j, path, "estimate_machine_state", false, &o.estimate_machine_state, error)) return false;
     if (!ReadNumber(j, path, "min_flank_effect_um", false, &o.min_flank_effect_um, error) ||
         !ReadIntegerInRange(j, path, "max_num_iterations", 0, 200, &o.max_num_iterations, error) ||
         !ReadIntegerInRange(j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||

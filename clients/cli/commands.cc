@@ -254,6 +254,20 @@ void PrintCorrectionSummary(const json& answer) {
             << Member(result, "rank") << ", condition " << Fixed(result.value("condition_number", json()), 1)
             << ", " << Member(result, "iterations") << " iterations, " << Fixed(result.value("elapsed_ms", json()), 1)
             << " ms\n";
+  if (result.contains("regularisation") && result["regularisation"].is_object()) {
+    const json& reg = result["regularisation"];
+    std::cout << "  regularisation " << Member(reg, "rule") << ", level " << Fixed(reg.value("level", json()), 4)
+              << ", effective dof " << Fixed(reg.value("effective_dof", json()), 1) << "\n";
+  }
+  if (result.contains("machine_state") && result["machine_state"].is_object()) {
+    const json& state = result["machine_state"];
+    if (state.value("estimated", false)) {
+      std::cout << "  linearised at the estimated machine state (size " << Fixed(state.value("size", json()), 1)
+                << ", misfit rms " << Fixed(state.value("misfit_rms_um", json())) << " um)\n";
+    } else {
+      std::cout << "  linearised at the commanded settings\n";
+    }
+  }
   if (result.contains("missing") && result["missing"].is_array() && !result["missing"].empty()) {
     std::cout << "  " << result["missing"].size() << " missing points left out\n";
   }

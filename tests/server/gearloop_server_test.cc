@@ -221,6 +221,18 @@ TEST_F(GearloopServerTest, SensitivityQuotesTheConeColumnPerDegree) {
   }
 }
 
+TEST_F(GearloopServerTest, HonoursTheRegularisationRuleAndTheMachineStateOptions) {
+  nlohmann::json request = CorrectionRequest();
+  request["options"]["regularisation_rule"] = "discrepancy-principle";
+  request["options"]["estimate_machine_state"] = false;
+  const Answer created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  EXPECT_EQ(result["regularisation"]["rule"], "discrepancy-principle");
+  EXPECT_EQ(result["machine_state"]["estimated"], false);
+  EXPECT_EQ(result["machine_state"]["size"], 0.0);
+}
+
 TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   const nlohmann::json request = CorrectionRequest();
   const Answer created = Post(*client_, "/api/v1/corrections", request);
@@ -237,7 +249,10 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   EXPECT_EQ(result["predicted_residual_um"].size(), 5u);
   EXPECT_TRUE(result["status"] == "converged" || result["status"] == "not_converged");
   EXPECT_EQ(result["solver"], "regularised");
-  EXPECT_TRUE(result["regularisation"].contains("rule"));
+  // A known probe noise: the unbiased predictive risk picks the level, at the estimated state.
+  EXPECT_EQ(result["regularisation"]["rule"], "upre");
+  EXPECT_EQ(result["machine_state"]["estimated"], true);
+  EXPECT_GT(result["machine_state"]["size"].get<double>(), 0.0);
   // The correction brings the flank close to the best the model can reach (3 um hidden errors).
   EXPECT_LT(result["residual_rms_um"].get<double>(), 1.0);
 
@@ -467,6 +482,12 @@ TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
        "invalid_value", "options.solver"},
       {"negative noise", corrections, edited([](nlohmann::json* j) { (*j)["options"]["probe_noise_um"] = -1; }), 422,
        "invalid_value", "options.probe_noise_um"},
+      {"unknown regularisation rule", corrections,
+       edited([](nlohmann::json* j) { (*j)["options"]["regularisation_rule"] = "l-curve"; }), 422, "invalid_value",
+       "options.regularisation_rule"},
+      {"machine state as a string", corrections,
+       edited([](nlohmann::json* j) { (*j)["options"]["estimate_machine_state"] = "yes"; }), 400, "invalid_request",
+       "options.estimate_machine_state"},
       {"no outlier fraction left", corrections,
        edited([](nlohmann::json* j) { (*j)["options"]["max_outlier_fraction"] = 1.5; }), 422, "invalid_value",
        "options"},
