@@ -276,7 +276,8 @@ struct CorrectionSummary {
   double initial_max_um = 0.0;
   double residual_rms_um = 0.0;       // predicted (exact model) over the points used
   double residual_max_um = 0.0;
-  double best_reachable_rms_um = 0.0; // |e projected off the range of the weighted S| (rms)
+  double best_reachable_rms_um = 0.0; // |e projected off the range of the weighted S| (rms), S where
+                                      // linearised (see machine_state_estimated), over the rank
   double linear_residual_rms_um = 0.0;// predicted by the linear model before refinement
   double max_added_material_um = 0.0; // largest predicted change > 0 (rework: must be <= tol)
 
