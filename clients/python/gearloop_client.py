@@ -17,6 +17,18 @@ Example::
 
 Grids are lists of rows (row 0 at the root side, each row from x < 0 to x > 0) of floats in
 micrometres, None where a point is missing, as in the API.
+
+Spiral-bevel pinions (docs/bevel-machines.md) have their own methods, named bevel_*: each takes
+the pinion flank's "job" (side plus the cradle summary, or {"side": ..., "published": True} for
+the pinion of Tang 2011 Table 1) and the free-form generator's axis polynomials ("motion":
+A_rad, B_rad, X_mm, Y_mm, Z_mm, optional C_rad; coefficient k multiplies t^k, t the cradle roll
+in rad). For example::
+
+    job = {"side": "concave", "published": True}
+    converted = client.bevel_conversion(job, polynomial_degree=5)
+    cmm = client.simulate_bevel_measurement(job, hidden_errors={"X_mm": [0.008]}, noise_um=0.2)
+    correction = client.create_bevel_correction(job, cmm["measurement"], motion=converted["motion"])
+    next_motion = correction["result"]["motion"]
 """
 
 from __future__ import annotations
@@ -32,6 +44,7 @@ import urllib.request
 from typing import Any, Dict, List, Optional, Sequence
 
 __all__ = [
+    "BEVEL_MACHINE_KIND",
     "Client",
     "GearloopError",
     "GearloopApiError",
@@ -44,6 +57,18 @@ __all__ = [
 
 Json = Dict[str, Any]
 Grid = List[List[Optional[float]]]
+
+# machine.kind of the spiral-bevel free-form generator, which the server uses to tell bevel
+# requests from the grinder's on the shared endpoints (corrections, simulations).
+BEVEL_MACHINE_KIND = "free-form-bevel-generator"
+
+
+def _with_optional(body: Json, **fields: Any) -> Json:
+    """body plus each field whose value is not None (None = leave it to the server's default)."""
+    for name, value in fields.items():
+        if value is not None:
+            body[name] = value
+    return body
 
 
 class GearloopError(Exception):
@@ -230,8 +255,158 @@ class Client:
         return self._request("POST", "/api/v1/simulations/measurement", scenario)
 
     def simulate_closed_loop(self, scenario: Json) -> Json:
-        """POST /api/v1/simulations/closed-loop: {"iterations": [{part, true_rms_um, ...}], ...}."""
+        """POST /api/v1/simulations/closed-loop: {"iterations": [{part, true_rms_um, ...}], ...}.
+
+        Takes a grinder scenario, or a bevel one (machine.kind "free-form-bevel-generator"; see
+        simulate_bevel_closed_loop)."""
         return self._request("POST", "/api/v1/simulations/closed-loop", scenario)
+
+    # --- spiral-bevel pinions (free-form generator) ------------------------------------------------
+
+    def bevel_conversion(self, job: Json, polynomial_degree: Optional[int] = None,
+                         max_flank_distance_um: Optional[float] = None, **options: Any) -> Json:
+        """POST /api/v1/bevel/conversions: the cradle summary of `job` as free-form axis polynomials.
+
+        Args:
+            job: the pinion flank, {"side": "convex"|"concave", "cutter", "machine", "blank",
+                "grid"} or {"side": ..., "published": True}; lengths in mm, angles in degrees.
+            polynomial_degree: the degree of every axis polynomial (1 to 12; server default 5).
+            max_flank_distance_um: instead of a degree, the flank tolerance in um: the smallest
+                degree in [2, 12] whose motions cut the flank within it of the cradle flank.
+            **options: further conversion options (num_samples, num_check_samples,
+                roll_margin_fraction).
+
+        Returns:
+            {"degree", "motion" (A_rad, B_rad, X_mm, Y_mm, Z_mm, C_rad; coefficient k multiplies
+            t^k, t the cradle roll in rad), "roll_range_deg", "fit_residual" (per axis, max_rad/
+            rms_rad or max_mm/rms_mm), "exact", "fitted", "flank_distance" ({"max_um", "rms_um",
+            ...}), "rows", "columns", "points"}.
+        """
+        body: Json = {"job": job}
+        opts = _with_optional(dict(options), polynomial_degree=polynomial_degree,
+                              max_flank_distance_um=max_flank_distance_um)
+        if opts:
+            body["options"] = opts
+        return self._request("POST", "/api/v1/bevel/conversions", body)
+
+    def bevel_evaluate(self, job: Json, motion: Optional[Json] = None) -> Json:
+        """POST /api/v1/bevel/evaluate: the flank that `motion` cuts, against the cradle flank.
+
+        Args:
+            job: the pinion flank (as in bevel_conversion).
+            motion: free-form axis polynomials {A_rad, B_rad, X_mm, Y_mm, Z_mm[, C_rad]}, all of
+                one length (degree + 1); None = the motions converted from the summary (degree 5).
+
+        Returns:
+            {"deviations_um" (rows x columns grid in um, positive = material left on, None where
+            the cutter does not reach), "not_reached", "reached", "rows", "columns", "points"
+            (cone distance mm, polar angle deg, roll deg, position mm, normal), "motion", "job"}.
+        """
+        return self._request("POST", "/api/v1/bevel/evaluate", _with_optional({"job": job}, motion=motion))
+
+    def bevel_axis_sensitivity(self, job: Json, motion: Optional[Json] = None,
+                               linear_error_mm: Optional[float] = None,
+                               angular_error_deg: Optional[float] = None,
+                               exact: Optional[bool] = None) -> Json:
+        """POST /api/v1/bevel/axis-sensitivity: the flank error each axis error causes, ranked.
+
+        Args:
+            job: the pinion flank (as in bevel_conversion).
+            motion: the axis polynomials to perturb; None = the converted ones.
+            linear_error_mm: the offset of X, Y, Z in mm (server default 0.01).
+            angular_error_deg: the offset of A, B in degrees (server default 0.01).
+            exact: also re-evaluate the exact model with each offset (server default True).
+
+        Returns:
+            {"offsets", "coefficients" (one row per parameter: max_abs_um, rms_um, grid_um, ...),
+            "offset_ranking", "coefficient_ranking" (largest rms flank error first), ...}.
+        """
+        errors = _with_optional({}, linear_error_mm=linear_error_mm, angular_error_deg=angular_error_deg,
+                                exact=exact)
+        body = _with_optional({"job": job}, motion=motion)
+        if errors:
+            body["errors"] = errors
+        return self._request("POST", "/api/v1/bevel/axis-sensitivity", body)
+
+    def create_bevel_correction(self, job: Json, measurement: Json, motion: Optional[Json] = None,
+                                target: Optional[Json] = None, options: Optional[Json] = None,
+                                settings_source_job_id: Optional[int] = None) -> Json:
+        """POST /api/v1/corrections with machine.kind "free-form-bevel-generator": a correction of
+        the free-form axis polynomials from a measured pinion flank, stored as a job.
+
+        Args:
+            job: the pinion flank (as in bevel_conversion); its grid gives the measurement's shape.
+            measurement: {"deviations_um": grid in um} or {"teeth": [grids]}, None where a point
+                was not delivered.
+            motion: the axis polynomials the measured pinion was cut with; None = the converted ones.
+            target: {"deviations_um": grid in um} to aim at (default all 0).
+            options: correction options as the grinder's (blocks A, B, X, Y, Z), e.g.
+                {"default_max_order": 2, "probe_noise_um": 0.2}.
+            settings_source_job_id: the stored job whose motion the pinion was cut with (lineage).
+
+        Returns:
+            The stored job {"id", "kind", "status", "result"}; result holds "motion" (the corrected
+            polynomials), "delta", "commanded_motion", "predicted_residual_um", "residual_rms_um"
+            (um), "axis_motion" (A, B in urad, X, Y, Z in um), "status", ...
+        """
+        body = _with_optional({"machine": {"kind": BEVEL_MACHINE_KIND}, "job": job, "measurement": measurement},
+                              motion=motion, target=target, options=options,
+                              settings_source_job_id=settings_source_job_id)
+        return self._request("POST", "/api/v1/corrections", body)
+
+    def simulate_bevel_measurement(self, job: Json, motion: Optional[Json] = None,
+                                   hidden_errors: Optional[Json] = None, noise_um: Optional[float] = None,
+                                   seed: Optional[int] = None, **extra: Any) -> Json:
+        """POST /api/v1/simulations/measurement for a pinion cut by the free-form generator.
+
+        Args:
+            job: the pinion flank (as in bevel_conversion).
+            motion: the commanded axis polynomials; None = the converted ones.
+            hidden_errors: coefficient errors of the machine's axes, added to what it is commanded:
+                {"A_rad": [...], "B_rad": [...], "X_mm": [...], "Y_mm": [...], "Z_mm": [...]} (a
+                shorter array is padded with 0).
+            noise_um: the probe noise's standard deviation in um (server default 0).
+            seed: the noise's seed (server default 1).
+            **extra: teeth, outlier_probability, outlier_size_um (um), missing_probability.
+
+        Returns:
+            {"measurement": {"deviations_um", ...}, "true_deviations_um", "outliers", "missing",
+            "not_reached", "hidden_errors", "motion", "machine_kind"}; grids in um.
+        """
+        body = _with_optional({"machine": {"kind": BEVEL_MACHINE_KIND}, "job": job}, motion=motion,
+                              hidden_errors=hidden_errors, noise_um=noise_um, seed=seed)
+        body.update(extra)
+        return self._request("POST", "/api/v1/simulations/measurement", body)
+
+    def simulate_bevel_closed_loop(self, job: Json, motion: Optional[Json] = None,
+                                   hidden_errors: Optional[Json] = None, noise_um: Optional[float] = None,
+                                   seed: Optional[int] = None, corrections: Optional[int] = None,
+                                   target: Optional[Json] = None, options: Optional[Json] = None,
+                                   store: Optional[bool] = None, **extra: Any) -> Json:
+        """POST /api/v1/simulations/closed-loop for the free-form generator: cut with the commanded
+        motion plus the hidden errors, measure, correct, cut again.
+
+        Args:
+            job, motion, hidden_errors, noise_um, seed, **extra: the scenario, as in
+                simulate_bevel_measurement.
+            corrections: how many corrections (1 to 20; server default 3): corrections + 1 parts.
+            target: {"deviations_um": grid in um} to aim at (default all 0).
+            options: correction options (as in create_bevel_correction); probe_noise_um defaults
+                to noise_um.
+            store: store each usable correction as a replayable job (kind "closed_loop"); needs a
+                write token when the server has tokens.
+
+        Returns:
+            {"machine_kind", "completed", "message", "hidden_errors", "iterations": [{"part",
+            "motion" (the commanded polynomials), "true_rms_um", "true_max_um", "measured_rms_um",
+            "true_error_um", "correction" (the solve's summary, None for the last part), "job_id"
+            (with store)}]}.
+        """
+        body = _with_optional({"machine": {"kind": BEVEL_MACHINE_KIND}, "job": job}, motion=motion,
+                              hidden_errors=hidden_errors, noise_um=noise_um, seed=seed,
+                              corrections=corrections, target=target, options=options, store=store)
+        body.update(extra)
+        return self._request("POST", "/api/v1/simulations/closed-loop", body)
 
 
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------

@@ -5,8 +5,8 @@ from __future__ import annotations
 import copy
 import unittest
 
-from gearloop_client import (Client, GearloopApiError, GearloopTransportError, format_csv_grid,
-                             read_csv_grid, read_measurement_file)
+from gearloop_client import (BEVEL_MACHINE_KIND, Client, GearloopApiError, GearloopTransportError,
+                             format_csv_grid, read_csv_grid, read_measurement_file)
 from server_fixture import EXAMPLES, RunningServer, example_json, free_port, write_token_file
 
 
@@ -122,6 +122,134 @@ class PythonClientTest(unittest.TestCase):
             client.health()
         with self.assertRaises(ValueError):
             Client("127.0.0.1:8080")
+
+
+def grid_rms(grid) -> float:
+    values = [v for row in grid for v in row if v is not None]
+    return (sum(v * v for v in values) / len(values)) ** 0.5
+
+
+class BevelClientTest(unittest.TestCase):
+    """The bevel_* methods against the real server, on the published pinion of Tang 2011."""
+
+    server: RunningServer
+    client: Client
+    job = {"side": "concave", "published": True}
+    # Hidden axis errors of the erring free-form machine: B swing 0.003 deg, X 8 um, Y drifting.
+    hidden = {"B_rad": [-0.003 * 3.141592653589793 / 180.0], "X_mm": [0.008], "Y_mm": [0.0, -0.02]}
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        cls.server = RunningServer().__enter__()
+        cls.client = Client(cls.server.url, timeout=120)
+
+    @classmethod
+    def tearDownClass(cls) -> None:
+        cls.server.__exit__(None, None, None)
+
+    def test_conversion_degree_and_tolerance(self) -> None:
+        converted = self.client.bevel_conversion(self.job, polynomial_degree=4)
+        self.assertEqual(converted["degree"], 4)
+        for axis in ("A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"):
+            self.assertEqual(len(converted["motion"][axis]), 5, axis)
+        self.assertEqual(len(converted["roll_range_deg"]), 2)
+        self.assertLess(converted["flank_distance"]["max_um"], 10.0)
+        # The tolerance picks the smallest degree that meets it.
+        fitted = self.client.bevel_conversion(self.job, max_flank_distance_um=1.0)
+        self.assertLessEqual(fitted["flank_distance"]["max_um"], 1.0)
+        self.assertGreaterEqual(fitted["degree"], 2)
+
+    def test_evaluate_converted_and_changed_motion(self) -> None:
+        converted = self.client.bevel_conversion(self.job)
+        evaluated = self.client.bevel_evaluate(self.job, converted["motion"])
+        grid = evaluated["deviations_um"]
+        self.assertEqual((len(grid), len(grid[0])), (evaluated["rows"], evaluated["columns"]))
+        self.assertLess(grid_rms(grid), 1.0)  # the converted motion cuts the cradle flank
+        self.assertEqual(self.client.bevel_evaluate(self.job)["deviations_um"], grid)  # default: converted
+        moved = dict(converted["motion"])
+        moved["X_mm"] = [moved["X_mm"][0] + 0.01] + moved["X_mm"][1:]
+        self.assertGreater(grid_rms(self.client.bevel_evaluate(self.job, moved)["deviations_um"]), 1.0)
+
+    def test_axis_sensitivity_ranks_axes(self) -> None:
+        table = self.client.bevel_axis_sensitivity(self.job, linear_error_mm=0.01, angular_error_deg=0.01,
+                                                   exact=False)
+        self.assertEqual(sorted(table["offset_ranking"]), ["A", "B", "X", "Y", "Z"])
+        self.assertEqual(len(table["offsets"]), 5)
+        top = next(row for row in table["offsets"] if row["axis"] == table["offset_ranking"][0])
+        self.assertGreater(top["rms_um"], 0.0)
+
+    def test_measure_correct_recut(self) -> None:
+        cmm = self.client.simulate_bevel_measurement(self.job, hidden_errors=self.hidden, noise_um=0.2, seed=5)
+        self.assertEqual(cmm["machine_kind"], BEVEL_MACHINE_KIND)
+        true_rms = grid_rms(cmm["true_deviations_um"])
+        self.assertGreater(true_rms, 1.0)
+        job = self.client.create_bevel_correction(self.job, cmm["measurement"],
+                                                  options={"default_max_order": 2, "probe_noise_um": 0.2})
+        self.assertIsInstance(job["id"], int)
+        result = job["result"]
+        self.assertEqual(result["machine_kind"], BEVEL_MACHINE_KIND)
+        self.assertEqual(result["side"], "concave")
+        self.assertIn(result["status"], ("converged", "not_converged"))
+        self.assertEqual(len(result["motion"]["A_rad"]), len(result["delta"]["A_rad"]))
+        # The same erring machine cuts the next pinion with the corrected motion.
+        recut = self.client.simulate_bevel_measurement(self.job, motion=result["motion"], hidden_errors=self.hidden)
+        self.assertLess(grid_rms(recut["true_deviations_um"]), 0.1 * true_rms)
+        # A bevel job is stored, fetched and replayed like any other.
+        stored = self.client.get_correction(job["id"])
+        self.assertEqual(stored["machine_kind"], BEVEL_MACHINE_KIND)
+        self.assertEqual(stored["flank"], "concave")
+        replay = self.client.replay(job["id"], options={"default_max_order": 1})
+        self.assertEqual(replay["parent_job_id"], job["id"])
+        self.assertEqual(replay["result"]["machine_kind"], BEVEL_MACHINE_KIND)
+
+    def test_closed_loop_stores_linked_jobs(self) -> None:
+        loop = self.client.simulate_bevel_closed_loop(self.job, hidden_errors=self.hidden, noise_um=0.2, seed=11,
+                                                      corrections=2, options={"default_max_order": 2}, store=True)
+        self.assertEqual(loop["machine_kind"], BEVEL_MACHINE_KIND)
+        self.assertTrue(loop["completed"])
+        iterations = loop["iterations"]
+        self.assertEqual(len(iterations), 3)
+        self.assertLess(iterations[-1]["true_rms_um"], 0.1 * iterations[0]["true_rms_um"])
+        self.assertIsNone(iterations[-1]["correction"])
+        self.assertIn("A_rad", iterations[0]["motion"])
+        second = self.client.get_correction(iterations[1]["job_id"])
+        self.assertEqual(second["kind"], "closed_loop")
+        self.assertEqual(second["settings_source_job_id"], iterations[0]["job_id"])
+
+    def test_errors_carry_field_and_message(self) -> None:
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.bevel_conversion({"side": "sideways", "published": True})
+        self.assertIn(caught.exception.status, (400, 422))
+        self.assertEqual(caught.exception.field, "job.side")
+        self.assertTrue(caught.exception.message)
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.bevel_conversion(self.job, polynomial_degree=40)
+        self.assertEqual((caught.exception.status, caught.exception.code), (422, "invalid_value"))
+        self.assertEqual(caught.exception.field, "options.polynomial_degree")
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.bevel_evaluate(self.job, {"A_rad": [0.0], "B_rad": [0.0]})
+        self.assertEqual(caught.exception.status, 400)
+        self.assertTrue(caught.exception.field.startswith("motion"), caught.exception.field)
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.bevel_axis_sensitivity(self.job, linear_error_mm=-1)
+        self.assertEqual(caught.exception.status, 422)
+        self.assertEqual(caught.exception.field, "errors.linear_error_mm")
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.create_bevel_correction(self.job, {"deviations_um": [[1.0, 2.0, 3.0]]})
+        self.assertEqual(caught.exception.status, 400)
+        self.assertTrue(caught.exception.field.startswith("measurement"), caught.exception.field)
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.simulate_bevel_measurement(self.job, noise_um=-1)
+        self.assertEqual((caught.exception.status, caught.exception.field), (422, "noise_um"))
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.simulate_bevel_closed_loop(self.job, corrections=0)
+        self.assertEqual((caught.exception.status, caught.exception.field), (422, "corrections"))
 
 
 class TokenTest(unittest.TestCase):
