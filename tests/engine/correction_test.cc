@@ -277,6 +277,17 @@ TEST(ComputeCorrection, NoiseFreeLoopReachesTheBestOnFourGears) {
 // floor on 92-96 of 100 seeds (BENCHMARKS.md, "Noise floor"): most of that target is out of
 // reach (1.53 of 8.2 um), and the part of it that leaks into the reachable directions as the
 // machine state moves adds to the noise.
+//
+// Under ASan/UBSan (ten times slower; 9 minutes for 400 loops) the same loops run for 10 seeds
+// and 9 of them must stay within the floor: that build checks memory and undefined behaviour,
+// the Release suite checks the statistics.
+#ifdef GEARLOOP_SANITIZED_BUILD
+constexpr int kNoiseSeeds = 10;
+constexpr int kNoiseSeedsWithinFloor = 9;
+#else
+constexpr int kNoiseSeeds = 100;
+constexpr int kNoiseSeedsWithinFloor = 95;
+#endif
 TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
   const double sigma_um = 0.5;
   std::vector<LoopCase> cases = LoopCases();
@@ -302,7 +313,7 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
     const double r = ComputeCorrection(exact, input).summary.best_reachable_rms_um;
 
     int within = 0;
-    for (int seed = 1; seed <= 100; ++seed) {
+    for (int seed = 1; seed <= kNoiseSeeds; ++seed) {
       ClosedLoopOptions loop;
       loop.corrections = 2;
       loop.measurement.probe_noise_um = sigma_um;
@@ -314,7 +325,7 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
       if (run.iterations.back().true_rms_um <= testing::NoiseFloorUm(r, sigma_um, k, n)) ++within;
     }
     RecordProperty(std::string("seeds_within_noise_floor_") + c.name, within);
-    EXPECT_GE(within, 95) << c.name;
+    EXPECT_GE(within, kNoiseSeedsWithinFloor) << c.name << ": " << within << " of " << kNoiseSeeds;
   }
 }
 
