@@ -385,6 +385,9 @@
       ["solver, mode", (r.solver || "\u2013") + ", " + (r.mode || "\u2013")],
       ["rank, condition", (r.rank === undefined ? "\u2013" : r.rank) + ", " + fmt(r.condition_number, 1)],
       ["regularisation", r.regularisation ? r.regularisation.rule + " " + fmt(r.regularisation.level, 4) : "\u2013"],
+      ["linearised at", !r.machine_state ? "\u2013" : r.machine_state.estimated
+        ? "estimated machine state (size " + fmt(r.machine_state.size, 1) + ", misfit rms " + fmt(r.machine_state.misfit_rms_um, 3) + " \u00b5m)"
+        : "commanded settings"],
       ["iterations, time", (r.iterations === undefined ? "\u2013" : r.iterations) + ", " + fmt(r.elapsed_ms, 1) + " ms"],
     ];
     if (setupRows) rows.splice(2, 2, ...setupRows);

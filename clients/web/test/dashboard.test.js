@@ -147,6 +147,9 @@ async function main() {
     const curves = await page.$$eval("svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
     check("axis corrections drawn as curves", ["X", "Y", "Z", "A", "B", "C"].every((a) => curves.includes(a)), JSON.stringify(curves));
     check("convergence plot present", (await page.$$("svg.convergence")).length === 1);
+    const summary = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent]));
+    const linearised = summary.find((row) => row[0] === "linearised at");
+    check("summary says where the correction was linearised", linearised !== undefined && /^estimated machine state \(size /.test(linearised[1]), JSON.stringify(linearised));
     const motionRows = await page.$$eval("table.axis-motion tr[data-axis]", (trs) =>
       trs.map((tr) => ({ axis: tr.getAttribute("data-axis"), cells: Array.from(tr.querySelectorAll("td")).map((td) => td.textContent) }))
     );
