@@ -693,7 +693,7 @@ CorrectionResult SolveCorrection(const CorrectionOptions& options, const Correct
     // refinement well posed when the target is out of reach (lambda = 0 lets
     // Levenberg-Marquardt crawl along directions whose linear effect is tiny), at the cost of
     // fitting the weakest kept direction (sigma = 0.067 for N = 45) to about 86% per
-    // correction. With a known sigma > 0 the discrepancy principle alone decides.
+    // correction. With a known sigma > 0 the rule (UPRE or the discrepancy principle) alone decides.
     if (rank > 0 && !(options.probe_noise_um > 0.0)) {
       ls.lambda = std::max(ls.lambda, options.min_relative_regularisation * sigma1);
     }

@@ -189,8 +189,8 @@ struct CorrectionOptions {
 
   // Floor of the Tikhonov level lambda, relative to the largest singular value of the scaled S
   // (0 = none), for exact data (probe_noise_um = 0) and GCV: there lambda >=
-  // min_relative_regularisation * sigma_1. With a known noise > 0 the discrepancy principle
-  // alone decides.
+  // min_relative_regularisation * sigma_1. With a known noise > 0 the rule alone decides
+  // (unbiased predictive risk, or the discrepancy principle on request).
   double min_relative_regularisation = 1e-3;
 
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
