@@ -10,6 +10,7 @@
 #include <ceres/jet.h>
 
 #include "engine/bevel_kinematics.h"
+#include "engine/damped_newton.h"
 
 namespace gearloop {
 namespace {
@@ -228,32 +229,25 @@ BevelContact CradleGenerator::SolveFlankPoint(double cone_distance_mm, double po
   const Eigen::Vector3d step_scale(1.0, job_.cutter.point_radius_mm, lever_mm);
   Eigen::Vector3d x = start;
   BevelContact contact;
-  bool converged = false;
-  int iteration = 0;
-  for (; iteration < options_.max_iterations; ++iteration) {
-    const Jet3 u(x(0), 0), theta(x(1), 1), t(x(2), 2);
-    bevel_internal::Vec3<Jet3> r1, n1;
-    Jet3 f;
-    CradleLocal<Jet3>(k, c, u, theta, t, &r1, &n1, &f);
-    const Jet3 radial = ceres::sqrt(r1(1) * r1(1) + r1(2) * r1(2));
-    const Jet3 g[3] = {f, r1.norm() - cone_distance_mm, cone_distance_mm * (ceres::atan2(radial, r1(0)) - polar_angle_rad)};
-    Eigen::Vector3d value;
-    Eigen::Matrix3d jacobian;
-    for (int i = 0; i < 3; ++i) {
-      value(i) = g[i].a;
-      jacobian.row(i) = g[i].v.transpose();
-    }
-    const Eigen::Vector3d dx = jacobian.partialPivLu().solve(-value);
-    if (!dx.allFinite()) break;
-    const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
-    x += (step_mm > options_.max_step_mm ? options_.max_step_mm / step_mm : 1.0) * dx;
-    if (step_mm < options_.step_tolerance_mm) {
-      converged = true;
-      ++iteration;
-      break;
-    }
-  }
-  contact.iterations = iteration;
+  const engine_internal::DampedNewtonSummary newton = engine_internal::DampedNewton<3>(
+      engine_internal::DampedNewtonOptions{options_.max_iterations, options_.step_tolerance_mm, options_.max_step_mm},
+      step_scale,
+      [&](const Eigen::Vector3d& x, Eigen::Vector3d* value, Eigen::Matrix3d* jacobian) {
+        const Jet3 u(x(0), 0), theta(x(1), 1), t(x(2), 2);
+        bevel_internal::Vec3<Jet3> r1, n1;
+        Jet3 f;
+        CradleLocal<Jet3>(k, c, u, theta, t, &r1, &n1, &f);
+        const Jet3 radial = ceres::sqrt(r1(1) * r1(1) + r1(2) * r1(2));
+        const Jet3 g[3] = {
+            f, r1.norm() - cone_distance_mm, cone_distance_mm * (ceres::atan2(radial, r1(0)) - polar_angle_rad)};
+        for (int i = 0; i < 3; ++i) {
+          (*value)(i) = g[i].a;
+          jacobian->row(i) = g[i].v.transpose();
+        }
+      },
+      &x);
+  const bool converged = newton.converged;
+  contact.iterations = newton.num_iterations;
   contact.blade_u_mm = x(0);
   contact.cutter_theta_rad = x(1);
   contact.roll_rad = x(2);

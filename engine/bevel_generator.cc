@@ -9,6 +9,7 @@
 #include <ceres/jet.h>
 
 #include "engine/bevel_kinematics.h"
+#include "engine/damped_newton.h"
 
 namespace gearloop {
 namespace {
@@ -114,36 +115,30 @@ BevelContact BevelFreeFormGenerator::SolveContact(const FreeFormMotion& motion, 
   }
   Eigen::Vector4d x(point.contact.blade_u_mm, theta0, point.contact.roll_rad, 0.0);
   BevelContact contact;
-  bool converged = false;
-  int iteration = 0;
-  for (; iteration < options_.max_iterations; ++iteration) {
-    const Jet3 u(x(0), 0), theta(x(1), 1), t(x(2), 2);
-    Jet3 value[kNumFreeFormAxes], rate[kNumFreeFormAxes];
-    MotionState(motion, t, value, rate);
-    Vec3<Jet3> r1, n1;
-    Jet3 f;
-    FreeFormLocal<Jet3>(c, u, theta, value, rate, &r1, &n1, &f);
-    Eigen::Vector4d g;
-    Eigen::Matrix4d jacobian;
-    for (int i = 0; i < 3; ++i) {
-      g(i) = r1(i).a - point.position_mm(i) - x(3) * point.normal(i);
-      jacobian.block<1, 3>(i, 0) = r1(i).v.transpose();
-      jacobian(i, 3) = -point.normal(i);
-    }
-    g(3) = f.a;
-    jacobian.block<1, 3>(3, 0) = f.v.transpose();
-    jacobian(3, 3) = 0.0;
-    const Eigen::Vector4d dx = jacobian.partialPivLu().solve(-g);
-    if (!dx.allFinite()) break;
-    const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
-    x += (step_mm > options_.max_step_mm ? options_.max_step_mm / step_mm : 1.0) * dx;
-    if (step_mm < options_.step_tolerance_mm) {
-      converged = true;
-      ++iteration;
-      break;
-    }
-  }
-  contact.iterations = iteration;
+  // Unknowns (u, theta, t, lambda): the cutter point at (u, theta, t) lies on the normal line of
+  // the grid point at lambda and satisfies the meshing equation.
+  const engine_internal::DampedNewtonSummary newton = engine_internal::DampedNewton<4>(
+      engine_internal::DampedNewtonOptions{options_.max_iterations, options_.step_tolerance_mm, options_.max_step_mm},
+      step_scale,
+      [&](const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d* jacobian) {
+        const Jet3 u(x(0), 0), theta(x(1), 1), t(x(2), 2);
+        Jet3 value[kNumFreeFormAxes], rate[kNumFreeFormAxes];
+        MotionState(motion, t, value, rate);
+        Vec3<Jet3> r1, n1;
+        Jet3 f;
+        FreeFormLocal<Jet3>(c, u, theta, value, rate, &r1, &n1, &f);
+        for (int i = 0; i < 3; ++i) {
+          (*g)(i) = r1(i).a - point.position_mm(i) - x(3) * point.normal(i);
+          jacobian->block<1, 3>(i, 0) = r1(i).v.transpose();
+          (*jacobian)(i, 3) = -point.normal(i);
+        }
+        (*g)(3) = f.a;
+        jacobian->block<1, 3>(3, 0) = f.v.transpose();
+        (*jacobian)(3, 3) = 0.0;
+      },
+      &x);
+  const bool converged = newton.converged;
+  contact.iterations = newton.num_iterations;
   contact.blade_u_mm = x(0);
   contact.cutter_theta_rad = x(1);
   contact.roll_rad = x(2);

@@ -7,6 +7,8 @@
 #include <Eigen/LU>
 #include <ceres/jet.h>
 
+#include "engine/damped_newton.h"
+
 namespace gearloop {
 namespace {
 
@@ -291,26 +293,15 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
   Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
   const double r_j = setup_.gear.PitchRadiusMm();
   const Eigen::Vector4d step_scale(1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
-  Eigen::Vector4d g;
-  Eigen::Matrix4d jacobian;
-  bool converged = false;
-  int iteration = 0;
-  for (; iteration < options_.max_iterations; ++iteration) {
-    SystemAndJacobian(settings, c, point, x, &g, &jacobian);
-    const Eigen::Vector4d dx = jacobian.partialPivLu().solve(-g);
-    if (!dx.allFinite()) break;
-    const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
-    const double shrink = step_mm > options_.max_step_mm ? options_.max_step_mm / step_mm : 1.0;
-    x += shrink * dx;
-    // Newton converges quadratically: once a full step is below the tolerance, the error left
-    // after it is far below it.
-    if (step_mm < options_.step_tolerance_mm) {
-      converged = true;
-      ++iteration;
-      break;
-    }
-  }
-  contact.iterations = iteration;
+  const engine_internal::DampedNewtonSummary newton = engine_internal::DampedNewton<4>(
+      engine_internal::DampedNewtonOptions{options_.max_iterations, options_.step_tolerance_mm, options_.max_step_mm},
+      step_scale,
+      [&](const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d* jacobian) {
+        SystemAndJacobian(settings, c, point, x, g, jacobian);
+      },
+      &x);
+  const bool converged = newton.converged;
+  contact.iterations = newton.num_iterations;
   contact.wheel_u_mm = x(0);
   contact.wheel_phi_rad = x(1);
   contact.roll_rad = x(2);
