@@ -64,6 +64,52 @@ bool NumberFromJson(const nlohmann::json& value, const std::string& path, double
   return true;
 }
 
+bool IntegerFromJson(const nlohmann::json& v, const std::string& field, long long* value, ApiError* error) {
+  if (v.is_number_integer()) {
+    // Unsigned values above the signed range arrive as number_unsigned.
+    if (v.is_number_unsigned() && v.get<unsigned long long>() > 1000000000ULL) {
+      *error = InvalidValue(field, field + " is far too large");
+      return false;
+    }
+    *value = v.get<long long>();
+    return true;
+  }
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    // 37.0 is 37; 37.5 is not a count.
+    if (std::isfinite(d) && d == std::floor(d) && std::fabs(d) <= 1e9) {
+      *value = static_cast<long long>(d);
+      return true;
+    }
+    *error = InvalidRequest(field, field + " must be an integer");
+    return false;
+  }
+  *error = InvalidRequest(field, field + " must be an integer, got " + TypeName(v));
+  return false;
+}
+
+// Shared head of the Read* functions: sets *found (if given) to whether `key` is present; an
+// absent optional field leaves the value at its default and succeeds, an absent required one
+// fails with "missing required field". A present one goes to read_value(value, field).
+template <typename ReadValue>
+bool ReadField(const nlohmann::json& object,
+               const std::string& path,
+               const char* key,
+               bool required,
+               ApiError* error,
+               bool* found,
+               const ReadValue& read_value) {
+  const std::string field = JoinPath(path, key);
+  const bool present = object.contains(key);
+  if (found != nullptr) *found = present;
+  if (!present) {
+    if (!required) return true;
+    *error = InvalidRequest(field, "missing required field " + field);
+    return false;
+  }
+  return read_value(object.at(key), field);
+}
+
 bool ReadRange(const nlohmann::json& object,
                const std::string& path,
                const char* key,
@@ -83,20 +129,16 @@ bool ReadRange(const nlohmann::json& object,
 
 bool RequireObject(const nlohmann::json& request, const std::string& path, const char* key, bool required,
                    const nlohmann::json** out, ApiError* error) {
-  const std::string field = JoinPath(path, key);
   *out = nullptr;
-  if (!request.contains(key)) {
-    if (!required) return true;
-    *error = InvalidRequest(field, "missing required field " + field);
-    return false;
-  }
-  const nlohmann::json& value = request.at(key);
-  if (!value.is_object()) {
-    *error = InvalidRequest(field, field + " must be an object, got " + TypeName(value));
-    return false;
-  }
-  *out = &value;
-  return true;
+  return ReadField(request, path, key, required, error, /*found=*/nullptr,
+                   [&](const nlohmann::json& value, const std::string& field) {
+                     if (!value.is_object()) {
+                       *error = InvalidRequest(field, field + " must be an object, got " + TypeName(value));
+                       return false;
+                     }
+                     *out = &value;
+                     return true;
+                   });
 }
 
 }  // namespace
@@ -147,87 +189,40 @@ bool ParseJsonBody(const std::string& text, nlohmann::json* body, ApiError* erro
 
 bool ReadNumber(const nlohmann::json& object, const std::string& path, const char* key, bool required, double* value,
                 ApiError* error, bool* found) {
-  const std::string field = JoinPath(path, key);
-  const bool present = object.contains(key);
-  if (found != nullptr) *found = present;
-  if (!present) {
-    if (!required) return true;
-    *error = InvalidRequest(field, "missing required field " + field);
-    return false;
-  }
-  return NumberFromJson(object.at(key), field, value, error);
+  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
+    return NumberFromJson(v, field, value, error);
+  });
 }
 
 bool ReadInteger(const nlohmann::json& object, const std::string& path, const char* key, bool required,
                  long long* value, ApiError* error, bool* found) {
-  const std::string field = JoinPath(path, key);
-  const bool present = object.contains(key);
-  if (found != nullptr) *found = present;
-  if (!present) {
-    if (!required) return true;
-    *error = InvalidRequest(field, "missing required field " + field);
-    return false;
-  }
-  const nlohmann::json& v = object.at(key);
-  if (v.is_number_integer()) {
-    // Unsigned values above the signed range arrive as number_unsigned.
-    if (v.is_number_unsigned() && v.get<unsigned long long>() > 1000000000ULL) {
-      *error = InvalidValue(field, field + " is far too large");
-      return false;
-    }
-    *value = v.get<long long>();
-    return true;
-  }
-  if (v.is_number_float()) {
-    const double d = v.get<double>();
-    // 37.0 is 37; 37.5 is not a count.
-    if (std::isfinite(d) && d == std::floor(d) && std::fabs(d) <= 1e9) {
-      *value = static_cast<long long>(d);
-      return true;
-    }
-    *error = InvalidRequest(field, field + " must be an integer");
-    return false;
-  }
-  *error = InvalidRequest(field, field + " must be an integer, got " + TypeName(v));
-  return false;
+  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
+    return IntegerFromJson(v, field, value, error);
+  });
 }
 
 bool ReadString(const nlohmann::json& object, const std::string& path, const char* key, bool required,
                 std::string* value, ApiError* error, bool* found) {
-  const std::string field = JoinPath(path, key);
-  const bool present = object.contains(key);
-  if (found != nullptr) *found = present;
-  if (!present) {
-    if (!required) return true;
-    *error = InvalidRequest(field, "missing required field " + field);
-    return false;
-  }
-  const nlohmann::json& v = object.at(key);
-  if (!v.is_string()) {
-    *error = InvalidRequest(field, field + " must be a string, got " + TypeName(v));
-    return false;
-  }
-  *value = v.get<std::string>();
-  return true;
+  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
+    if (!v.is_string()) {
+      *error = InvalidRequest(field, field + " must be a string, got " + TypeName(v));
+      return false;
+    }
+    *value = v.get<std::string>();
+    return true;
+  });
 }
 
 bool ReadBool(const nlohmann::json& object, const std::string& path, const char* key, bool required, bool* value,
               ApiError* error, bool* found) {
-  const std::string field = JoinPath(path, key);
-  const bool present = object.contains(key);
-  if (found != nullptr) *found = present;
-  if (!present) {
-    if (!required) return true;
-    *error = InvalidRequest(field, "missing required field " + field);
-    return false;
-  }
-  const nlohmann::json& v = object.at(key);
-  if (!v.is_boolean()) {
-    *error = InvalidRequest(field, field + " must be true or false, got " + TypeName(v));
-    return false;
-  }
-  *value = v.get<bool>();
-  return true;
+  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
+    if (!v.is_boolean()) {
+      *error = InvalidRequest(field, field + " must be true or false, got " + TypeName(v));
+      return false;
+    }
+    *value = v.get<bool>();
+    return true;
+  });
 }
 
 std::string ApiFieldPath(const std::string& engine_field) {
