@@ -161,9 +161,7 @@ class SqliteJobRepository : public JobRepository {
     std::lock_guard<std::mutex> lock(mutex_);
     StatementScope scope(stmt_read_job_);
     SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_read_job_, 1, id));
-    const int rc = sqlite3_step(stmt_read_job_);
-    SQLITE3_CALL(db_, rc);
-    if (rc != SQLITE_ROW) return std::nullopt;
+    if (!StepRow(stmt_read_job_)) return std::nullopt;
     return ReadJobColumns(stmt_read_job_, /*with_documents=*/true);
   }
 
@@ -171,9 +169,7 @@ class SqliteJobRepository : public JobRepository {
     std::lock_guard<std::mutex> lock(mutex_);
     StatementScope scope(stmt_job_exists_);
     SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_job_exists_, 1, id));
-    const int rc = sqlite3_step(stmt_job_exists_);
-    SQLITE3_CALL(db_, rc);
-    return rc == SQLITE_ROW;
+    return StepRow(stmt_job_exists_);
   }
 
   JobPage ListJobs(const JobFilter& filter) override {
@@ -182,8 +178,7 @@ class SqliteJobRepository : public JobRepository {
     {
       StatementScope scope(stmt_count_filtered_jobs_);
       BindFilter(stmt_count_filtered_jobs_, filter);
-      const int rc = sqlite3_step(stmt_count_filtered_jobs_);
-      SQLITE3_CALL(db_, rc);
+      SQLITE3_CALL(db_, sqlite3_step(stmt_count_filtered_jobs_));
       page.total = sqlite3_column_int64(stmt_count_filtered_jobs_, 0);
     }
     StatementScope scope(stmt_list_jobs_);
@@ -191,10 +186,7 @@ class SqliteJobRepository : public JobRepository {
     const int limit = filter.limit < 1 ? 1 : (filter.limit > 1000 ? 1000 : filter.limit);
     SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 8, limit));
     SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 9, filter.offset < 0 ? 0 : filter.offset));
-    while (true) {
-      const int rc = sqlite3_step(stmt_list_jobs_);
-      SQLITE3_CALL(db_, rc);
-      if (rc != SQLITE_ROW) break;
+    while (StepRow(stmt_list_jobs_)) {
       page.jobs.push_back(ReadJobColumns(stmt_list_jobs_, /*with_documents=*/false));
     }
     return page;
@@ -212,10 +204,7 @@ class SqliteJobRepository : public JobRepository {
     std::vector<JobRecord> jobs;
     StatementScope scope(stmt_read_lineage_);
     SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_read_lineage_, 1, id));
-    while (true) {
-      const int rc = sqlite3_step(stmt_read_lineage_);
-      SQLITE3_CALL(db_, rc);
-      if (rc != SQLITE_ROW) break;
+    while (StepRow(stmt_read_lineage_)) {
       jobs.push_back(ReadJobColumns(stmt_read_lineage_, /*with_documents=*/false));
     }
     return jobs;
@@ -261,10 +250,7 @@ class SqliteJobRepository : public JobRepository {
       SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_complete_batch_item_, 1, job_id));
       SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_complete_batch_item_, 2, batch_id));
       SQLITE3_CALL(db_, sqlite3_bind_int(stmt_complete_batch_item_, 3, index));
-      SQLITE3_CALL(db_, sqlite3_step(stmt_complete_batch_item_));
-      if (sqlite3_changes(db_) != 1) {
-        throw StorageError("batch " + std::to_string(batch_id) + " has no pending item " + std::to_string(index));
-      }
+      StepPendingItemUpdate(stmt_complete_batch_item_, batch_id, index);
     }
     UpdateBatchCounters(batch_id);
     transaction.Commit();
@@ -283,10 +269,7 @@ class SqliteJobRepository : public JobRepository {
       SQLITE3_CALL(db_, sqlite3_bind_text(s, 4, error.error_field.c_str(), -1, SQLITE_TRANSIENT));
       SQLITE3_CALL(db_, sqlite3_bind_int64(s, 5, batch_id));
       SQLITE3_CALL(db_, sqlite3_bind_int(s, 6, index));
-      SQLITE3_CALL(db_, sqlite3_step(s));
-      if (sqlite3_changes(db_) != 1) {
-        throw StorageError("batch " + std::to_string(batch_id) + " has no pending item " + std::to_string(index));
-      }
+      StepPendingItemUpdate(s, batch_id, index);
     }
     UpdateBatchCounters(batch_id);
     transaction.Commit();
@@ -298,9 +281,7 @@ class SqliteJobRepository : public JobRepository {
     {
       StatementScope scope(stmt_read_batch_);
       SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_read_batch_, 1, id));
-      const int rc = sqlite3_step(stmt_read_batch_);
-      SQLITE3_CALL(db_, rc);
-      if (rc != SQLITE_ROW) return std::nullopt;
+      if (!StepRow(stmt_read_batch_)) return std::nullopt;
       batch.id = sqlite3_column_int64(stmt_read_batch_, 0);
       batch.created_utc = ColumnText(stmt_read_batch_, 1);
       batch.finished_utc = ColumnText(stmt_read_batch_, 2);
@@ -312,10 +293,7 @@ class SqliteJobRepository : public JobRepository {
     if (!with_items) return batch;
     StatementScope scope(stmt_read_batch_items_);
     SQLITE3_CALL(db_, sqlite3_bind_int64(stmt_read_batch_items_, 1, id));
-    while (true) {
-      const int rc = sqlite3_step(stmt_read_batch_items_);
-      SQLITE3_CALL(db_, rc);
-      if (rc != SQLITE_ROW) break;
+    while (StepRow(stmt_read_batch_items_)) {
       BatchItemRecord item;
       item.index = sqlite3_column_int(stmt_read_batch_items_, 0);
       item.state = ParseBatchItemState(ColumnText(stmt_read_batch_items_, 1));
@@ -333,10 +311,7 @@ class SqliteJobRepository : public JobRepository {
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<PendingBatchItem> items;
     StatementScope scope(stmt_read_pending_items_);
-    while (true) {
-      const int rc = sqlite3_step(stmt_read_pending_items_);
-      SQLITE3_CALL(db_, rc);
-      if (rc != SQLITE_ROW) break;
+    while (StepRow(stmt_read_pending_items_)) {
       PendingBatchItem item;
       item.batch_id = sqlite3_column_int64(stmt_read_pending_items_, 0);
       item.index = sqlite3_column_int(stmt_read_pending_items_, 1);
@@ -538,7 +513,25 @@ class SqliteJobRepository : public JobRepository {
     statements_.clear();
   }
 
+  // Steps `statement` once: true when it yields a row, false when it is done; any other
+  // return code throws StorageError.
+  bool StepRow(sqlite3_stmt* statement) {
+    const int rc = sqlite3_step(statement);
+    SQLITE3_CALL(db_, rc);
+    return rc == SQLITE_ROW;
+  }
+
   // --- Writes (called with the mutex held, inside a transaction) ----------------------------
+  // Runs an UPDATE of the pending item `index` of batch `batch_id` (stmt_complete_batch_item_ or
+  // stmt_fail_batch_item_, bound): an item that is not pending, or does not exist, throws and
+  // so rolls the transaction back.
+  void StepPendingItemUpdate(sqlite3_stmt* statement, int64_t batch_id, int index) {
+    SQLITE3_CALL(db_, sqlite3_step(statement));
+    if (sqlite3_changes(db_) != 1) {
+      throw StorageError("batch " + std::to_string(batch_id) + " has no pending item " + std::to_string(index));
+    }
+  }
+
   int64_t InsertJob(const JobRecord& job) {
     sqlite3_stmt* s = stmt_insert_job_;
     StatementScope scope(s);
