@@ -539,42 +539,8 @@ bool ParseBevelSimulation(const nlohmann::json& body, BevelSetup* setup_out, Fre
       }
     }
   }
-  MeasurementSimulationOptions& m = *measurement;
-  long long seed = 1, teeth = 1;
-  if (!ReadNumber(body, "", "noise_um", false, &m.probe_noise_um, error) ||
-      !ReadInteger(body, "", "seed", false, &seed, error) ||
-      !ReadNumber(body, "", "outlier_probability", false, &m.outlier_probability, error) ||
-      !ReadNumber(body, "", "outlier_size_um", false, &m.outlier_size_um, error) ||
-      !ReadNumber(body, "", "missing_probability", false, &m.missing_probability, error) ||
-      !ReadInteger(body, "", "teeth", false, &teeth, error)) {
-    return false;
-  }
-  if (seed < 0) {
-    *error = InvalidValue("seed", "seed must not be negative");
-    return false;
-  }
-  if (teeth < 1 || teeth > 50) {
-    *error = InvalidValue("teeth", "teeth (measured per flank) must lie in [1, 50]");
-    return false;
-  }
-  if (!(m.probe_noise_um >= 0.0 && m.probe_noise_um <= 1e3)) {
-    *error = InvalidValue("noise_um", "noise_um must lie in [0, 1000]");
-    return false;
-  }
-  if (!(std::fabs(m.outlier_size_um) <= 1e4)) {
-    *error = InvalidValue("outlier_size_um", "outlier_size_um must lie within 1e4");
-    return false;
-  }
-  m.seed = static_cast<std::uint64_t>(seed);
-  m.teeth = static_cast<int>(teeth);
-  std::string message;
-  if (!m.IsValid(&message)) {
-    std::string field = message.substr(0, message.find(' '));
-    if (field == "probe_noise_um") field = "noise_um";
-    *error = InvalidValue(field, message);
-    return false;
-  }
-  return true;
+  // The bevel simulations take no outlier or missing point lists.
+  return ParseMeasurementSimulation(body, /*with_point_lists=*/false, /*rows=*/0, /*columns=*/0, measurement, error);
 }
 
 }  // namespace

@@ -191,16 +191,39 @@ bool ParseSimulationSetup(const nlohmann::json& body, std::unique_ptr<FlatWheelG
       !ParseRandomHiddenErrors(body.at("random_hidden_errors"), **grinder, &sim->hidden_errors, error)) {
     return false;
   }
-  MeasurementSimulationOptions& m = sim->measurement;
+  return ParseMeasurementSimulation(body, /*with_point_lists=*/true, rows, columns, &sim->measurement, error);
+}
+
+nlohmann::json PointsJson(const std::vector<int>& indices, int columns) {
+  nlohmann::json list = nlohmann::json::array();
+  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+  return list;
+}
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+bool ParseMeasurementSimulation(const nlohmann::json& body,
+                                bool with_point_lists,
+                                int rows,
+                                int columns,
+                                MeasurementSimulationOptions* measurement,
+                                ApiError* error) {
+  MeasurementSimulationOptions& m = *measurement;
   long long seed = 1, teeth = 1;
   if (!ReadNumber(body, "", "noise_um", false, &m.probe_noise_um, error) ||
       !ReadInteger(body, "", "seed", false, &seed, error) ||
       !ReadNumber(body, "", "outlier_probability", false, &m.outlier_probability, error) ||
       !ReadNumber(body, "", "outlier_size_um", false, &m.outlier_size_um, error) ||
       !ReadNumber(body, "", "missing_probability", false, &m.missing_probability, error) ||
-      !ReadInteger(body, "", "teeth", false, &teeth, error) ||
-      !ParsePointList(body, "outlier_points", rows, columns, &m.outlier_points, error) ||
-      !ParsePointList(body, "missing_points", rows, columns, &m.missing_points, error)) {
+      !ReadInteger(body, "", "teeth", false, &teeth, error)) {
+    return false;
+  }
+  if (with_point_lists && (!ParsePointList(body, "outlier_points", rows, columns, &m.outlier_points, error) ||
+                           !ParsePointList(body, "missing_points", rows, columns, &m.missing_points, error))) {
     return false;
   }
   if (seed < 0) {
@@ -211,11 +234,12 @@ bool ParseSimulationSetup(const nlohmann::json& body, std::unique_ptr<FlatWheelG
     *error = InvalidValue("teeth", "teeth (measured per flank) must lie in [1, 50]");
     return false;
   }
-  if (m.probe_noise_um < 0.0 || m.probe_noise_um > 1e3) {
+  // ReadNumber lets only finite numbers through; written so that a NaN would fail too.
+  if (!(m.probe_noise_um >= 0.0 && m.probe_noise_um <= 1e3)) {
     *error = InvalidValue("noise_um", "noise_um must lie in [0, 1000]");
     return false;
   }
-  if (std::fabs(m.outlier_size_um) > 1e4) {
+  if (!(std::fabs(m.outlier_size_um) <= 1e4)) {
     *error = InvalidValue("outlier_size_um", "outlier_size_um must lie within 1e4");
     return false;
   }
@@ -231,18 +255,6 @@ bool ParseSimulationSetup(const nlohmann::json& body, std::unique_ptr<FlatWheelG
   }
   return true;
 }
-
-nlohmann::json PointsJson(const std::vector<int>& indices, int columns) {
-  nlohmann::json list = nlohmann::json::array();
-  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
-  return list;
-}
-
-nlohmann::json FiniteOrNull(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
-}  // namespace
 
 bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
   std::unique_ptr<FlatWheelGrinder> grinder;

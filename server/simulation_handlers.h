@@ -30,6 +30,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "engine/measurement_simulator.h"
 #include "server/json_codec.h"
 #include "storage/job_repository.h"
 
@@ -38,6 +39,18 @@ namespace gearloop {
 // The simulated CMM grid: "measurement" {"deviations_um"} (null = missing), "teeth" (when more
 // than one), "true_deviations_um", "outliers", "missing", "not_reached", "hidden_errors".
 bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error);
+
+// The simulated probe of a measurement request, shared by the flat-wheel and the bevel
+// simulations: noise_um, seed, outlier_probability, outlier_size_um, missing_probability and
+// teeth into *measurement (absent fields keep its values, but seed and teeth default to 1),
+// and with `with_point_lists` also outlier_points and missing_points on the rows x columns
+// grid. Checks the values as MeasurementSimulationOptions::IsValid does, naming the API field.
+bool ParseMeasurementSimulation(const nlohmann::json& body,
+                                bool with_point_lists,
+                                int rows,
+                                int columns,
+                                MeasurementSimulationOptions* measurement,
+                                ApiError* error);
 
 struct ClosedLoopRun {
   // "completed", "message", "hidden_errors", "iterations": [{part, settings, true_rms_um,
