@@ -133,25 +133,37 @@ void GridShape(const json& request, int* rows, int* columns) {
   }
 }
 
+namespace {
+
+// Reads a CSV grid file of rows x columns um values (clients/cli/csv_grid.h) into
+// {"deviations_um": grid}; allow_missing: empty cells become null instead of an error.
+bool ReadCsvGridFile(const std::string& path, int rows, int columns, bool allow_missing, json* out,
+                     std::string* error) {
+  std::string text;
+  if (!ReadTextFile(path, &text, error)) return false;
+  CsvGridOptions options;
+  options.rows = rows;
+  options.columns = columns;
+  options.allow_missing = allow_missing;
+  CsvGrid grid;
+  CsvGridError csv_error;
+  if (!ParseCsvGrid(text, options, &grid, &csv_error)) {
+    *error = path + ": " + csv_error.ToString();
+    return false;
+  }
+  *out = {{"deviations_um", CsvGridToJson(grid)}};
+  return true;
+}
+
+}  // namespace
+
 // Reads a measurement file into the API's measurement object.
 //   *.csv   one grid (clients/cli/csv_grid.h)
 //   *.json  {"deviations_um": grid} or {"teeth": [grid, ...]}, or either inside "measurement"
 //           (clients/FORMATS.md); other members (part, tooth, machine, ...) are ignored
 bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* measurement, std::string* error) {
   if (HasExtension(path, ".csv")) {
-    std::string text;
-    if (!ReadTextFile(path, &text, error)) return false;
-    CsvGridOptions options;
-    options.rows = rows;
-    options.columns = columns;
-    CsvGrid grid;
-    CsvGridError csv_error;
-    if (!ParseCsvGrid(text, options, &grid, &csv_error)) {
-      *error = path + ": " + csv_error.ToString();
-      return false;
-    }
-    *measurement = {{"deviations_um", CsvGridToJson(grid)}};
-    return true;
+    return ReadCsvGridFile(path, rows, columns, /*allow_missing=*/true, measurement, error);
   }
   json file;
   if (!ReadJsonFile(path, &file, error)) return false;
@@ -189,20 +201,7 @@ bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* m
 // A target file: a complete grid (*.csv or JSON {"deviations_um"}) or JSON {"modifications"}.
 bool ReadTargetFile(const std::string& path, int rows, int columns, json* target, std::string* error) {
   if (HasExtension(path, ".csv")) {
-    std::string text;
-    if (!ReadTextFile(path, &text, error)) return false;
-    CsvGridOptions options;
-    options.rows = rows;
-    options.columns = columns;
-    options.allow_missing = false;
-    CsvGrid grid;
-    CsvGridError csv_error;
-    if (!ParseCsvGrid(text, options, &grid, &csv_error)) {
-      *error = path + ": " + csv_error.ToString();
-      return false;
-    }
-    *target = {{"deviations_um", CsvGridToJson(grid)}};
-    return true;
+    return ReadCsvGridFile(path, rows, columns, /*allow_missing=*/false, target, error);
   }
   json file;
   if (!ReadJsonFile(path, &file, error)) return false;
