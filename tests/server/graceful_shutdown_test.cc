@@ -102,6 +102,50 @@ nlohmann::json CorrectionRequest(int port) {
   return correction;
 }
 
+// A sustained write load: `num_clients` clients post the same correction in a loop until Stop()
+// or until the server stops answering, and collect the ids of the jobs acknowledged with 201.
+class CorrectionLoad {
+ public:
+  CorrectionLoad(int port, const std::string& body, int num_clients) {
+    for (int t = 0; t < num_clients; ++t) {
+      clients_.emplace_back([this, port, body] {
+        httplib::Client client("127.0.0.1", port);
+        client.set_read_timeout(30, 0);
+        while (!stop_) {
+          auto result = client.Post("/api/v1/corrections", body, "application/json");
+          if (!result) break;  // the server is gone
+          if (result->status == 201) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            acknowledged_.push_back(ParseBody(result)["id"].get<int64_t>());
+          }
+        }
+      });
+    }
+  }
+  ~CorrectionLoad() { Stop(); }
+  CorrectionLoad(const CorrectionLoad&) = delete;
+  CorrectionLoad& operator=(const CorrectionLoad&) = delete;
+
+  size_t NumAcknowledged() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return acknowledged_.size();
+  }
+  // Stops and joins the clients; the ids of every job acknowledged so far.
+  std::vector<int64_t> Stop() {
+    stop_ = true;
+    for (std::thread& thread : clients_) thread.join();
+    clients_.clear();
+    std::lock_guard<std::mutex> lock(mutex_);
+    return acknowledged_;
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::mutex mutex_;
+  std::vector<int64_t> acknowledged_;
+  std::vector<std::thread> clients_;
+};
+
 TEST(GracefulShutdown, AnswersInFlightRequestsAndExitsCleanly) {
   TempPath db;
   ServerProcess server(db.path(), FreePort());
@@ -140,32 +184,14 @@ TEST(GracefulShutdown, LosesNoAcknowledgedJobUnderLoad) {
   TempPath db;
   const int port = FreePort();
   std::vector<int64_t> acknowledged;
-  std::mutex mutex;
   {
     ServerProcess server(db.path(), port);
     ASSERT_TRUE(server.WaitReady());
-    const std::string body = CorrectionRequest(port).dump();
-    std::atomic<bool> stop{false};
-    std::vector<std::thread> clients;
-    for (int t = 0; t < 4; ++t) {
-      clients.emplace_back([&] {
-        httplib::Client client("127.0.0.1", port);
-        client.set_read_timeout(30, 0);
-        while (!stop) {
-          auto result = client.Post("/api/v1/corrections", body, "application/json");
-          if (!result) break;  // the server is gone
-          if (result->status == 201) {
-            std::lock_guard<std::mutex> lock(mutex);
-            acknowledged.push_back(ParseBody(result)["id"].get<int64_t>());
-          }
-        }
-      });
-    }
+    CorrectionLoad load(port, CorrectionRequest(port).dump(), /*num_clients=*/4);
     std::this_thread::sleep_for(std::chrono::milliseconds(400));
     server.Terminate();
     EXPECT_EQ(server.WaitExit(30.0), 0);
-    stop = true;
-    for (std::thread& thread : clients) thread.join();
+    acknowledged = load.Stop();
   }
   ASSERT_FALSE(acknowledged.empty());
   std::unique_ptr<JobRepository> repository = OpenJobRepository(db.path());
@@ -180,42 +206,20 @@ TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
   TempPath db;
   const int port = FreePort();
   std::vector<int64_t> acknowledged;
-  std::mutex mutex;
   {
     ServerProcess server(db.path(), port);
     ASSERT_TRUE(server.WaitReady());
-    const std::string body = CorrectionRequest(port).dump();
-    std::atomic<bool> stop{false};
-    std::vector<std::thread> clients;
-    for (int t = 0; t < 4; ++t) {
-      clients.emplace_back([&] {
-        httplib::Client client("127.0.0.1", port);
-        client.set_read_timeout(30, 0);
-        while (!stop) {
-          auto result = client.Post("/api/v1/corrections", body, "application/json");
-          if (!result) break;
-          if (result->status == 201) {
-            std::lock_guard<std::mutex> lock(mutex);
-            acknowledged.push_back(ParseBody(result)["id"].get<int64_t>());
-          }
-        }
-      });
-    }
+    CorrectionLoad load(port, CorrectionRequest(port).dump(), /*num_clients=*/4);
     // Kill once the load is sustained: at least 500 ms and 20 acknowledged jobs (an ASan build
     // of the server needs longer than 500 ms for its first answers; scripts/test runs both).
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (std::chrono::steady_clock::now() < deadline) {
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        if (acknowledged.size() >= 20) break;
-      }
+    while (std::chrono::steady_clock::now() < deadline && load.NumAcknowledged() < 20) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     server.Kill();
     EXPECT_EQ(server.WaitExit(10.0), 128 + SIGKILL);
-    stop = true;
-    for (std::thread& thread : clients) thread.join();
+    acknowledged = load.Stop();
   }
   ASSERT_FALSE(acknowledged.empty());
   // Restart the server on the same file: it opens, and every acknowledged job is served.
