@@ -552,34 +552,10 @@ bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer
   if (!ParseBevelSimulation(body, &setup, &hidden, &m, error)) return false;
   const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
   const SimulatedMeasurement cmm = SimulateMeasurement(generator, setup.motion.ToVector(), hidden.ToVector(), m);
-  const int rows = generator.GridRows();
-  const int columns = generator.GridColumns();
-  nlohmann::json not_reached = nlohmann::json::array();
-  for (size_t i = 0; i < cmm.status.size(); ++i) {
-    if (cmm.status[i] != PointStatus::kOk) {
-      not_reached.push_back({{"row", static_cast<int>(i) / columns},
-                             {"column", static_cast<int>(i) % columns},
-                             {"status", PointStatusName(cmm.status[i])}});
-    }
-  }
-  auto points = [columns](const std::vector<int>& indices) {
-    nlohmann::json list = nlohmann::json::array();
-    for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
-    return list;
-  };
-  *answer = {{"machine_kind", kFreeFormBevelGeneratorKind},
-             {"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
-             {"true_deviations_um", GridToJson(cmm.true_deviations_um, {}, rows, columns)},
-             {"outliers", points(cmm.outlier_indices)},
-             {"missing", points(cmm.missing_indices)},
-             {"not_reached", not_reached},
-             {"hidden_errors", FreeFormMotionToJson(hidden)},
-             {"motion", FreeFormMotionToJson(setup.motion)}};
-  if (cmm.teeth_um.size() > 1) {
-    nlohmann::json list = nlohmann::json::array();
-    for (const Eigen::VectorXd& tooth : cmm.teeth_um) list.push_back(GridToJson(tooth, {}, rows, columns));
-    (*answer)["measurement"]["teeth"] = list;
-  }
+  *answer = SimulatedMeasurementToJson(cmm, generator.GridRows(), generator.GridColumns());
+  (*answer)["machine_kind"] = kFreeFormBevelGeneratorKind;
+  (*answer)["hidden_errors"] = FreeFormMotionToJson(hidden);
+  (*answer)["motion"] = FreeFormMotionToJson(setup.motion);
   return true;
 }
 

@@ -256,14 +256,7 @@ bool ParseMeasurementSimulation(const nlohmann::json& body,
   return true;
 }
 
-bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  std::unique_ptr<FlatWheelGrinder> grinder;
-  SimulationSetup sim;
-  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
-  const int rows = grinder->GridRows();
-  const int columns = grinder->GridColumns();
-  const SimulatedMeasurement cmm =
-      SimulateMeasurement(*grinder, sim.commanded.ToVector(), sim.hidden_errors, sim.measurement);
+nlohmann::json SimulatedMeasurementToJson(const SimulatedMeasurement& cmm, int rows, int columns) {
   nlohmann::json not_reached = nlohmann::json::array();
   for (size_t i = 0; i < cmm.status.size(); ++i) {
     if (cmm.status[i] != PointStatus::kOk) {
@@ -272,18 +265,30 @@ bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, Api
                              {"status", PointStatusName(cmm.status[i])}});
     }
   }
-  *answer = {{"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
-             {"true_deviations_um", GridToJson(cmm.true_deviations_um, {}, rows, columns)},
-             {"outliers", PointsJson(cmm.outlier_indices, columns)},
-             {"missing", PointsJson(cmm.missing_indices, columns)},
-             {"not_reached", not_reached},
-             {"hidden_errors", MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors))},
-             {"settings", MachineSettingsToJson(sim.commanded)}};
+  nlohmann::json answer = {{"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
+                           {"true_deviations_um", GridToJson(cmm.true_deviations_um, {}, rows, columns)},
+                           {"outliers", PointsJson(cmm.outlier_indices, columns)},
+                           {"missing", PointsJson(cmm.missing_indices, columns)},
+                           {"not_reached", not_reached}};
   if (cmm.teeth_um.size() > 1) {
     nlohmann::json teeth = nlohmann::json::array();
     for (const Eigen::VectorXd& tooth : cmm.teeth_um) teeth.push_back(GridToJson(tooth, {}, rows, columns));
-    (*answer)["measurement"]["teeth"] = teeth;
+    answer["measurement"]["teeth"] = teeth;
   }
+  return answer;
+}
+
+bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
+  std::unique_ptr<FlatWheelGrinder> grinder;
+  SimulationSetup sim;
+  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
+  const int rows = grinder->GridRows();
+  const int columns = grinder->GridColumns();
+  const SimulatedMeasurement cmm =
+      SimulateMeasurement(*grinder, sim.commanded.ToVector(), sim.hidden_errors, sim.measurement);
+  *answer = SimulatedMeasurementToJson(cmm, rows, columns);
+  (*answer)["hidden_errors"] = MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors));
+  (*answer)["settings"] = MachineSettingsToJson(sim.commanded);
   return true;
 }
 

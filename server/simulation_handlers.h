@@ -40,6 +40,12 @@ namespace gearloop {
 // than one), "true_deviations_um", "outliers", "missing", "not_reached", "hidden_errors".
 bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error);
 
+// The machine-independent part of a simulated measurement's answer on a rows x columns grid:
+// "measurement" {"deviations_um", "teeth" (when more than one)}, "true_deviations_um",
+// "outliers", "missing" and "not_reached" (with each point's status). The caller adds the
+// machine's hidden errors and commanded settings or motion.
+nlohmann::json SimulatedMeasurementToJson(const SimulatedMeasurement& cmm, int rows, int columns);
+
 // The simulated probe of a measurement request, shared by the flat-wheel and the bevel
 // simulations: noise_um, seed, outlier_probability, outlier_size_um, missing_probability and
 // teeth into *measurement (absent fields keep its values, but seed and teeth default to 1),
