@@ -16,6 +16,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegPerRad = 180.0 / kPi;
 constexpr double kRadPerDeg = kPi / 180.0;
+// Bevel motion coefficients (and their hidden errors) may be any finite value.
+constexpr double kNoBound = std::numeric_limits<double>::infinity();
 
 const char* const kAxisKeys[kNumFreeFormAxes] = {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"};
 
@@ -276,16 +278,8 @@ bool ParseFreeFormMotion(const nlohmann::json& value, const std::string& path, F
       return false;
     }
     for (size_t k = 0; k < list.size(); ++k) {
-      const std::string entry = field + "[" + std::to_string(k) + "]";
-      if (!list[k].is_number()) {
-        *error = InvalidRequest(entry, entry + " must be a number");
-        return false;
-      }
-      const double v = list[k].get<double>();
-      if (!std::isfinite(v)) {
-        *error = InvalidValue(entry, entry + " must be finite");
-        return false;
-      }
+      double v = 0.0;
+      if (!ReadCoefficient(list[k], field + "[" + std::to_string(k) + "]", kNoBound, "finite", &v, error)) return false;
       axes[i].push_back(v);
     }
   }
@@ -525,17 +519,10 @@ bool ParseBevelSimulation(const nlohmann::json& body, BevelSetup* setup_out, Fre
         return false;
       }
       for (size_t k = 0; k < item.value().size(); ++k) {
-        const std::string entry = field + "[" + std::to_string(k) + "]";
-        if (!item.value()[k].is_number()) {
-          *error = InvalidRequest(entry, entry + " must be a number");
+        if (!ReadCoefficient(item.value()[k], field + "[" + std::to_string(k) + "]", kNoBound, "finite",
+                             &hidden.coefficients[axis](k), error)) {
           return false;
         }
-        const double v = item.value()[k].get<double>();
-        if (!std::isfinite(v)) {
-          *error = InvalidValue(entry, entry + " must be finite");
-          return false;
-        }
-        hidden.coefficients[axis](k) = v;
       }
     }
   }

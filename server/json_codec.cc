@@ -225,6 +225,25 @@ bool ReadBool(const nlohmann::json& object, const std::string& path, const char*
   });
 }
 
+bool ReadCoefficient(const nlohmann::json& value,
+                     const std::string& entry,
+                     double max_abs,
+                     const std::string& requirement,
+                     double* coefficient,
+                     ApiError* error) {
+  if (!value.is_number()) {
+    *error = InvalidRequest(entry, entry + " must be a number");
+    return false;
+  }
+  const double v = value.get<double>();
+  if (!std::isfinite(v) || std::fabs(v) > max_abs) {
+    *error = InvalidValue(entry, entry + " must be " + requirement);
+    return false;
+  }
+  *coefficient = v;
+  return true;
+}
+
 std::string ApiFieldPath(const std::string& engine_field) {
   static const std::map<std::string, std::string> kRenames = {
       {"gear.normal_pressure_angle_rad", "gear.normal_pressure_angle_deg"},

@@ -134,6 +134,16 @@ bool ReadBool(const nlohmann::json& object,
               bool* value,
               ApiError* error,
               bool* found = nullptr);
+// One coefficient of a polynomial given as a JSON array, `entry` naming it
+// ("hidden_errors.X_mm[2]"): not a number is a 400 "<entry> must be a number"; not finite, or
+// larger than max_abs in size, is a 422 "<entry> must be <requirement>" (requirement says
+// which: "finite", "finite and at most 1e3 in size").
+bool ReadCoefficient(const nlohmann::json& value,
+                     const std::string& entry,
+                     double max_abs,
+                     const std::string& requirement,
+                     double* coefficient,
+                     ApiError* error);
 // `path` joined with `key` ("gear" + "teeth" -> "gear.teeth"; "" + "gear" -> "gear").
 std::string JoinPath(const std::string& path, const std::string& key);
 

@@ -46,17 +46,11 @@ bool ParseHiddenErrors(const nlohmann::json& value, Eigen::VectorXd* errors, Api
         return false;
       }
       for (size_t k = 0; k < coefficients.size(); ++k) {
-        const std::string entry = field + "[" + std::to_string(k) + "]";
-        if (!coefficients[k].is_number()) {
-          *error = InvalidRequest(entry, entry + " must be a number");
+        if (!ReadCoefficient(coefficients[k], field + "[" + std::to_string(k) + "]", /*max_abs=*/1e3,
+                             "finite and at most 1e3 in size",
+                             &(*errors)(ParameterIndex(static_cast<Axis>(axis), static_cast<int>(k))), error)) {
           return false;
         }
-        const double v = coefficients[k].get<double>();
-        if (!std::isfinite(v) || std::fabs(v) > 1e3) {
-          *error = InvalidValue(entry, entry + " must be finite and at most 1e3 in size");
-          return false;
-        }
-        (*errors)(ParameterIndex(static_cast<Axis>(axis), static_cast<int>(k))) = v;
       }
     }
   }
