@@ -15,6 +15,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench/bench_gears.h"
 #include "engine/correction.h"
 #include "engine/flat_wheel_grinder.h"
 #include "engine/measurement_simulator.h"
@@ -24,24 +25,6 @@ namespace {
 
 using namespace gearloop;
 
-constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
-
-GrindingSetup Gear(int teeth, double module_mm, double pressure_deg, double helix_deg, double face_mm,
-                   double addendum_mm, double dedendum_mm, double wheel_mm, Flank flank) {
-  GrindingSetup s;
-  s.gear.teeth = teeth;
-  s.gear.normal_module_mm = module_mm;
-  s.gear.normal_pressure_angle_rad = pressure_deg * kRadPerDeg;
-  s.gear.helix_angle_rad = helix_deg * kRadPerDeg;
-  s.gear.face_width_mm = face_mm;
-  const double r_j = s.gear.PitchRadiusMm();
-  s.gear.tip_radius_mm = r_j + addendum_mm;
-  s.gear.root_radius_mm = r_j - dedendum_mm;
-  s.wheel.radius_mm = wheel_mm;
-  s.flank = flank;
-  return s;
-}
-
 struct Case {
   std::string name;
   GrindingSetup setup;
@@ -50,19 +33,13 @@ struct Case {
 };
 
 std::vector<Case> Cases() {
-  // The published cutter (r_a and r_f as in Jiang 2015: 120.9157 and 107.1569 mm).
-  GrindingSetup cutter = Gear(37, 6.0, 20.0, 15.0, 78.0, 0.0, 0.0, 350.0, Flank::kRight);
-  cutter.gear.tip_radius_mm = 120.9157;
-  cutter.gear.root_radius_mm = 107.1569;
-  const GrindingSetup right_hand = Gear(31, 3.0, 17.5, -22.0, 50.0, 3.0, 3.75, 300.0, Flank::kLeft);
-  const GrindingSetup helical = Gear(23, 5.0, 20.0, 25.0, 60.0, 5.0, 6.25, 300.0, Flank::kRight);
-  const std::vector<TargetModification> slopes = {{ModificationKind::kProfileSlope, 4.0},
-                                                  {ModificationKind::kHelixSlope, -3.0},
-                                                  {ModificationKind::kProfileCrowning, 2.0}};
+  const GrindingSetup cutter = bench::Cutter();
+  const GrindingSetup right_hand = bench::RightHandLeftFlank();
+  const GrindingSetup helical = bench::Helical();
+  const std::vector<TargetModification> slopes = bench::SlopesAndCrowning();
   const std::vector<TargetModification> relief = {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic},
                                                   {ModificationKind::kFlankTwist, 4.0}};
-  TargetModification diagonal{ModificationKind::kDiagonalEndRelief, 5.0, 0.3};
-  diagonal.second_amount_um = 5.0;
+  const TargetModification diagonal = bench::DiagonalEndRelief();
   const std::vector<TargetModification> crowned = {{ModificationKind::kProfileCrowning, 3.0},
                                                    {ModificationKind::kLeadCrowning, 3.0}};
   return {
