@@ -641,22 +641,28 @@ CorrectionResult SolveCorrection(const CorrectionOptions& options, const Correct
     ls.k = rank;
     const double sigma1 = rank > 0 ? ls.svd.sigma(0) : 0.0;
     const double lambda_lo = 1e-8 * sigma1, lambda_hi = 1e4 * sigma1;
+    // The lambda of 193 logarithmically spaced levels in [lambda_lo, lambda_hi] where a rule's
+    // criterion is smallest (the first, on ties).
+    auto argmin_on_log_grid = [&](auto criterion) {
+      const int kGrid = 193;
+      double best_lambda = lambda_lo, best_value = std::numeric_limits<double>::infinity();
+      for (int g = 0; g < kGrid; ++g) {
+        const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
+        const double value = criterion(lambda);
+        if (value < best_value) {
+          best_value = value;
+          best_lambda = lambda;
+        }
+      }
+      return best_lambda;
+    };
     if (rank == 0) {
       ls.lambda = 0.0;
     } else if (options.probe_noise_um > 0.0 && !options.use_discrepancy_principle) {
-      // Unbiased predictive risk: minimise the in-range residual + 2 sigma^2 dof over a
-      // logarithmic grid (the part of b off the range is the same for every lambda).
+      // Unbiased predictive risk: minimise the in-range residual + 2 sigma^2 dof (the part of b
+      // off the range is the same for every lambda).
       const double noise_per_direction = noise2_total / rank;
-      double best_risk = std::numeric_limits<double>::infinity();
-      const int kGrid = 193;
-      for (int g = 0; g < kGrid; ++g) {
-        const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
-        const double risk = in_range2(lambda) + 2.0 * noise_per_direction * dof(lambda);
-        if (risk < best_risk) {
-          best_risk = risk;
-          ls.lambda = lambda;
-        }
-      }
+      ls.lambda = argmin_on_log_grid([&](double lambda) { return in_range2(lambda) + 2.0 * noise_per_direction * dof(lambda); });
     } else if (options.probe_noise_um >= 0.0) {
       // Discrepancy principle on the part of b inside the range of A (the part outside cannot
       // be fitted by any correction): the in-range residual, increasing in lambda, equals the
@@ -675,19 +681,12 @@ CorrectionResult SolveCorrection(const CorrectionOptions& options, const Correct
         ls.lambda = std::exp(0.5 * (lo + hi));
       }
     } else {
-      // Generalised cross-validation: minimise |A y - b|^2 / (m - dof)^2 over a logarithmic grid.
+      // Generalised cross-validation: minimise |A y - b|^2 / (m - dof)^2.
       const double m = static_cast<double>(rows.size());
-      double best_g = std::numeric_limits<double>::infinity();
-      const int kGrid = 193;
-      for (int g = 0; g < kGrid; ++g) {
-        const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
+      ls.lambda = argmin_on_log_grid([&](double lambda) {
         const double denom = std::max(m - dof(lambda), 0.5);
-        const double value = (in_range2(lambda) + out2) / (denom * denom);
-        if (value < best_g) {
-          best_g = value;
-          ls.lambda = lambda;
-        }
-      }
+        return (in_range2(lambda) + out2) / (denom * denom);
+      });
     }
     // Exact data (sigma = 0) and GCV: never below the floor. It keeps the exact-model
     // refinement well posed when the target is out of reach (lambda = 0 lets
