@@ -53,7 +53,7 @@ class CliTest(unittest.TestCase):
         for word in ("submit", "batch", "closed-loop", "report", "exit codes", "--token"):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
-                        "nominal", "evaluate"):
+                        "nominal", "evaluate", "bevel-convert", "bevel-closed-loop"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -166,6 +166,73 @@ class CliTest(unittest.TestCase):
         measured = read_csv_grid(self.run_cli("show", str(job["id"]), "--grid", "measured").stdout, is_text=True)
         self.assertEqual(len(measured), 5)
         self.assertAlmostEqual(measured[2][4], cmm["measurement"]["deviations_um"][2][4], places=4)
+
+    def test_bevel_convert_published_and_from_file(self) -> None:
+        done = self.run_cli("bevel-convert")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("concave flank (published summary, Tang 2011): degree 5", done.stdout)
+        self.assertIn("fit residual", done.stdout)
+        for axis in ("A", "B", "X", "Y", "Z"):
+            self.assertRegex(done.stdout, rf"(?m)^{axis}\s+\S+\s+\S+ u(m|rad)$")
+        self.assertRegex(done.stdout, r"flank distance to the cradle flank: max \d+\.\d{4} um, rms \d+\.\d{4} um")
+
+        degree3 = json.loads(self.run_cli("--json", "bevel-convert", "--degree", "3").stdout)
+        self.assertEqual(degree3["degree"], 3)
+        self.assertEqual(len(degree3["motion"]["X_mm"]), 4)
+        # The tolerance picks the degree itself, and the flank then lies within it.
+        chosen = json.loads(self.run_cli("--json", "bevel-convert", "--max-flank-distance-um", "0.1").stdout)
+        self.assertLessEqual(chosen["flank_distance"]["max_um"], 0.1)
+        self.assertIn(chosen["degree"], range(2, 13))
+
+        job = self.dir / "pinion.json"
+        job.write_text(json.dumps({"side": "convex", "published": True}))
+        motion = self.dir / "motion.json"
+        from_file = self.run_cli("bevel-convert", str(job), "--motion-out", str(motion))
+        self.assertEqual(from_file.returncode, 0, from_file.stderr)
+        self.assertIn("convex flank", from_file.stdout)
+        self.assertEqual(len(json.loads(motion.read_text())["Z_mm"]), 6)
+
+    def test_bevel_convert_bad_input(self) -> None:
+        refused = self.run_cli("bevel-convert", "--degree", "13")
+        self.assertEqual(refused.returncode, 3, refused.stderr)
+        self.assertIn("422 invalid_value at options.polynomial_degree", refused.stderr)
+        both = self.run_cli("bevel-convert", "--degree", "4", "--max-flank-distance-um", "0.1")
+        self.assertEqual(both.returncode, 3, both.stderr)
+        self.assertIn("at options.max_flank_distance_um", both.stderr)
+        self.assertEqual(self.run_cli("bevel-convert", "--degree", "four").returncode, 1)
+        self.assertEqual(self.run_cli("bevel-convert", "--side", "left").returncode, 1)
+        self.assertEqual(self.run_cli("bevel-convert", str(self.dir / "nope.json")).returncode, 4)
+
+    def test_bevel_closed_loop_and_show_of_its_jobs(self) -> None:
+        done = self.run_cli("bevel-closed-loop", "--error", "X_mm=0.008", "--noise", "0.1", "--seed", "2",
+                            "--corrections", "2", "--store")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("true rms", done.stdout)
+        self.assertIn("part 0 is cut before any correction", done.stdout)
+        rows = [line.split() for line in done.stdout.splitlines() if line.split() and line.split()[0].isdigit()]
+        self.assertEqual([row[0] for row in rows], ["0", "1", "2"])
+        # The hidden X error is corrected away: the last part is truer than the first.
+        self.assertLess(float(rows[-1][1]), float(rows[0][1]))
+        job_id = rows[0][5]
+        shown = self.run_cli("show", job_id)
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("machine: free-form bevel generator", shown.stdout)
+        self.assertIn("(closed_loop)", shown.stdout)
+        self.assertRegex(shown.stdout, r"(?m)^  X_mm ")
+
+        as_json = json.loads(self.run_cli("--json", "bevel-closed-loop", "--side", "convex", "--error",
+                                          "A_rad=0,2e-5", "--corrections", "1").stdout)
+        self.assertEqual(as_json["machine_kind"], "free-form-bevel-generator")
+        self.assertEqual(len(as_json["iterations"]), 2)
+        self.assertAlmostEqual(as_json["hidden_errors"]["A_rad"][1], 2e-5)
+
+        self.assertEqual(self.run_cli("bevel-closed-loop", "--error", "X_mm=big").returncode, 1)
+        refused = self.run_cli("bevel-closed-loop", "--corrections", "50")
+        self.assertEqual(refused.returncode, 3, refused.stderr)
+        self.assertIn("at corrections", refused.stderr)
+        unknown = self.run_cli("bevel-closed-loop", "--error", "Q_mm=0.01", "--corrections", "1")
+        self.assertEqual(unknown.returncode, 3, unknown.stderr)
+        self.assertIn("at hidden_errors.Q_mm", unknown.stderr)
 
     def test_replay_with_changed_option(self) -> None:
         job = self.submit()
