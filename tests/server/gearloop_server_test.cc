@@ -121,10 +121,15 @@ TEST_F(GearloopServerTest, ServesTheDashboardPages) {
 TEST_F(GearloopServerTest, ExposesPrometheusMetricsByRouteAndStatus) {
   Send(*client_, "GET", "/healthz");
   Send(*client_, "GET", "/no/such/path");
-  // cpp-httplib's logger (where requests are counted) runs just after the answer is written:
-  // give the last one a moment to be counted.
+  // cpp-httplib's logger (where requests are counted) runs just after the answer is written,
+  // and each request came on its own connection (worker thread): give both a moment to be
+  // counted, in whichever order their loggers ran.
+  auto counted_both = [](const httplib::Result& r) {
+    return r && r->body.find("status=\"404\"") != std::string::npos &&
+           r->body.find("route=\"GET /healthz\"") != std::string::npos;
+  };
   httplib::Result result = client_->Get("/metrics");
-  for (int i = 0; i < 100 && result && result->body.find("status=\"404\"") == std::string::npos; ++i) {
+  for (int i = 0; i < 100 && result && !counted_both(result); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     result = client_->Get("/metrics");
   }
