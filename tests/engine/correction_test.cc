@@ -76,6 +76,24 @@ class LinearTestModel : public MachineModel {
   Eigen::VectorXd origin_;
 };
 
+// The published cutter (right flank) with seeded hidden machine errors: every axis up to
+// order 2, about 2 um of axis motion each over the roll range, and the wheel. Not copyable
+// (tests point input.model at grinder).
+struct CutterWithHiddenErrors {
+  explicit CutterWithHiddenErrors(std::uint64_t seed)
+      : setup(testing::CutterSetup()),
+        grinder(setup),
+        nominal(grinder.nominal().ToVector()),
+        hidden(RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, seed)) {}
+  CutterWithHiddenErrors(const CutterWithHiddenErrors&) = delete;
+  CutterWithHiddenErrors& operator=(const CutterWithHiddenErrors&) = delete;
+
+  const GrindingSetup setup;
+  const FlatWheelGrinder grinder;
+  const Eigen::VectorXd nominal;
+  const Eigen::VectorXd hidden;
+};
+
 // ---------------------------------------------------------------------------------------------
 // Correction size and coordinates.
 
@@ -331,11 +349,8 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
 
 // The cutter with hidden errors (every axis up to order 2 and the wheel) measured with 0.5 um of
 // probe noise, to be corrected toward the involute. Not copyable: input.model points at grinder.
-struct NoisyCutterMeasurement {
-  explicit NoisyCutterMeasurement(std::uint64_t seed)
-      : grinder(testing::CutterSetup()),
-        nominal(grinder.nominal().ToVector()),
-        hidden(RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, seed)) {
+struct NoisyCutterMeasurement : CutterWithHiddenErrors {
+  explicit NoisyCutterMeasurement(std::uint64_t seed) : CutterWithHiddenErrors(seed) {
     MeasurementSimulationOptions cmm;
     cmm.probe_noise_um = 0.5;
     cmm.seed = seed;
@@ -344,12 +359,6 @@ struct NoisyCutterMeasurement {
     input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
     input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
   }
-  NoisyCutterMeasurement(const NoisyCutterMeasurement&) = delete;
-  NoisyCutterMeasurement& operator=(const NoisyCutterMeasurement&) = delete;
-
-  const FlatWheelGrinder grinder;
-  const Eigen::VectorXd nominal;
-  const Eigen::VectorXd hidden;
   CorrectionInput input;
 };
 
@@ -432,18 +441,14 @@ TEST(ComputeCorrection, MachineStateEstimateMakesOneCorrectionEnough) {
 // Rework, freedom, bounds, outliers, missing points.
 
 TEST(ComputeCorrection, ReworkNeverPredictsAddedMaterial) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 5);
-  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, {});
+  const CutterWithHiddenErrors c(5);
+  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {});
   CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
+  input.model = &c.grinder;
+  input.current_parameters = c.nominal;
   input.measured_um = part.measured_um;
-  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, grinder.grid(),
-                                                setup.gear, setup.flank);
+  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, c.grinder.grid(),
+                                                c.setup.gear, c.setup.flank);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
   // The part has too little material at some points, so the unconstrained answer adds some.
@@ -456,9 +461,9 @@ TEST(ComputeCorrection, ReworkNeverPredictsAddedMaterial) {
   EXPECT_LE(rework.summary.max_added_material_um, options.rework_tolerance_um);
   // Independently: the exact model at the new settings against the current ones.
   ModelEvaluation before, after;
-  grinder.Evaluate(nominal, false, &before);
-  grinder.Evaluate(rework.parameters, false, &after);
-  for (int i = 0; i < grinder.grid().NumPoints(); ++i) {
+  c.grinder.Evaluate(c.nominal, false, &before);
+  c.grinder.Evaluate(rework.parameters, false, &after);
+  for (int i = 0; i < c.grinder.grid().NumPoints(); ++i) {
     ASSERT_EQ(after.status[i], PointStatus::kOk);
     EXPECT_LE(after.deviations_um(i) - before.deviations_um(i), /*tol_um=*/1e-6) << "point " << i;
   }
@@ -468,16 +473,12 @@ TEST(ComputeCorrection, ReworkNeverPredictsAddedMaterial) {
 }
 
 TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 6);
+  const CutterWithHiddenErrors c(6);
   CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
-  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  input.model = &c.grinder;
+  input.current_parameters = c.nominal;
+  input.measured_um = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
+  input.target_um = Eigen::VectorXd::Zero(c.grinder.grid().NumPoints());
   CorrectionOptions options;
   // The published cutter case: only C up to order 6, the other axes order 0; no wheel change.
   options.default_max_order = 0;
@@ -531,23 +532,19 @@ TEST(ComputeCorrection, BoundsAreRespected) {
 }
 
 TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 9);
+  const CutterWithHiddenErrors c(9);
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 0.3;
   cmm.seed = 4;
-  const SimulatedMeasurement clean = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  const SimulatedMeasurement clean = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   cmm.outlier_points = {12};
   cmm.outlier_size_um = 25.0;
-  const SimulatedMeasurement dirty = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  const SimulatedMeasurement dirty = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   ASSERT_EQ(dirty.outlier_indices, std::vector<int>{12});
   CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
-  input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  input.model = &c.grinder;
+  input.current_parameters = c.nominal;
+  input.target_um = Eigen::VectorXd::Zero(c.grinder.grid().NumPoints());
   CorrectionOptions options;
   options.probe_noise_um = 0.3;
   input.measured_um = clean.measured_um;
@@ -559,7 +556,7 @@ TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
   EXPECT_EQ(from_dirty.summary.outlier_indices, std::vector<int>{12});
   EXPECT_EQ(from_dirty.summary.num_points_used, 44);
   // The outlier is not silently used: the correction matches the clean one closely.
-  EXPECT_LT(CorrectionSize(grinder.ParameterBlocks(), from_dirty.delta - from_clean.delta,
+  EXPECT_LT(CorrectionSize(c.grinder.ParameterBlocks(), from_dirty.delta - from_clean.delta,
                            from_clean.summary.roll_min_rad, from_clean.summary.roll_max_rad),
             0.2 * from_clean.summary.correction_size);
 }
@@ -634,22 +631,18 @@ TEST(AverageTeeth, MeanOfTheDeliveredValues) {
 
 // Several teeth: the mean is corrected, and the discrepancy principle sees sigma / sqrt(teeth).
 TEST(ComputeCorrection, SeveralTeethActLikeTheirMeanWithReducedNoise) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 31);
+  const CutterWithHiddenErrors c(31);
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 1.0;
   cmm.teeth = 4;
   cmm.seed = 31;
-  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   ASSERT_EQ(part.teeth_um.size(), 4u);
   CorrectionInput teeth;
-  teeth.model = &grinder;
-  teeth.current_parameters = nominal;
+  teeth.model = &c.grinder;
+  teeth.current_parameters = c.nominal;
   teeth.measured_teeth_um = part.teeth_um;
-  teeth.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
+  teeth.target_um = Eigen::VectorXd::Zero(c.grinder.grid().NumPoints());
   CorrectionOptions options;
   options.probe_noise_um = 1.0;
   const CorrectionResult from_teeth = ComputeCorrection(options, teeth);
@@ -699,17 +692,13 @@ TEST(ComputeCorrection, ParticleSwarmIsSeededAndStaysInItsBox) {
 }
 
 TEST(ComputeCorrection, PlainLeastSquaresWandersIntoTheNullSpace) {
-  const GrindingSetup setup = testing::CutterSetup();
-  const FlatWheelGrinder grinder(setup);
-  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 13);
+  const CutterWithHiddenErrors c(13);
   CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
-  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, grinder.grid(),
-                                                setup.gear, setup.flank);
+  input.model = &c.grinder;
+  input.current_parameters = c.nominal;
+  input.measured_um = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
+  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, c.grinder.grid(),
+                                                c.setup.gear, c.setup.flank);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
   const CorrectionResult regularised = ComputeCorrection(options, input);
