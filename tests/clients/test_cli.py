@@ -39,6 +39,12 @@ class CliTest(unittest.TestCase):
         return subprocess.run([CLI, "--server", server or self.server.url, *args], capture_output=True, text=True,
                               timeout=300, env=env)
 
+    def assert_server_refused(self, expected: str, *args: str) -> None:
+        """The CLI exits 3 (the server refused the request) and repeats the server's words."""
+        done = self.run_cli(*args)
+        self.assertEqual(done.returncode, 3, done.stderr)
+        self.assertIn(expected, done.stderr)
+
     def submit(self, *extra: str) -> dict:
         done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv"), *extra)
         self.assertIn(done.returncode, (0, 5), done.stderr)
@@ -108,9 +114,7 @@ class CliTest(unittest.TestCase):
         request["gear"]["teeth"] = -3
         path = self.dir / "bad_request.json"
         path.write_text(json.dumps(request))
-        done = self.run_cli("submit", str(path), str(EXAMPLES / "measurement.csv"))
-        self.assertEqual(done.returncode, 3)
-        self.assertIn("422 invalid_value at gear.teeth", done.stderr)
+        self.assert_server_refused("422 invalid_value at gear.teeth", "submit", str(path), str(EXAMPLES / "measurement.csv"))
 
     def test_list_show_and_grid_export(self) -> None:
         job = self.submit()
@@ -193,12 +197,9 @@ class CliTest(unittest.TestCase):
         self.assertEqual(len(json.loads(motion.read_text())["Z_mm"]), 6)
 
     def test_bevel_convert_bad_input(self) -> None:
-        refused = self.run_cli("bevel-convert", "--degree", "13")
-        self.assertEqual(refused.returncode, 3, refused.stderr)
-        self.assertIn("422 invalid_value at options.polynomial_degree", refused.stderr)
-        both = self.run_cli("bevel-convert", "--degree", "4", "--max-flank-distance-um", "0.1")
-        self.assertEqual(both.returncode, 3, both.stderr)
-        self.assertIn("at options.max_flank_distance_um", both.stderr)
+        self.assert_server_refused("422 invalid_value at options.polynomial_degree", "bevel-convert", "--degree", "13")
+        self.assert_server_refused("at options.max_flank_distance_um", "bevel-convert", "--degree", "4",
+                                   "--max-flank-distance-um", "0.1")
         self.assertEqual(self.run_cli("bevel-convert", "--degree", "four").returncode, 1)
         self.assertEqual(self.run_cli("bevel-convert", "--side", "left").returncode, 1)
         self.assertEqual(self.run_cli("bevel-convert", str(self.dir / "nope.json")).returncode, 4)
@@ -227,12 +228,8 @@ class CliTest(unittest.TestCase):
         self.assertAlmostEqual(as_json["hidden_errors"]["A_rad"][1], 2e-5)
 
         self.assertEqual(self.run_cli("bevel-closed-loop", "--error", "X_mm=big").returncode, 1)
-        refused = self.run_cli("bevel-closed-loop", "--corrections", "50")
-        self.assertEqual(refused.returncode, 3, refused.stderr)
-        self.assertIn("at corrections", refused.stderr)
-        unknown = self.run_cli("bevel-closed-loop", "--error", "Q_mm=0.01", "--corrections", "1")
-        self.assertEqual(unknown.returncode, 3, unknown.stderr)
-        self.assertIn("at hidden_errors.Q_mm", unknown.stderr)
+        self.assert_server_refused("at corrections", "bevel-closed-loop", "--corrections", "50")
+        self.assert_server_refused("at hidden_errors.Q_mm", "bevel-closed-loop", "--error", "Q_mm=0.01", "--corrections", "1")
 
     def test_replay_with_changed_option(self) -> None:
         job = self.submit()
