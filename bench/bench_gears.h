@@ -5,13 +5,12 @@
 
 #include <vector>
 
-#include "engine/gear.h"
-#include "engine/target_modification.h"
+#include "engine/grinder/grinding_setup.h"
+#include "engine/grinder/target_modification.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace bench {
-
-constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 
 // A gear from its data: tip and root radius from the pitch radius +- addendum / dedendum [mm].
 inline GrindingSetup Gear(int teeth, double module_mm, double pressure_deg, double helix_deg, double face_mm,

@@ -16,10 +16,10 @@
 #include <benchmark/benchmark.h>
 
 #include "bench/bench_gears.h"
-#include "engine/correction.h"
-#include "engine/flat_wheel_grinder.h"
-#include "engine/measurement_simulator.h"
-#include "engine/target_modification.h"
+#include "engine/correction/correction.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/simulation/measurement_simulator.h"
+#include "engine/grinder/target_modification.h"
 
 namespace {
 

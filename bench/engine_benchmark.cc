@@ -5,17 +5,17 @@
 
 #include <benchmark/benchmark.h>
 
-#include "engine/flat_wheel_grinder.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/core/units.h"
 
 namespace {
 
 gearloop::GrindingSetup Cutter() {
-  constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
   gearloop::GrindingSetup s;
   s.gear.teeth = 37;
   s.gear.normal_module_mm = 6.0;
-  s.gear.normal_pressure_angle_rad = 20.0 * kRadPerDeg;
-  s.gear.helix_angle_rad = 15.0 * kRadPerDeg;
+  s.gear.normal_pressure_angle_rad = 20.0 * gearloop::kRadPerDeg;
+  s.gear.helix_angle_rad = 15.0 * gearloop::kRadPerDeg;
   s.gear.face_width_mm = 78.0;
   s.gear.tip_radius_mm = 120.9157;
   s.gear.root_radius_mm = 107.1569;

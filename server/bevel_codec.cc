@@ -5,17 +5,14 @@
 #include <limits>
 #include <vector>
 
-#include "engine/bevel_conversion.h"
-#include "engine/bevel_generator.h"
-#include "engine/correction.h"
-#include "engine/measurement_simulator.h"
+#include "engine/bevel/conversion.h"
+#include "engine/bevel/freeform_generator.h"
+#include "engine/correction/correction.h"
+#include "engine/simulation/measurement_simulator.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegPerRad = 180.0 / kPi;
-constexpr double kRadPerDeg = kPi / 180.0;
 // Bevel motion coefficients (and their hidden errors) may be any finite value.
 constexpr double kNoBound = std::numeric_limits<double>::infinity();
 

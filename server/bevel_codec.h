@@ -30,8 +30,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/bevel_cradle_machine.h"
-#include "engine/bevel_freeform_machine.h"
+#include "engine/bevel/cradle_machine.h"
+#include "engine/bevel/freeform_machine.h"
 #include "server/correction_codec.h"
 #include "server/json_codec.h"
 #include "server/simulation_handlers.h"

@@ -5,14 +5,13 @@
 #include <limits>
 #include <vector>
 
-#include "engine/flank_grid.h"
-#include "engine/flat_wheel_grinder.h"
-#include "engine/target_modification.h"
+#include "engine/grinder/flank_grid.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/grinder/target_modification.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
-
-constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
 bool ReadIntegerInRange(const nlohmann::json& object, const std::string& path, const char* key, long long min,
                         long long max, int* value, ApiError* error) {

@@ -30,10 +30,10 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "engine/axis_motion.h"
-#include "engine/correction.h"
-#include "engine/gear.h"
-#include "engine/machine_settings.h"
+#include "engine/core/axis_motion.h"
+#include "engine/correction/correction.h"
+#include "engine/grinder/grinding_setup.h"
+#include "engine/grinder/grinder_settings.h"
 #include "server/json_codec.h"
 #include "storage/job_repository.h"
 
@@ -77,7 +77,7 @@ bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setu
 // outliers and missing points as {row, column}); `columns` is the grid's lead_points.
 nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& summary, int columns);
 
-// The axis motion of a correction as the API reports it (engine/axis_motion.h): the change of
+// The axis motion of a correction as the API reports it (engine/core/axis_motion.h): the change of
 // each axis position at kAxisMotionSamples roll angles over the summary's roll range, with rms
 // and max |.|, and the scalar (wheel) changes; units in the keys:
 //   {"roll_rad": [...],

@@ -20,17 +20,18 @@
 #include <vector>
 
 #include "clients/web/web_assets.h"
-#include "engine/flank_grid.h"
-#include "engine/flat_wheel_grinder.h"
-#include "engine/gear.h"
-#include "engine/machine_settings.h"
-#include "engine/sensitivity.h"
+#include "engine/grinder/flank_grid.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/grinder/grinding_setup.h"
+#include "engine/grinder/grinder_settings.h"
+#include "engine/core/sensitivity.h"
 #include "server/bevel_codec.h"
 #include "server/correction_codec.h"
 #include "server/json_codec.h"
 #include "server/metrics.h"
 #include "server/simulation_handlers.h"
 #include "storage/job_repository.h"
+#include "engine/core/units.h"
 
 // Last: <httplib.h> pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers if they come
 // after it.
@@ -50,7 +51,6 @@ const char* ServerVersion() { return GEARLOOP_VERSION; }
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
 // Per-request context. cpp-httplib runs the pre-routing handler, the route handler and the
 // logger of one request on the same pool thread, so a thread_local carries the start time and

@@ -1,4 +1,5 @@
 #include "server/json_codec.h"
+#include "engine/core/units.h"
 
 #include <cmath>
 #include <map>
@@ -6,9 +7,6 @@
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadPerDeg = kPi / 180.0;
 
 const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
 

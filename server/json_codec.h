@@ -27,10 +27,10 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "engine/flank_grid.h"
-#include "engine/gear.h"
-#include "engine/machine_model.h"
-#include "engine/machine_settings.h"
+#include "engine/grinder/flank_grid.h"
+#include "engine/grinder/grinding_setup.h"
+#include "engine/core/machine_model.h"
+#include "engine/grinder/grinder_settings.h"
 
 namespace gearloop {
 

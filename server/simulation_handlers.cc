@@ -5,15 +5,14 @@
 #include <memory>
 #include <string>
 
-#include "engine/flat_wheel_grinder.h"
-#include "engine/machine_settings.h"
-#include "engine/measurement_simulator.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/grinder/grinder_settings.h"
+#include "engine/simulation/measurement_simulator.h"
 #include "server/correction_codec.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
-
-constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
 
 // Hidden errors given coefficient by coefficient; every part optional.

@@ -1,5 +1,5 @@
 // server/simulation_handlers.h: the simulated measuring machine and the simulated closed loop
-// behind POST /api/v1/simulations/measurement and /closed-loop (engine/measurement_simulator.h).
+// behind POST /api/v1/simulations/measurement and /closed-loop (engine/simulation/measurement_simulator.h).
 //
 //   nlohmann::json answer;
 //   ApiError error;
@@ -30,7 +30,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/measurement_simulator.h"
+#include "engine/simulation/measurement_simulator.h"
 #include "server/json_codec.h"
 #include "storage/job_repository.h"
 

@@ -1,16 +1,16 @@
-#include "engine/axis_motion.h"
+#include "engine/core/axis_motion.h"
 
 #include <cmath>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "engine/correction.h"
+#include "engine/correction/correction.h"
 
 namespace gearloop {
 namespace {
 
-// The grinder's layout (engine/flat_wheel_grinder.cc): six axis polynomials of 7 coefficients,
+// The grinder's layout (engine/grinder/flat_wheel_grinder.cc): six axis polynomials of 7 coefficients,
 // X, Y, Z in mm and A, B, C in rad, then three wheel scalars.
 std::vector<ParameterBlock> GrinderLikeBlocks() {
   std::vector<ParameterBlock> blocks;
@@ -124,7 +124,7 @@ TEST(ComputeAxisMotion, ScalarBlocksInTheirOwnUnits) {
   EXPECT_EQ(Block(motion, "parabola_vertex").rms, 0.75);
 }
 
-// The per-block correction size (engine/correction.h) is the rms motion over the range divided
+// The per-block correction size (engine/correction/correction.h) is the rms motion over the range divided
 // by the block's scale: both measure the same axis motion.
 TEST(ComputeAxisMotion, RmsAgreesWithCorrectionSize) {
   Eigen::VectorXd delta(45);

@@ -1,5 +1,6 @@
-// Tests of the cradle -> free-form conversion (engine/bevel_conversion.h).
-#include "engine/bevel_conversion.h"
+// Tests of the cradle -> free-form conversion (engine/bevel/conversion.h).
+#include "engine/bevel/conversion.h"
+#include "engine/core/units.h"
 
 #include <cmath>
 
@@ -7,8 +8,6 @@
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 class ConversionSides : public ::testing::TestWithParam<BevelFlankSide> {};
 

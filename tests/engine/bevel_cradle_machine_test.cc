@@ -1,6 +1,7 @@
-// Tests of the cradle-type hypoid generator (engine/bevel_cradle_machine.h): the published
+// Tests of the cradle-type hypoid generator (engine/bevel/cradle_machine.h): the published
 // pinion's summary, the generated flank as an envelope, and the grid on it.
-#include "engine/bevel_cradle_machine.h"
+#include "engine/bevel/cradle_machine.h"
+#include "engine/core/units.h"
 
 #include <cmath>
 
@@ -8,9 +9,6 @@
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 class CradleSides : public ::testing::TestWithParam<BevelFlankSide> {};
 
@@ -91,15 +89,15 @@ TEST(ComputeCradleGeometry, PublishedConvexSummary) {
   const BevelPinionJob job = PublishedPinionJob(BevelFlankSide::kConvex);
   const CradleGeometry g = ComputeCradleGeometry(job.machine);
   // Double eccentric: S_r = 2 K2 sin(beta / 2), q = Q + beta / 2 - 90 deg.
-  EXPECT_NEAR(g.radial_distance_mm, 2.0 * 111.125 * std::sin(0.5 * (102.0 + 6.0 / 60.0) * kDeg), 1e-12);
+  EXPECT_NEAR(g.radial_distance_mm, 2.0 * 111.125 * std::sin(0.5 * (102.0 + 6.0 / 60.0) * kRadPerDeg), 1e-12);
   EXPECT_NEAR(g.cutter_centre_c_mm.norm(), g.radial_distance_mm, 1e-9);
-  EXPECT_NEAR(g.cutter_azimuth_rad, (104.0 + 56.0 / 60.0 + 51.05 - 90.0) * kDeg, 1e-12);
+  EXPECT_NEAR(g.cutter_azimuth_rad, (104.0 + 56.0 / 60.0 + 51.05 - 90.0) * kRadPerDeg, 1e-12);
   // Tilt from the tilt-mechanism rotation: i = 2 asin(sin 7.5 deg |sin(I_x / 2)|) = 13.36 deg.
-  const double expected_tilt = 2.0 * std::asin(std::sin(7.5 * kDeg) * std::abs(std::sin(0.5 * job.machine.tilt_rotation_rad)));
+  const double expected_tilt = 2.0 * std::asin(std::sin(7.5 * kRadPerDeg) * std::abs(std::sin(0.5 * job.machine.tilt_rotation_rad)));
   EXPECT_NEAR(g.tilt_rad, expected_tilt, 1e-12);
-  EXPECT_NEAR(g.tilt_rad / kDeg, 13.36, 0.01);
+  EXPECT_NEAR(g.tilt_rad / kRadPerDeg, 13.36, 0.01);
   // The cutter axis lies on the cone of the tilt axis: its angle to the tilt axis is kappa.
-  EXPECT_NEAR(std::acos(g.cradle_from_cutter.col(2).dot(g.tilt_axis_c)), 7.5 * kDeg, 1e-12);
+  EXPECT_NEAR(std::acos(g.cradle_from_cutter.col(2).dot(g.tilt_axis_c)), 7.5 * kRadPerDeg, 1e-12);
   // The work axis passes E1 below the machine centre.
   EXPECT_NEAR(g.apex_m_mm.y(), -42.62, 1e-12);
 }

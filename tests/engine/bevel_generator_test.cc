@@ -1,6 +1,6 @@
-// Tests of the free-form spiral-bevel generator as a MachineModel (engine/bevel_generator.h):
+// Tests of the free-form spiral-bevel generator as a MachineModel (engine/bevel/freeform_generator.h):
 // meshing equation, exact Jacobian, axis-error sensitivity, and a closed-loop correction.
-#include "engine/bevel_generator.h"
+#include "engine/bevel/freeform_generator.h"
 
 #include <cmath>
 #include <map>
@@ -8,14 +8,13 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/bevel_conversion.h"
-#include "engine/correction.h"
-#include "engine/measurement_simulator.h"
+#include "engine/bevel/conversion.h"
+#include "engine/correction/correction.h"
+#include "engine/simulation/measurement_simulator.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Fixture {
   explicit Fixture(BevelFlankSide side)

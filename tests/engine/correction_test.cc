@@ -1,4 +1,4 @@
-#include "engine/correction.h"
+#include "engine/correction/correction.h"
 
 #include <cmath>
 #include <cstdint>
@@ -8,11 +8,12 @@
 #include <Eigen/QR>
 #include <gtest/gtest.h>
 
-#include "engine/flat_wheel_grinder.h"
-#include "engine/measurement_simulator.h"
-#include "engine/target_modification.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/simulation/measurement_simulator.h"
+#include "engine/grinder/target_modification.h"
 #include "tests/engine/test_gears.h"
 #include "tests/engine/test_statistics.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -683,7 +684,7 @@ TEST(ComputeCorrection, ParticleSwarmIsSeededAndStaysInItsBox) {
   EXPECT_EQ(a.delta, b.delta);
   EXPECT_EQ(a.summary.iterations, 40);
   for (int j = 0; j < kNumGrinderParameters; ++j) {
-    const double box = j == kConeAngleIndex ? 0.02 * 3.14159265358979323846 / 180.0 : 0.02;
+    const double box = j == kConeAngleIndex ? 0.02 * kPi / 180.0 : 0.02;
     EXPECT_LE(std::abs(a.delta(j)), box * (1.0 + 1e-12)) << GrinderParameterName(j);
   }
   options.pso_seed = 99;

@@ -1,4 +1,4 @@
-#include "engine/flat_wheel_grinder.h"
+#include "engine/grinder/flat_wheel_grinder.h"
 
 #include <cmath>
 #include <random>
@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/engine/test_gears.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -234,7 +235,7 @@ TEST(FlatWheelGrinder, LeftFlankMirrorsRightFlankOfOppositeHelix) {
 }
 
 TEST(FlatWheelGrinder, MirroredAxisMotionsGiveTheSameGrid) {
-  // The mapping stated in engine/flat_wheel_grinder.h: X_L(phi) = X_R(-phi), Y_L(phi) = Y_R(-phi),
+  // The mapping stated in engine/grinder/flat_wheel_grinder.h: X_L(phi) = X_R(-phi), Y_L(phi) = Y_R(-phi),
   // Z_L(phi) = -Z_R(-phi), A, B, C_L(phi) = -A, -B, -C_R(-phi).
   GrindingSetup right = CutterSetup(Flank::kRight);
   right.gear.helix_angle_rad = -right.gear.helix_angle_rad;
@@ -357,7 +358,7 @@ TEST(MachineSettings, NominalRightFlankMatchesModelFormulas) {
   const MachineSettings s = NominalSettings(setup);
   const double r_j = setup.gear.PitchRadiusMm();
   const double s_y = 350.0 * std::cos(Deg(20)) - r_j + 107.1569;
-  const double s_z = 3.14159265358979323846 * 6.0 / 4.0 - s_y * std::tan(Deg(20));
+  const double s_z = kPi * 6.0 / 4.0 - s_y * std::tan(Deg(20));
   EXPECT_NEAR(s.axes[1][0], r_j + s_y, 1e-12);
   EXPECT_NEAR(s.axes[0][0], -s_z * std::sin(Deg(15)), 1e-12);
   EXPECT_NEAR(s.axes[2][0], -s_z * std::cos(Deg(15)), 1e-12);

@@ -1,4 +1,4 @@
-#include "engine/gear.h"
+#include "engine/grinder/grinding_setup.h"
 
 #include <cmath>
 #include <functional>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/flank_grid.h"
+#include "engine/grinder/flank_grid.h"
 #include "tests/engine/test_gears.h"
 
 namespace gearloop {

@@ -1,11 +1,11 @@
-#include "engine/measurement_simulator.h"
+#include "engine/simulation/measurement_simulator.h"
 
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "engine/flat_wheel_grinder.h"
-#include "engine/target_modification.h"
+#include "engine/grinder/flat_wheel_grinder.h"
+#include "engine/grinder/target_modification.h"
 #include "tests/engine/test_gears.h"
 #include "tests/engine/test_statistics.h"
 

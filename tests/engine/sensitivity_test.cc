@@ -1,8 +1,8 @@
-#include "engine/sensitivity.h"
+#include "engine/core/sensitivity.h"
 
 #include <gtest/gtest.h>
 
-#include "engine/flat_wheel_grinder.h"
+#include "engine/grinder/flat_wheel_grinder.h"
 #include "tests/engine/test_gears.h"
 
 namespace gearloop {

@@ -1,11 +1,11 @@
-#include "engine/target_modification.h"
+#include "engine/grinder/target_modification.h"
 
 #include <cmath>
 
 #include <Eigen/QR>
 #include <gtest/gtest.h>
 
-#include "engine/flat_wheel_grinder.h"
+#include "engine/grinder/flat_wheel_grinder.h"
 #include "tests/engine/test_gears.h"
 
 namespace gearloop {

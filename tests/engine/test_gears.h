@@ -4,12 +4,13 @@
 
 #include <cmath>
 
-#include "engine/gear.h"
+#include "engine/grinder/grinding_setup.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace testing {
 
-inline double Deg(double degrees) { return degrees * 3.14159265358979323846 / 180.0; }
+inline double Deg(double degrees) { return degrees * kPi / 180.0; }
 
 // The plunge-shaving cutter of the published example (Jiang 2015, Table 1): 37 teeth, m_n 6 mm,
 // 20 deg, helix 15 deg LEFT hand (beta = +15 deg), b = 78 mm, R_w = 350 mm, K1 = K2 = 0, fixed wheel.

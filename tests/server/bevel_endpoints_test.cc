@@ -10,6 +10,7 @@
 
 #include "server/gearloop_server.h"
 #include "tests/server/server_test_util.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -67,8 +68,8 @@ class BevelEndpointsTest : public ::testing::Test {
 
   // The converted (nominal) motion of a side, with hidden errors added to some coefficients.
   nlohmann::json WithHiddenErrors(nlohmann::json motion) {
-    motion["A_rad"][0] = motion["A_rad"][0].get<double>() + 0.004 * M_PI / 180.0;
-    motion["B_rad"][0] = motion["B_rad"][0].get<double>() - 0.003 * M_PI / 180.0;
+    motion["A_rad"][0] = motion["A_rad"][0].get<double>() + 0.004 * kPi / 180.0;
+    motion["B_rad"][0] = motion["B_rad"][0].get<double>() - 0.003 * kPi / 180.0;
     motion["X_mm"][0] = motion["X_mm"][0].get<double>() + 0.008;
     motion["Y_mm"][1] = motion["Y_mm"][1].get<double>() - 0.02;
     motion["Z_mm"][0] = motion["Z_mm"][0].get<double>() + 0.005;
@@ -259,7 +260,7 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
   const nlohmann::json job = PublishedJob("concave");
   const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
                                    {"job", job},
-                                   {"hidden_errors", {{"B_rad", {-0.003 * M_PI / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
+                                   {"hidden_errors", {{"B_rad", {-0.003 * kPi / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
                                    {"noise_um", 0.2},
                                    {"seed", 5}};
   const Answer cmm = Post("/api/v1/simulations/measurement", scenario);
@@ -294,7 +295,7 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
 TEST_F(BevelEndpointsTest, ClosedLoopConvergesAndStoresReplayableJobs) {
   const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
                                    {"job", PublishedJob("concave")},
-                                   {"hidden_errors", {{"B_rad", {-0.003 * M_PI / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
+                                   {"hidden_errors", {{"B_rad", {-0.003 * kPi / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
                                    {"noise_um", 0.2},
                                    {"seed", 11},
                                    {"corrections", 2},

@@ -19,6 +19,7 @@
 #include "server/demo_seed.h"
 #include "storage/job_repository.h"
 #include "tests/server/server_test_util.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -149,7 +150,6 @@ TEST_F(GearloopServerTest, NominalGivesSettingsOfModelSection2) {
   const Answer answer = Post(*client_, "/api/v1/nominal", DefaultSetup());
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   const nlohmann::json& axes = answer.body["settings"]["axes"];
-  constexpr double kPi = 3.14159265358979323846;
   EXPECT_NEAR(axes["A"][0].get<double>(), 20.0 * kPi / 180.0, 1e-12);
   EXPECT_NEAR(axes["B"][0].get<double>(), 15.0 * kPi / 180.0, 1e-12);  // left hand: beta > 0
   EXPECT_NEAR(axes["C"][1].get<double>(), 1.0, 1e-12);                  // C0 = phi1
@@ -293,7 +293,7 @@ TEST_F(GearloopServerTest, ReportsTheAxisMotionOfACorrection) {
   ASSERT_TRUE(result.contains("axis_motion"));
   const nlohmann::json& motion = result["axis_motion"];
   ASSERT_EQ(motion["roll_rad"].size(), 9u);
-  const double deg = 3.14159265358979323846 / 180.0;
+  const double deg = kPi / 180.0;
   EXPECT_NEAR(motion["roll_rad"][0].get<double>(), result["roll_range_deg"][0].get<double>() * deg, 1e-12);
   EXPECT_NEAR(motion["roll_rad"][8].get<double>(), result["roll_range_deg"][1].get<double>() * deg, 1e-12);
   for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {

@@ -9,12 +9,11 @@
 #include <vector>
 #include <string>
 
-#include "engine/machine_settings.h"
+#include "engine/grinder/grinder_settings.h"
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 nlohmann::json DefaultRequest() {
   return nlohmann::json::parse(R"({
