@@ -130,6 +130,110 @@ bool ConversionOptions::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+
+// The exact axes at num_samples instants over the widened roll range, marching from the centre
+// outward so that A and C stay on continuous branches; the exact transforms are compared.
+void SampleExactAxes(const ConversionOptions& options, const BevelPinionJob& job, const InstantConversion& middle,
+                     ConversionResult* result) {
+  const int n = options.num_samples;
+  result->sample_roll_rad.resize(n);
+  result->sample_axes.resize(n);
+  for (int i = 0; i < n; ++i) result->sample_roll_rad[i] = result->roll_min_rad + (result->roll_max_rad - result->roll_min_rad) * i / (n - 1);
+  auto convert_range = [&](int from, int to, int step) {
+    double a_ref = middle.axes.a_rad, c_ref = middle.axes.c_rad;
+    for (int i = from; i != to; i += step) {
+      const InstantConversion s = ConvertInstant(job.machine, result->sample_roll_rad[i], a_ref, c_ref, options.polish_with_ceres);
+      result->sample_axes[i] = s.axes;
+      a_ref = s.axes.a_rad;
+      c_ref = s.axes.c_rad;
+      result->max_closed_form_residual = std::max(result->max_closed_form_residual, s.closed_form_residual);
+      result->max_polished_residual = std::max(result->max_polished_residual, s.polished_residual);
+    }
+  };
+  convert_range(n / 2, n, 1);
+  convert_range(n / 2 - 1, -1, -1);
+  for (int i = 0; i < n; ++i) {
+    const RigidTransform g = CradleWorkFromCutter(job.machine, result->sample_roll_rad[i]);
+    const RigidTransform f = FreeFormWorkFromCutter(result->sample_axes[i]);
+    result->exact_max_rotation_difference =
+        std::max(result->exact_max_rotation_difference, (g.rotation - f.rotation).cwiseAbs().maxCoeff());
+    result->exact_max_translation_difference_mm = std::max(
+        result->exact_max_translation_difference_mm, (g.translation_mm - f.translation_mm).cwiseAbs().maxCoeff());
+  }
+}
+
+// Each axis (and C) fitted by monomials of the roll angle about the centre of the range.
+void FitAxisPolynomials(const ConversionOptions& options, double centre, double half, ConversionResult* result) {
+  const int n = options.num_samples;
+  result->motion = FreeFormMotion::Zero(options.polynomial_degree);
+  std::vector<double> y(n);
+  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
+    for (int i = 0; i < n; ++i) {
+      y[i] = axis < kNumFreeFormAxes ? result->sample_axes[i].Get(static_cast<FreeFormAxis>(axis)) : result->sample_axes[i].c_rad;
+    }
+    const Eigen::VectorXd c = FitMonomials(result->sample_roll_rad, y, options.polynomial_degree, centre, half);
+    if (axis < kNumFreeFormAxes) {
+      result->motion.coefficients[axis] = c;
+    } else {
+      result->motion.c_coefficients = c;
+    }
+  }
+}
+
+// Checks over num_check_samples dense instants: the fit residual per axis and the difference of
+// the fitted transform from the cradle's.
+void CheckFitOnDenseInstants(const ConversionOptions& options, const BevelPinionJob& job,
+                             const InstantConversion& middle, ConversionResult* result) {
+  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
+    result->fit[axis].axis = axis < kNumFreeFormAxes ? FreeFormAxisName(static_cast<FreeFormAxis>(axis)) : "C";
+    result->fit[axis].unit = axis < kNumFreeFormAxes ? FreeFormAxisUnit(static_cast<FreeFormAxis>(axis)) : "rad";
+  }
+  std::array<double, kNumFreeFormAxes + 1> sum_sq{};
+  const int m = options.num_check_samples;
+  double a_ref = middle.axes.a_rad, c_ref = middle.axes.c_rad;
+  for (int i = 0; i < m; ++i) {
+    const double t = result->roll_min_rad + (result->roll_max_rad - result->roll_min_rad) * i / (m - 1);
+    const FreeFormAxisValues fitted = result->motion.At(t);
+    a_ref = fitted.a_rad;
+    c_ref = fitted.c_rad;
+    const InstantConversion exact = ConvertInstant(job.machine, t, a_ref, c_ref, /*polish=*/false);
+    for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
+      const double e = axis < kNumFreeFormAxes
+                           ? fitted.Get(static_cast<FreeFormAxis>(axis)) - exact.axes.Get(static_cast<FreeFormAxis>(axis))
+                           : fitted.c_rad - exact.axes.c_rad;
+      result->fit[axis].max_residual = std::max(result->fit[axis].max_residual, std::abs(e));
+      sum_sq[axis] += e * e;
+    }
+    const RigidTransform g = CradleWorkFromCutter(job.machine, t);
+    const RigidTransform f = FreeFormWorkFromCutter(fitted);
+    result->fitted_max_rotation_difference =
+        std::max(result->fitted_max_rotation_difference, (g.rotation - f.rotation).cwiseAbs().maxCoeff());
+    result->fitted_max_translation_difference_mm = std::max(result->fitted_max_translation_difference_mm,
+                                                            (g.translation_mm - f.translation_mm).cwiseAbs().maxCoeff());
+  }
+  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) result->fit[axis].rms_residual = std::sqrt(sum_sq[axis] / m);
+}
+
+// The flank cut by the fitted motions against the cradle flank on the grid.
+void CompareFittedFlank(const BevelPinionJob& job, ConversionResult* result) {
+  const BevelFreeFormGenerator generator(job, result->grid, result->motion);
+  ModelEvaluation eval;
+  generator.Evaluate(result->motion.ToVector(), /*with_jacobian=*/false, &eval);
+  double sum = 0.0;
+  for (int i = 0; i < eval.deviations_um.size(); ++i) {
+    if (eval.status[i] != PointStatus::kOk) continue;
+    ++result->flank_points_found;
+    result->flank_max_distance_um = std::max(result->flank_max_distance_um, std::abs(eval.deviations_um(i)));
+    sum += eval.deviations_um(i) * eval.deviations_um(i);
+  }
+  result->flank_rms_distance_um = result->flank_points_found > 0 ? std::sqrt(sum / result->flank_points_found) : 0.0;
+  result->ok = result->flank_points_found == result->grid.NumPoints();
+  if (!result->ok) result->message = "the flank cut by the fitted motions was not found at every grid point";
+}
+
+}  // namespace
+
 ConversionResult ConvertCradleToFreeForm(const ConversionOptions& options, const BevelPinionJob& job) {
   if (options.choose_degree) {
     ConversionOptions fixed = options;
@@ -165,93 +269,11 @@ ConversionResult ConvertCradleToFreeForm(const ConversionOptions& options, const
   const double centre = 0.5 * (result.roll_min_rad + result.roll_max_rad);
   const double half = std::max(1e-9, 0.5 * (result.roll_max_rad - result.roll_min_rad));
 
-  // Exact instants, marching from the centre outward so A and C stay on continuous branches.
-  const int n = options.num_samples;
-  result.sample_roll_rad.resize(n);
-  result.sample_axes.resize(n);
-  for (int i = 0; i < n; ++i) result.sample_roll_rad[i] = result.roll_min_rad + (result.roll_max_rad - result.roll_min_rad) * i / (n - 1);
   const InstantConversion middle = ConvertInstant(job.machine, centre, 0.0, 0.0, options.polish_with_ceres);
-  auto convert_range = [&](int from, int to, int step) {
-    double a_ref = middle.axes.a_rad, c_ref = middle.axes.c_rad;
-    for (int i = from; i != to; i += step) {
-      const InstantConversion s = ConvertInstant(job.machine, result.sample_roll_rad[i], a_ref, c_ref, options.polish_with_ceres);
-      result.sample_axes[i] = s.axes;
-      a_ref = s.axes.a_rad;
-      c_ref = s.axes.c_rad;
-      result.max_closed_form_residual = std::max(result.max_closed_form_residual, s.closed_form_residual);
-      result.max_polished_residual = std::max(result.max_polished_residual, s.polished_residual);
-    }
-  };
-  convert_range(n / 2, n, 1);
-  convert_range(n / 2 - 1, -1, -1);
-  for (int i = 0; i < n; ++i) {
-    const RigidTransform g = CradleWorkFromCutter(job.machine, result.sample_roll_rad[i]);
-    const RigidTransform f = FreeFormWorkFromCutter(result.sample_axes[i]);
-    result.exact_max_rotation_difference =
-        std::max(result.exact_max_rotation_difference, (g.rotation - f.rotation).cwiseAbs().maxCoeff());
-    result.exact_max_translation_difference_mm = std::max(
-        result.exact_max_translation_difference_mm, (g.translation_mm - f.translation_mm).cwiseAbs().maxCoeff());
-  }
-
-  // Fits.
-  result.motion = FreeFormMotion::Zero(options.polynomial_degree);
-  std::vector<double> y(n);
-  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
-    for (int i = 0; i < n; ++i) {
-      y[i] = axis < kNumFreeFormAxes ? result.sample_axes[i].Get(static_cast<FreeFormAxis>(axis)) : result.sample_axes[i].c_rad;
-    }
-    const Eigen::VectorXd c = FitMonomials(result.sample_roll_rad, y, options.polynomial_degree, centre, half);
-    if (axis < kNumFreeFormAxes) {
-      result.motion.coefficients[axis] = c;
-    } else {
-      result.motion.c_coefficients = c;
-    }
-  }
-
-  // Checks over dense instants: fit residual per axis and transform difference.
-  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
-    result.fit[axis].axis = axis < kNumFreeFormAxes ? FreeFormAxisName(static_cast<FreeFormAxis>(axis)) : "C";
-    result.fit[axis].unit = axis < kNumFreeFormAxes ? FreeFormAxisUnit(static_cast<FreeFormAxis>(axis)) : "rad";
-  }
-  std::array<double, kNumFreeFormAxes + 1> sum_sq{};
-  const int m = options.num_check_samples;
-  double a_ref = middle.axes.a_rad, c_ref = middle.axes.c_rad;
-  for (int i = 0; i < m; ++i) {
-    const double t = result.roll_min_rad + (result.roll_max_rad - result.roll_min_rad) * i / (m - 1);
-    const FreeFormAxisValues fitted = result.motion.At(t);
-    a_ref = fitted.a_rad;
-    c_ref = fitted.c_rad;
-    const InstantConversion exact = ConvertInstant(job.machine, t, a_ref, c_ref, /*polish=*/false);
-    for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) {
-      const double e = axis < kNumFreeFormAxes
-                           ? fitted.Get(static_cast<FreeFormAxis>(axis)) - exact.axes.Get(static_cast<FreeFormAxis>(axis))
-                           : fitted.c_rad - exact.axes.c_rad;
-      result.fit[axis].max_residual = std::max(result.fit[axis].max_residual, std::abs(e));
-      sum_sq[axis] += e * e;
-    }
-    const RigidTransform g = CradleWorkFromCutter(job.machine, t);
-    const RigidTransform f = FreeFormWorkFromCutter(fitted);
-    result.fitted_max_rotation_difference =
-        std::max(result.fitted_max_rotation_difference, (g.rotation - f.rotation).cwiseAbs().maxCoeff());
-    result.fitted_max_translation_difference_mm = std::max(result.fitted_max_translation_difference_mm,
-                                                           (g.translation_mm - f.translation_mm).cwiseAbs().maxCoeff());
-  }
-  for (int axis = 0; axis <= kNumFreeFormAxes; ++axis) result.fit[axis].rms_residual = std::sqrt(sum_sq[axis] / m);
-
-  // The flank cut by the fitted motions against the cradle flank on the grid.
-  const BevelFreeFormGenerator generator(job, result.grid, result.motion);
-  ModelEvaluation eval;
-  generator.Evaluate(result.motion.ToVector(), /*with_jacobian=*/false, &eval);
-  double sum = 0.0;
-  for (int i = 0; i < eval.deviations_um.size(); ++i) {
-    if (eval.status[i] != PointStatus::kOk) continue;
-    ++result.flank_points_found;
-    result.flank_max_distance_um = std::max(result.flank_max_distance_um, std::abs(eval.deviations_um(i)));
-    sum += eval.deviations_um(i) * eval.deviations_um(i);
-  }
-  result.flank_rms_distance_um = result.flank_points_found > 0 ? std::sqrt(sum / result.flank_points_found) : 0.0;
-  result.ok = result.flank_points_found == result.grid.NumPoints();
-  if (!result.ok) result.message = "the flank cut by the fitted motions was not found at every grid point";
+  SampleExactAxes(options, job, middle, &result);
+  FitAxisPolynomials(options, centre, half, &result);
+  CheckFitOnDenseInstants(options, job, middle, &result);
+  CompareFittedFlank(job, &result);
   return result;
 }
 

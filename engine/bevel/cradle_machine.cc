@@ -259,10 +259,12 @@ BevelContact CradleGenerator::SolveFlankPoint(double cone_distance_mm, double po
   return contact;
 }
 
-BevelFlankGrid CradleGenerator::BuildGrid() const {
+namespace {
+
+// The grid's nominal points: rows from the root to the face angle, columns from the inner to
+// the outer cone distance (BevelGridOptions), no contact yet.
+BevelFlankGrid LayOutGrid(const BevelGridOptions& o, const BevelBlank& b) {
   BevelFlankGrid grid;
-  const BevelGridOptions& o = job_.grid;
-  const BevelBlank& b = job_.blank;
   grid.rows = o.profile_points;
   grid.columns = o.lengthwise_points;
   grid.points.resize(grid.rows * grid.columns);
@@ -278,15 +280,19 @@ BevelFlankGrid CradleGenerator::BuildGrid() const {
       p.cone_distance_mm = b.inner_cone_distance_mm + length * (b.outer_cone_distance_mm - b.inner_cone_distance_mm);
     }
   }
+  return grid;
+}
 
-  // Seed: at the centre roll, a mid-depth circle of the blade; the root of the meshing function
-  // around the cutter whose point lies nearest the middle of the blank's flank region.
-  const double mid_distance = 0.5 * (b.inner_cone_distance_mm + b.outer_cone_distance_mm);
-  const double mid_angle = 0.5 * (b.root_angle_rad + b.face_angle_rad);
+}  // namespace
+
+// Seed: at the centre roll, a mid-depth circle of the blade; the root of the meshing function
+// around the cutter whose point lies nearest the middle of the blank's flank region. False when
+// the meshing function has no root there.
+bool CradleGenerator::FindCentreSeed(double mid_distance, double mid_angle, Eigen::Vector3d* seed) const {
   const double seed_u = 5.0;
   const int kScan = 2880;
   double best_score = std::numeric_limits<double>::infinity();
-  Eigen::Vector3d seed(seed_u, 0.0, 0.0);
+  *seed = Eigen::Vector3d(seed_u, 0.0, 0.0);
   double previous_f = 0.0;
   for (int i = 0; i <= kScan; ++i) {
     const double theta = -kPi + 2.0 * kPi * i / kScan;
@@ -311,23 +317,18 @@ BevelFlankGrid CradleGenerator::BuildGrid() const {
       const double score = std::abs(r1.norm() - mid_distance) + mid_distance * std::abs(nu - mid_angle);
       if (score < best_score) {
         best_score = score;
-        seed = Eigen::Vector3d(seed_u, 0.5 * (lo + hi), 0.0);
+        *seed = Eigen::Vector3d(seed_u, 0.5 * (lo + hi), 0.0);
       }
     }
     previous_f = f;
   }
-  if (!std::isfinite(best_score)) {
-    grid.message = "the meshing equation has no root on the cutter at the centre roll";
-    return grid;
-  }
-  // March outward from the centre of the grid, each point starting from its solved neighbour
-  // nearest the centre (continuation keeps Newton on the flank's branch).
-  const BevelContact centre = SolveFlankPoint(mid_distance, mid_angle, seed);
-  if (centre.status == PointStatus::kNotConverged) {
-    grid.message = "the flank point at the middle of the blank was not found";
-    return grid;
-  }
-  const Eigen::Vector3d centre_x(centre.blade_u_mm, centre.cutter_theta_rad, centre.roll_rad);
+  return std::isfinite(best_score);
+}
+
+// March outward from the centre of the grid, each point starting from its solved neighbour
+// nearest the centre (continuation keeps Newton on the flank's branch).
+void CradleGenerator::MarchGridFromCentre(const Eigen::Vector3d& centre_x, BevelFlankGrid* grid_out) const {
+  BevelFlankGrid& grid = *grid_out;
   std::vector<int> order(grid.points.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
   const double rc = 0.5 * (grid.rows - 1), cc = 0.5 * (grid.columns - 1);
@@ -374,6 +375,24 @@ BevelFlankGrid CradleGenerator::BuildGrid() const {
     grid.roll_min_rad = std::min(grid.roll_min_rad, p.contact.roll_rad);
     grid.roll_max_rad = std::max(grid.roll_max_rad, p.contact.roll_rad);
   }
+}
+
+BevelFlankGrid CradleGenerator::BuildGrid() const {
+  const BevelBlank& b = job_.blank;
+  BevelFlankGrid grid = LayOutGrid(job_.grid, b);
+  const double mid_distance = 0.5 * (b.inner_cone_distance_mm + b.outer_cone_distance_mm);
+  const double mid_angle = 0.5 * (b.root_angle_rad + b.face_angle_rad);
+  Eigen::Vector3d seed;
+  if (!FindCentreSeed(mid_distance, mid_angle, &seed)) {
+    grid.message = "the meshing equation has no root on the cutter at the centre roll";
+    return grid;
+  }
+  const BevelContact centre = SolveFlankPoint(mid_distance, mid_angle, seed);
+  if (centre.status == PointStatus::kNotConverged) {
+    grid.message = "the flank point at the middle of the blank was not found";
+    return grid;
+  }
+  MarchGridFromCentre(Eigen::Vector3d(centre.blade_u_mm, centre.cutter_theta_rad, centre.roll_rad), &grid);
   return grid;
 }
 

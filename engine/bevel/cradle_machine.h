@@ -219,6 +219,11 @@ class CradleGenerator {
   BevelFlankGrid BuildGrid() const;
 
  private:
+  // BuildGrid's steps: the seed of the meshing function at the centre roll, then the march of
+  // Newton solves outward from the grid's centre.
+  bool FindCentreSeed(double mid_distance_mm, double mid_angle_rad, Eigen::Vector3d* seed) const;
+  void MarchGridFromCentre(const Eigen::Vector3d& centre_start, BevelFlankGrid* grid) const;
+
   BevelPinionJob job_;
   BevelEnvelopeOptions options_;
   CradleGeometry geometry_;
