@@ -1,0 +1,333 @@
+// clients/cli/command_util.cc: the helpers of command_util.h. Diagnostics go to stderr,
+// results to stdout.
+#include "clients/cli/command_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "clients/cli/csv_grid.h"
+#include "clients/cli/grid_files.h"
+
+namespace gearloop {
+namespace cli_internal {
+namespace {
+
+using nlohmann::json;
+
+// The result's axis_motion as a small table: the change of each axis position at the 9 roll
+// angles of the result's range (um for linear axes, urad for rotary ones), its rms and largest
+// magnitude over the range, then the wheel-parameter changes. Nothing for a job stored without it.
+void PrintAxisMotion(const json& result) {
+  if (!result.contains("axis_motion") || !result["axis_motion"].is_object()) return;
+  const json& motion = result["axis_motion"];
+  const json roll = motion.value("roll_rad", json::array());
+  const json axes = motion.value("axes", json::object());
+  if (!roll.is_array() || roll.empty() || !axes.is_object()) return;
+  constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+  std::cout << "axis motion of the correction over the roll range (change of the axis position)\n";
+  std::cout << std::left << std::setw(11) << "roll [deg]" << std::right;
+  for (const json& r : roll) std::cout << std::setw(9) << (r.is_number() ? Fixed(r.get<double>() * kDegPerRad, 2) : "-");
+  std::cout << std::setw(10) << "rms" << std::setw(10) << "max |.|" << "\n";
+  // Linear axes first, as the machine lists them; then any other axis the model has.
+  std::vector<std::string> names;
+  for (const char* name : {"X", "Y", "Z", "A", "B", "C"}) {
+    if (axes.contains(name)) names.push_back(name);
+  }
+  for (const auto& item : axes.items()) {
+    if (std::find(names.begin(), names.end(), item.key()) == names.end()) names.push_back(item.key());
+  }
+  for (const std::string& name : names) {
+    const json& axis = axes[name];
+    if (!axis.is_object()) continue;
+    // The unit is in the keys: change_um / change_urad.
+    std::string unit;
+    for (const char* u : {"um", "urad"}) {
+      if (axis.contains(std::string("change_") + u)) unit = u;
+    }
+    if (unit.empty()) continue;
+    std::cout << std::left << std::setw(11) << (name + " [" + unit + "]") << std::right;
+    for (const json& v : axis["change_" + unit]) std::cout << std::setw(9) << Fixed(v, 2);
+    std::cout << std::setw(10) << Fixed(axis.value("rms_" + unit, json()), 2) << std::setw(10)
+              << Fixed(axis.value("max_abs_" + unit, json()), 2) << "\n";
+  }
+  const json wheel = motion.value("wheel", json::object());
+  if (wheel.is_object() && !wheel.empty()) {
+    std::cout << "wheel change:";
+    for (const auto& [key, value] : wheel.items()) {
+      std::ostringstream number;
+      if (value.is_number()) {
+        number << std::setprecision(4) << value.get<double>();
+      } else {
+        number << "-";
+      }
+      std::cout << " " << key << " " << number.str();
+    }
+    std::cout << "\n";
+  }
+}
+
+}  // namespace
+
+// --- Arguments -----------------------------------------------------------------------------------
+
+bool ParseCount(const std::string& text, long long min, long long max, long long* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end != text.c_str() + text.size() || v < min || v > max) return false;
+  *value = v;
+  return true;
+}
+
+bool ParseNumber(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || !std::isfinite(v)) return false;
+  *value = v;
+  return true;
+}
+
+bool ParseJobId(const std::string& text, long long* id) { return ParseCount(text, 1, (1LL << 53), id); }
+
+// --- Output --------------------------------------------------------------------------------------
+
+std::string Fixed(const json& value, int digits) {
+  if (!value.is_number()) return "-";
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value.get<double>();
+  return out.str();
+}
+
+std::string Text(const json& value) {
+  if (value.is_string()) return value.get<std::string>();
+  if (value.is_null()) return "-";
+  return value.dump();
+}
+
+std::string Member(const json& object, const char* key) {
+  if (!object.is_object() || !object.contains(key)) return "-";
+  return Text(object[key]);
+}
+
+void PrintGrid(const std::string& title, const json& grid) {
+  CsvGrid g;
+  if (!JsonToCsvGrid(grid, &g)) return;
+  std::cout << title << " [um] (tip at top, lead from x < 0 to x > 0)\n";
+  std::cout << std::setw(11) << "";
+  for (int c = 0; c < g.columns; ++c) std::cout << std::setw(8) << ("L" + std::to_string(c + 1));
+  std::cout << "\n";
+  for (int r = g.rows - 1; r >= 0; --r) {
+    std::string label = "row " + std::to_string(r + 1);
+    if (r == g.rows - 1) label += " tip";
+    if (r == 0) label += " root";
+    std::cout << std::left << std::setw(11) << label << std::right;
+    for (int c = 0; c < g.columns; ++c) {
+      const auto& v = g.at(r, c);
+      std::ostringstream cell;
+      if (v) {
+        // No "-0.00": a value that rounds to zero prints as zero.
+        cell << std::fixed << std::setprecision(2) << (std::fabs(*v) < 0.005 ? 0.0 : *v);
+      } else {
+        cell << "-";
+      }
+      std::cout << std::setw(8) << cell.str();
+    }
+    std::cout << "\n";
+  }
+}
+
+void PrintJson(const json& value) { std::cout << value.dump(2) << "\n"; }
+
+int CheckAnswer(const ApiResponse& answer) {
+  if (!answer.transport_error.empty()) {
+    std::cerr << "gearloop: " << answer.transport_error << "\n";
+    return kExitTransport;
+  }
+  if (answer.IsApiError()) {
+    std::cerr << "gearloop: server refused the request: " << answer.ErrorText() << "\n";
+    return kExitApiError;
+  }
+  if (!answer.ok() || !answer.body.is_object()) {
+    std::cerr << "gearloop: unexpected answer " << answer.status << " from the server\n";
+    return kExitTransport;
+  }
+  return -1;
+}
+
+int InputError(const std::string& message) {
+  std::cerr << "gearloop: " << message << "\n";
+  return kExitInput;
+}
+
+// --- Corrections ---------------------------------------------------------------------------------
+
+void PrintCorrectionSummary(const json& answer) {
+  const json& result = answer.contains("result") ? answer["result"] : json::object();
+  std::cout << "job " << Member(answer, "id") << " (" << Member(answer, "kind") << ")  status "
+            << Member(result, "status");
+  if (result.contains("message") && result["message"].is_string() && !result["message"].get<std::string>().empty()) {
+    std::cout << " - " << result["message"].get<std::string>();
+  }
+  std::cout << "\n";
+  if (answer.contains("parent_job_id") && !answer["parent_job_id"].is_null()) {
+    std::cout << "  replay of job " << Text(answer["parent_job_id"]) << "\n";
+  }
+  if (answer.contains("settings_source_job_id") && !answer["settings_source_job_id"].is_null()) {
+    std::cout << "  ground with the settings of job " << Text(answer["settings_source_job_id"]) << "\n";
+  }
+  std::cout << "  deviation before     rms " << Fixed(result.value("initial_rms_um", json())) << " um, max "
+            << Fixed(result.value("initial_max_um", json())) << " um\n"
+            << "  predicted residual   rms " << Fixed(result.value("residual_rms_um", json())) << " um, max "
+            << Fixed(result.value("residual_max_um", json())) << " um\n"
+            << "  best reachable       rms " << Fixed(result.value("best_reachable_rms_um", json())) << " um\n"
+            << "  solver " << Member(result, "solver") << ", mode " << Member(result, "mode") << ", rank "
+            << Member(result, "rank") << ", condition " << Fixed(result.value("condition_number", json()), 1)
+            << ", " << Member(result, "iterations") << " iterations, " << Fixed(result.value("elapsed_ms", json()), 1)
+            << " ms\n";
+  if (result.contains("regularisation") && result["regularisation"].is_object()) {
+    const json& reg = result["regularisation"];
+    std::cout << "  regularisation " << Member(reg, "rule") << ", level " << Fixed(reg.value("level", json()), 4)
+              << ", effective dof " << Fixed(reg.value("effective_dof", json()), 1) << "\n";
+  }
+  if (result.contains("machine_state") && result["machine_state"].is_object()) {
+    const json& state = result["machine_state"];
+    if (state.value("estimated", false)) {
+      std::cout << "  linearised at the estimated machine state (size " << Fixed(state.value("size", json()), 1)
+                << ", misfit rms " << Fixed(state.value("misfit_rms_um", json())) << " um)\n";
+    } else {
+      std::cout << "  linearised at the commanded settings\n";
+    }
+  }
+  if (result.contains("missing") && result["missing"].is_array() && !result["missing"].empty()) {
+    std::cout << "  " << result["missing"].size() << " missing points left out\n";
+  }
+  if (result.contains("outliers") && result["outliers"].is_array() && !result["outliers"].empty()) {
+    std::cout << "  " << result["outliers"].size() << " points rejected as outliers\n";
+  }
+  if (result.contains("predicted_residual_um")) PrintGrid("predicted residual", result["predicted_residual_um"]);
+  PrintAxisMotion(result);
+}
+
+int BuildCorrectionRequest(const std::string& request_path,
+                           const std::string& measurement_path,
+                           const ParsedArgs& args,
+                           json* request) {
+  std::string error;
+  if (!ReadJsonFile(request_path, request, &error)) return InputError(error);
+  if (!request->is_object()) return InputError(request_path + ": the request must be a JSON object");
+  int rows = 5;
+  int columns = 9;
+  GridShape(*request, &rows, &columns);
+  json measurement;
+  if (!ReadMeasurementFile(measurement_path, rows, columns, &measurement, &error)) return InputError(error);
+  (*request)["measurement"] = measurement;
+  if (args.Has("--target")) {
+    json target;
+    if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error)) return InputError(error);
+    (*request)["target"] = target;
+  }
+  if (args.Has("--options")) {
+    json options;
+    if (!ReadJsonFile(args.Value("--options"), &options, &error)) return InputError(error);
+    if (!options.is_object()) return InputError(args.Value("--options") + ": options must be a JSON object");
+    if (!request->contains("options") || !(*request)["options"].is_object()) (*request)["options"] = json::object();
+    (*request)["options"].merge_patch(options);
+  }
+  if (args.Has("--settings-from")) {
+    long long id = 0;
+    if (!ParseCount(args.Value("--settings-from"), 1, (1LL << 53), &id)) {
+      std::cerr << "gearloop submit: --settings-from takes a job id\n";
+      return kExitUsage;
+    }
+    (*request)["settings_source_job_id"] = id;
+  }
+  return -1;
+}
+
+int FillSourceSettings(ApiClient* client, json* request, json* cache) {
+  if (!request->contains("settings_source_job_id") || request->contains("settings")) return -1;
+  if (cache->is_null()) {
+    const std::string id = Text((*request)["settings_source_job_id"]);
+    const ApiResponse source = client->Get("/api/v1/corrections/" + id);
+    const int failure = CheckAnswer(source);
+    if (failure >= 0) return failure;
+    const json result = source.body.value("result", json::object());
+    if (!result.contains("settings") || !result["settings"].is_object()) {
+      std::cerr << "gearloop: job " << id << " holds no corrected settings\n";
+      return kExitApiError;
+    }
+    *cache = result["settings"];
+  }
+  (*request)["settings"] = *cache;
+  return -1;
+}
+
+// --- Simulations ---------------------------------------------------------------------------------
+
+int ApplySeedAndNoise(const CommandSpec& spec, const ParsedArgs& args, json* scenario) {
+  if (args.Has("--seed")) {
+    long long seed = 0;
+    if (!ParseCount(args.Value("--seed"), 0, (1LL << 53), &seed)) {
+      std::cerr << "gearloop " << spec.name << ": --seed takes a non-negative integer\n";
+      return kExitUsage;
+    }
+    (*scenario)["seed"] = seed;
+  }
+  if (args.Has("--noise")) {
+    double noise = 0.0;
+    if (!ParseNumber(args.Value("--noise"), &noise) || !(noise >= 0.0)) {
+      std::cerr << "gearloop " << spec.name << ": --noise takes a non-negative number of um\n";
+      return kExitUsage;
+    }
+    (*scenario)["noise_um"] = noise;
+  }
+  return -1;
+}
+
+int ApplyCorrectionsAndStore(const CommandSpec& spec, const ParsedArgs& args, json* scenario) {
+  if (args.Has("--corrections")) {
+    long long n = 0;
+    if (!ParseCount(args.Value("--corrections"), 1, 1000, &n)) {
+      std::cerr << "gearloop " << spec.name << ": --corrections takes a positive integer\n";
+      return kExitUsage;
+    }
+    (*scenario)["corrections"] = n;
+  }
+  if (args.Has("--store")) (*scenario)["store"] = true;
+  return -1;
+}
+
+int SendClosedLoop(ApiClient* client, const json& scenario, const char* made, const GlobalOptions& global) {
+  const ApiResponse answer = client->Post("/api/v1/simulations/closed-loop", scenario);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+  } else {
+    std::cout << std::setw(5) << "part" << std::setw(12) << "true rms" << std::setw(12) << "true max" << std::setw(14)
+              << "measured rms" << std::setw(15) << "correction" << std::setw(6) << "job" << "\n";
+    for (const json& it : answer.body.value("iterations", json::array())) {
+      std::string correction = "-";
+      if (it.contains("correction") && it["correction"].is_object()) {
+        correction = it["correction"].value("status", "yes");
+      }
+      std::cout << std::setw(5) << Member(it, "part") << std::setw(12) << Fixed(it.value("true_rms_um", json()))
+                << std::setw(12) << Fixed(it.value("true_max_um", json())) << std::setw(14)
+                << Fixed(it.value("measured_rms_um", json())) << std::setw(15) << correction << std::setw(6)
+                << Member(it, "job_id") << "\n";
+    }
+    std::cout << "(deviations from the target in um; part 0 is " << made << " before any correction)\n";
+    const std::string note = answer.body.value("message", "");
+    if (!note.empty()) std::cout << note << "\n";
+  }
+  const json completed = answer.body.value("completed", json(true));
+  return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged : kExitOk;
+}
+
+}  // namespace cli_internal
+}  // namespace gearloop
