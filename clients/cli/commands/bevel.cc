@@ -52,6 +52,85 @@ int ReadBevelJob(const CommandSpec& spec, const ParsedArgs& args, json* body) {
   return -1;
 }
 
+// --degree N and --max-flank-distance-um X into the request's options. Both may be given: the
+// server refuses that and names the field. Returns -1, or the usage exit code after printing
+// the reason.
+int ApplyConversionOptions(const ParsedArgs& args, json* body) {
+  if (args.Has("--degree")) {
+    long long degree = 0;
+    if (!ParseCount(args.Value("--degree"), -1000, 1000, &degree)) {
+      std::cerr << "gearloop bevel-convert: --degree takes an integer\n";
+      return kExitUsage;
+    }
+    if (!body->contains("options") || !(*body)["options"].is_object()) (*body)["options"] = json::object();
+    (*body)["options"]["polynomial_degree"] = degree;
+  }
+  if (args.Has("--max-flank-distance-um")) {
+    double tolerance_um = 0.0;
+    if (!ParseNumber(args.Value("--max-flank-distance-um"), &tolerance_um)) {
+      std::cerr << "gearloop bevel-convert: --max-flank-distance-um takes a number of um\n";
+      return kExitUsage;
+    }
+    if (!body->contains("options") || !(*body)["options"].is_object()) (*body)["options"] = json::object();
+    (*body)["options"]["max_flank_distance_um"] = tolerance_um;
+  }
+  return -1;
+}
+
+// The largest and rms |fit - exact| of each axis polynomial. The server gives rad or mm (the
+// unit is in the key); a person reads urad and um.
+void PrintFitResidual(const json& answer) {
+  std::cout << "fit residual |fit - exact| per axis\n"
+            << std::left << std::setw(6) << "axis" << std::right << std::setw(12) << "max" << std::setw(12) << "rms"
+            << "\n";
+  for (const json& axis : answer.value("fit_residual", json::array())) {
+    if (!axis.is_object()) continue;
+    std::string unit;
+    double scale = 1.0;
+    std::string key;
+    if (axis.contains("max_rad")) {
+      key = "rad";
+      unit = "urad";
+      scale = 1e6;
+    } else if (axis.contains("max_mm")) {
+      key = "mm";
+      unit = "um";
+      scale = 1e3;
+    } else {
+      continue;
+    }
+    auto cell = [&](const char* stat) {
+      const json value = axis.value(std::string(stat) + "_" + key, json());
+      if (!value.is_number()) return std::string("-");
+      std::ostringstream out;
+      out << std::setprecision(3) << value.get<double>() * scale;
+      return out.str();
+    };
+    std::cout << std::left << std::setw(6) << Member(axis, "axis") << std::right << std::setw(12) << cell("max")
+              << std::setw(12) << cell("rms") << " " << unit << "\n";
+  }
+}
+
+// A conversion for a person: the flank and degree, the fit residual per axis, and the distance
+// of the flank the fitted motions cut from the cradle flank. `body` is the request sent.
+void PrintConversion(const json& body, const json& answer) {
+  // The answer spells the whole summary out; whether it began as the published one is the request's.
+  const json job = answer.value("job", json::object());
+  std::cout << "spiral bevel pinion, " << Member(job, "side") << " flank"
+            << (body["job"].value("published", false) ? " (published summary, Tang 2011)" : "") << ": degree "
+            << Member(answer, "degree");
+  const json roll = answer.value("roll_range_deg", json::array());
+  if (roll.is_array() && roll.size() == 2) {
+    std::cout << ", cradle roll " << Fixed(roll[0]) << " .. " << Fixed(roll[1]) << " deg";
+  }
+  std::cout << "\n";
+  PrintFitResidual(answer);
+  const json distance = answer.value("flank_distance", json::object());
+  std::cout << "flank distance to the cradle flank: max " << Fixed(distance.value("max_um", json()), 4) << " um, rms "
+            << Fixed(distance.value("rms_um", json()), 4) << " um (" << Member(distance, "points_found") << " of "
+            << Member(distance, "points") << " grid points)\n";
+}
+
 }  // namespace
 
 const CommandSpec kBevelConvert{
@@ -78,25 +157,8 @@ int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptio
   json body;
   int bad = ReadBevelJob(kBevelConvert, args, &body);
   if (bad >= 0) return bad;
-  // Both may be given: the server refuses that and names the field.
-  if (args.Has("--degree")) {
-    long long degree = 0;
-    if (!ParseCount(args.Value("--degree"), -1000, 1000, &degree)) {
-      std::cerr << "gearloop bevel-convert: --degree takes an integer\n";
-      return kExitUsage;
-    }
-    if (!body.contains("options") || !body["options"].is_object()) body["options"] = json::object();
-    body["options"]["polynomial_degree"] = degree;
-  }
-  if (args.Has("--max-flank-distance-um")) {
-    double tolerance_um = 0.0;
-    if (!ParseNumber(args.Value("--max-flank-distance-um"), &tolerance_um)) {
-      std::cerr << "gearloop bevel-convert: --max-flank-distance-um takes a number of um\n";
-      return kExitUsage;
-    }
-    if (!body.contains("options") || !body["options"].is_object()) body["options"] = json::object();
-    body["options"]["max_flank_distance_um"] = tolerance_um;
-  }
+  bad = ApplyConversionOptions(args, &body);
+  if (bad >= 0) return bad;
   const ApiResponse answer = client->Post("/api/v1/bevel/conversions", body);
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
@@ -109,50 +171,7 @@ int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptio
     PrintJson(answer.body);
     return kExitOk;
   }
-  // The answer spells the whole summary out; whether it began as the published one is the request's.
-  const json job = answer.body.value("job", json::object());
-  std::cout << "spiral bevel pinion, " << Member(job, "side") << " flank"
-            << (body["job"].value("published", false) ? " (published summary, Tang 2011)" : "") << ": degree "
-            << Member(answer.body, "degree");
-  const json roll = answer.body.value("roll_range_deg", json::array());
-  if (roll.is_array() && roll.size() == 2) {
-    std::cout << ", cradle roll " << Fixed(roll[0]) << " .. " << Fixed(roll[1]) << " deg";
-  }
-  std::cout << "\n";
-  // The server gives rad or mm (the unit is in the key); a person reads urad and um.
-  std::cout << "fit residual |fit - exact| per axis\n"
-            << std::left << std::setw(6) << "axis" << std::right << std::setw(12) << "max" << std::setw(12) << "rms"
-            << "\n";
-  for (const json& axis : answer.body.value("fit_residual", json::array())) {
-    if (!axis.is_object()) continue;
-    std::string unit;
-    double scale = 1.0;
-    std::string key;
-    if (axis.contains("max_rad")) {
-      key = "rad";
-      unit = "urad";
-      scale = 1e6;
-    } else if (axis.contains("max_mm")) {
-      key = "mm";
-      unit = "um";
-      scale = 1e3;
-    } else {
-      continue;
-    }
-    auto cell = [&](const char* stat) {
-      const json value = axis.value(std::string(stat) + "_" + key, json());
-      if (!value.is_number()) return std::string("-");
-      std::ostringstream out;
-      out << std::setprecision(3) << value.get<double>() * scale;
-      return out.str();
-    };
-    std::cout << std::left << std::setw(6) << Member(axis, "axis") << std::right << std::setw(12) << cell("max")
-              << std::setw(12) << cell("rms") << " " << unit << "\n";
-  }
-  const json distance = answer.body.value("flank_distance", json::object());
-  std::cout << "flank distance to the cradle flank: max " << Fixed(distance.value("max_um", json()), 4) << " um, rms "
-            << Fixed(distance.value("rms_um", json()), 4) << " um (" << Member(distance, "points_found") << " of "
-            << Member(distance, "points") << " grid points)\n";
+  PrintConversion(body, answer.body);
   return kExitOk;
 }
 

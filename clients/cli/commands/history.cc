@@ -36,6 +36,64 @@ std::string UrlEncode(const std::string& text) {
   return out;
 }
 
+// `gearloop show ID --grid NAME`: the job's grid NAME (measured, target, residual, change) as
+// CSV. Exit 3 when the job has no such grid.
+int PrintJobGrid(long long id, const json& job, const std::string& grid_name, bool header) {
+  const json result = job.value("result", json::object());
+  json grid;
+  if (grid_name == "residual") grid = result.value("predicted_residual_um", json());
+  if (grid_name == "change") grid = result.value("predicted_change_um", json());
+  if (grid_name == "measured") grid = MeasuredGrid(job);
+  if (grid_name == "target") grid = TargetGrid(job);
+  CsvGrid csv;
+  if (!JsonToCsvGrid(grid, &csv)) {
+    std::cerr << "gearloop show: job " << id << " has no " << grid_name << " grid\n";
+    return kExitApiError;
+  }
+  std::cout << FormatCsvGrid(csv, header);
+  return kExitOk;
+}
+
+// The gear and flank of a stored request, or the bevel machine and pinion flank. True for a
+// bevel pinion job.
+bool PrintJobSetup(const json& request) {
+  if (request.contains("gear")) {
+    const json& gear = request["gear"];
+    std::cout << "gear " << Member(gear, "teeth") << " teeth, mn " << Member(gear, "normal_module_mm") << " mm, alpha "
+              << Member(gear, "normal_pressure_angle_deg") << " deg, beta " << Member(gear, "helix_angle_deg")
+              << " deg " << Member(gear, "hand") << ", flank " << Member(request, "flank") << "\n";
+  }
+  const bool bevel = request.contains("machine") && request["machine"].is_object() &&
+                     request["machine"].value("kind", "") == "free-form-bevel-generator";
+  if (bevel) {
+    const json bevel_job = request.value("job", json::object());
+    std::cout << "machine: free-form bevel generator, spiral bevel pinion, " << Member(bevel_job, "side")
+              << " flank" << (bevel_job.value("published", false) ? " (published summary, Tang 2011)" : "")
+              << "\n  grid rows root to face, columns toe to heel\n";
+  }
+  return bevel;
+}
+
+// The corrected axis polynomials of a bevel job and their change: coefficient k multiplies t^k.
+void PrintBevelMotion(const json& result) {
+  const json& motion = result["motion"];
+  const json delta = result.value("delta", json::object());
+  std::cout << "corrected axis motions (coefficient k of t^k, t the roll in rad; change in brackets)\n";
+  for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
+    if (!motion.contains(axis) || !motion[axis].is_array()) continue;
+    std::cout << "  " << std::left << std::setw(6) << axis << std::right;
+    for (size_t k = 0; k < motion[axis].size(); ++k) {
+      std::ostringstream cell;
+      cell << std::setprecision(8) << motion[axis][k].get<double>();
+      if (delta.contains(axis) && delta[axis].is_array() && k < delta[axis].size()) {
+        cell << " (" << std::setprecision(3) << delta[axis][k].get<double>() << ")";
+      }
+      std::cout << " " << cell.str();
+    }
+    std::cout << "\n";
+  }
+}
+
 }  // namespace
 
 const CommandSpec kList{"list",
@@ -121,63 +179,18 @@ int RunShow(const ParsedArgs& args, ApiClient* client, const GlobalOptions& glob
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   const json& job = answer.body;
-  const json result = job.value("result", json::object());
-  if (!grid_name.empty()) {
-    json grid;
-    if (grid_name == "residual") grid = result.value("predicted_residual_um", json());
-    if (grid_name == "change") grid = result.value("predicted_change_um", json());
-    if (grid_name == "measured") grid = MeasuredGrid(job);
-    if (grid_name == "target") grid = TargetGrid(job);
-    CsvGrid csv;
-    if (!JsonToCsvGrid(grid, &csv)) {
-      std::cerr << "gearloop show: job " << id << " has no " << grid_name << " grid\n";
-      return kExitApiError;
-    }
-    std::cout << FormatCsvGrid(csv, args.Has("--header"));
-    return kExitOk;
-  }
+  if (!grid_name.empty()) return PrintJobGrid(id, job, grid_name, args.Has("--header"));
   if (global.json) {
     PrintJson(job);
     return kExitOk;
   }
   std::cout << "created " << Member(job, "created_utc") << ", server " << Member(job, "server_version") << "\n";
-  const json request = job.value("request", json::object());
-  if (request.contains("gear")) {
-    const json& gear = request["gear"];
-    std::cout << "gear " << Member(gear, "teeth") << " teeth, mn " << Member(gear, "normal_module_mm") << " mm, alpha "
-              << Member(gear, "normal_pressure_angle_deg") << " deg, beta " << Member(gear, "helix_angle_deg")
-              << " deg " << Member(gear, "hand") << ", flank " << Member(request, "flank") << "\n";
-  }
-  const bool bevel = request.contains("machine") && request["machine"].is_object() &&
-                     request["machine"].value("kind", "") == "free-form-bevel-generator";
-  if (bevel) {
-    const json bevel_job = request.value("job", json::object());
-    std::cout << "machine: free-form bevel generator, spiral bevel pinion, " << Member(bevel_job, "side")
-              << " flank" << (bevel_job.value("published", false) ? " (published summary, Tang 2011)" : "")
-              << "\n  grid rows root to face, columns toe to heel\n";
-  }
+  const bool bevel = PrintJobSetup(job.value("request", json::object()));
   const json measured = MeasuredGrid(job);
   if (!measured.is_null()) PrintGrid("measured", measured);
   PrintCorrectionSummary(job);
-  if (bevel && result.contains("motion") && result["motion"].is_object()) {
-    // The corrected axis polynomials and their change: coefficient k multiplies t^k.
-    const json& motion = result["motion"];
-    const json delta = result.value("delta", json::object());
-    std::cout << "corrected axis motions (coefficient k of t^k, t the roll in rad; change in brackets)\n";
-    for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
-      if (!motion.contains(axis) || !motion[axis].is_array()) continue;
-      std::cout << "  " << std::left << std::setw(6) << axis << std::right;
-      for (size_t k = 0; k < motion[axis].size(); ++k) {
-        std::ostringstream cell;
-        cell << std::setprecision(8) << motion[axis][k].get<double>();
-        if (delta.contains(axis) && delta[axis].is_array() && k < delta[axis].size()) {
-          cell << " (" << std::setprecision(3) << delta[axis][k].get<double>() << ")";
-        }
-        std::cout << " " << cell.str();
-      }
-      std::cout << "\n";
-    }
-  }
+  const json result = job.value("result", json::object());
+  if (bevel && result.contains("motion") && result["motion"].is_object()) PrintBevelMotion(result);
   return kExitOk;
 }
 
