@@ -627,6 +627,7 @@ bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, Api
       result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
       JobRecord job;
       job.status = CorrectionStatusName(it.correction.status);
+      job.machine_kind = kFreeFormBevelGeneratorKind;
       job.gear_hand = "left";
       job.flank = BevelFlankSideName(setup.job.side);
       job.request_json = request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
@@ -716,6 +717,7 @@ bool RunBevelCorrection(const nlohmann::json& body, CorrectionRun* run, ApiError
 
   JobRecord& job = run->job;
   job.status = CorrectionStatusName(s.status);
+  job.machine_kind = kFreeFormBevelGeneratorKind;
   // A pinion flank has no tooth count or module in the summary; the pinion is left-hand (§2.4).
   job.gear_teeth = 0;
   job.gear_normal_module_mm = 0.0;

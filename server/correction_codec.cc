@@ -422,6 +422,7 @@ bool RunCorrection(const CorrectionRequest& request, CorrectionRun* run, ApiErro
 
   JobRecord& job = run->job;
   job.status = CorrectionStatusName(s.status);
+  job.machine_kind = "flat-wheel-grinder";
   job.gear_teeth = request.setup.gear.teeth;
   job.gear_normal_module_mm = request.setup.gear.normal_module_mm;
   job.gear_helix_angle_deg = RoundTo1e9(std::fabs(request.setup.gear.helix_angle_rad) * kDegPerRad);

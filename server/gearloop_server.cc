@@ -243,9 +243,7 @@ nlohmann::json JobSummaryJson(const JobRecord& job) {
           {"status", job.status},
           {"gear", gear},
           {"flank", job.flank},
-          // Bevel jobs store their flank side (convex / concave) as the flank.
-          {"machine_kind", job.flank == "convex" || job.flank == "concave" ? kFreeFormBevelGeneratorKind
-                                                                            : "flat-wheel-grinder"},
+          {"machine_kind", job.machine_kind},
           {"residual_rms_um", OptionalToJson(job.residual_rms_um)},
           {"best_reachable_rms_um", OptionalToJson(job.best_reachable_rms_um)},
           {"rank", job.rank ? nlohmann::json(*job.rank) : nlohmann::json(nullptr)},

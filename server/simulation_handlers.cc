@@ -362,6 +362,7 @@ bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError
     result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
     JobRecord job;
     job.status = CorrectionStatusName(it.correction.status);
+    job.machine_kind = "flat-wheel-grinder";
     job.gear_teeth = sim.setup.gear.teeth;
     job.gear_normal_module_mm = sim.setup.gear.normal_module_mm;
     job.gear_helix_angle_deg = RoundTo1e9(std::fabs(sim.setup.gear.helix_angle_rad) / kRadPerDeg);

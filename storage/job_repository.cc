@@ -67,8 +67,8 @@ class Transaction {
 constexpr const char* kJobSummaryColumns =
     "job_id, created_utc, kind, status, gear_teeth, gear_normal_module_mm, gear_helix_angle_deg, "
     "gear_hand, flank, residual_rms_um, best_reachable_rms_um, rank, elapsed_ms, server_version, "
-    "parent_job_id, settings_source_job_id";
-constexpr int kNumJobSummaryColumns = 16;
+    "parent_job_id, settings_source_job_id, machine_kind";
+constexpr int kNumJobSummaryColumns = 17;
 
 std::string ColumnText(sqlite3_stmt* statement, int column) {
   const unsigned char* text = sqlite3_column_text(statement, column);
@@ -104,6 +104,7 @@ JobRecord ReadJobColumns(sqlite3_stmt* statement, bool with_documents) {
   job.server_version = ColumnText(statement, 13);
   job.parent_job_id = ColumnOptionalInt64(statement, 14);
   job.settings_source_job_id = ColumnOptionalInt64(statement, 15);
+  job.machine_kind = ColumnText(statement, 16);
   if (with_documents) {
     job.request_json = ColumnText(statement, kNumJobSummaryColumns);
     job.result_json = ColumnText(statement, kNumJobSummaryColumns + 1);
@@ -184,8 +185,8 @@ class SqliteJobRepository : public JobRepository {
     StatementScope scope(stmt_list_jobs_);
     BindFilter(stmt_list_jobs_, filter);
     const int limit = filter.limit < 1 ? 1 : (filter.limit > 1000 ? 1000 : filter.limit);
-    SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 8, limit));
-    SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 9, filter.offset < 0 ? 0 : filter.offset));
+    SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 9, limit));
+    SQLITE3_CALL(db_, sqlite3_bind_int(stmt_list_jobs_, 10, filter.offset < 0 ? 0 : filter.offset));
     while (StepRow(stmt_list_jobs_)) {
       page.jobs.push_back(ReadJobColumns(stmt_list_jobs_, /*with_documents=*/false));
     }
@@ -352,6 +353,8 @@ class SqliteJobRepository : public JobRepository {
   }
 
   // --- Schema -----------------------------------------------------------------------------
+  // The tables as schema version 1 (release 0.1.0) created them; later columns are added by
+  // the migration steps below, so these statements stay as released.
   void CreateJobTable() {
     Exec(
         "CREATE TABLE IF NOT EXISTS jobs ("
@@ -416,6 +419,15 @@ class SqliteJobRepository : public JobRepository {
           CreateBatchTable();
           CreateBatchItemTable();
         },
+        // Version 2 (after release 0.1.0): the machine family in its own column, so no reader
+        // infers it from the flank. Rows stored before had only grinder and bevel jobs, told
+        // apart by their flank names; this is the one place that inference is made.
+        [this] {
+          Exec(
+              "ALTER TABLE jobs ADD COLUMN machine_kind TEXT NOT NULL DEFAULT '';"
+              "UPDATE jobs SET machine_kind = CASE WHEN flank IN ('convex', 'concave')"
+              "  THEN 'free-form-bevel-generator' ELSE 'flat-wheel-grinder' END;");
+        },
     };
     int version = ReadUserVersion();
     if (version > static_cast<int>(migrations.size())) {
@@ -447,17 +459,18 @@ class SqliteJobRepository : public JobRepository {
         " AND (?4 IS NULL OR kind = ?4)"
         " AND (?5 IS NULL OR status = ?5)"
         " AND (?6 IS NULL OR created_utc >= ?6)"
-        " AND (?7 IS NULL OR created_utc < ?7)";
+        " AND (?7 IS NULL OR created_utc < ?7)"
+        " AND (?8 IS NULL OR machine_kind = ?8)";
     Prepare(
         "INSERT INTO jobs (created_utc, kind, status, gear_teeth, gear_normal_module_mm, gear_helix_angle_deg,"
         " gear_hand, flank, request_json, result_json, residual_rms_um, best_reachable_rms_um, rank, elapsed_ms,"
-        " server_version, parent_job_id, settings_source_job_id)"
-        " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17);",
+        " server_version, parent_job_id, settings_source_job_id, machine_kind)"
+        " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18);",
         &stmt_insert_job_);
     Prepare("SELECT " + columns + ", request_json, result_json FROM jobs WHERE job_id = ?1;", &stmt_read_job_);
     Prepare("SELECT 1 FROM jobs WHERE job_id = ?1;", &stmt_job_exists_);
     Prepare("SELECT count(*) FROM jobs" + where + ";", &stmt_count_filtered_jobs_);
-    Prepare("SELECT " + columns + " FROM jobs" + where + " ORDER BY job_id DESC LIMIT ?8 OFFSET ?9;",
+    Prepare("SELECT " + columns + " FROM jobs" + where + " ORDER BY job_id DESC LIMIT ?9 OFFSET ?10;",
             &stmt_list_jobs_);
     Prepare("SELECT count(*) FROM jobs;", &stmt_count_jobs_);
     Prepare(
@@ -533,6 +546,9 @@ class SqliteJobRepository : public JobRepository {
   }
 
   int64_t InsertJob(const JobRecord& job) {
+    // The column defaults to '' only so that the migration could add it to old rows; a job
+    // written now without its family is a bug of the caller, not bad input.
+    if (job.machine_kind.empty()) throw StorageError("job has no machine_kind");
     sqlite3_stmt* s = stmt_insert_job_;
     StatementScope scope(s);
     const std::string created = job.created_utc.empty() ? CurrentUtcIso8601() : job.created_utc;
@@ -559,6 +575,7 @@ class SqliteJobRepository : public JobRepository {
     SQLITE3_CALL(db_, sqlite3_bind_text(s, 15, job.server_version.c_str(), -1, SQLITE_STATIC));
     BindOptionalInt64(s, 16, job.parent_job_id);
     BindOptionalInt64(s, 17, job.settings_source_job_id);
+    SQLITE3_CALL(db_, sqlite3_bind_text(s, 18, job.machine_kind.c_str(), -1, SQLITE_STATIC));
     SQLITE3_CALL(db_, sqlite3_step(s));
     return sqlite3_last_insert_rowid(db_);
   }
@@ -607,6 +624,7 @@ class SqliteJobRepository : public JobRepository {
     BindOptionalText(s, 5, filter.status);
     BindOptionalText(s, 6, filter.created_from);
     BindOptionalText(s, 7, filter.created_to);
+    BindOptionalText(s, 8, filter.machine_kind);
   }
 
   sqlite3* db_ = nullptr;

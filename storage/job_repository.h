@@ -12,7 +12,7 @@
 //
 //   std::unique_ptr<JobRepository> repo = OpenJobRepository("gearloop.sqlite");  // or ":memory:"
 //   JobRecord job;
-//   job.kind = "correction"; job.status = "converged"; ...
+//   job.kind = "correction"; job.machine_kind = "flat-wheel-grinder"; job.status = "converged"; ...
 //   const int64_t id = repo->WriteJob(job);
 //   JobPage page = repo->ListJobs(JobFilter{});   // newest first
 //
@@ -49,13 +49,22 @@ struct JobRecord {
   std::string kind;
   // Outcome of the solve: "converged", "not_converged", ...
   std::string status;
+  // The machine family the job corrects, as the API's machine.kind names it:
+  // "flat-wheel-grinder", "free-form-bevel-generator", later more families. Required:
+  // WriteJob throws StorageError when it is empty. Jobs stored before the column existed
+  // (schema version 1) were given their family from their flank when migrated (convex or
+  // concave: "free-form-bevel-generator", otherwise "flat-wheel-grinder").
+  std::string machine_kind;
 
   // Gear summary, for filtering the history (values as the API carries them).
   int gear_teeth = 0;
   double gear_normal_module_mm = 0.0;
   double gear_helix_angle_deg = 0.0;  // unsigned
   std::string gear_hand;              // "left", "right" or "" for a spur gear
-  std::string flank;                  // "left" or "right"
+  // The corrected flank, named as the machine family names it: "left" or "right" for a
+  // grinder, "convex" or "concave" for a bevel pinion. Family-specific: read it together with
+  // machine_kind, never to infer the family.
+  std::string flank;
 
   // The request and the result as JSON text (opaque here).
   std::string request_json;
@@ -82,6 +91,8 @@ struct JobFilter {
   // Matches within 1e-9 mm.
   std::optional<double> gear_normal_module_mm;
   std::optional<std::string> flank;
+  // Matches JobRecord::machine_kind exactly ("flat-wheel-grinder", ...).
+  std::optional<std::string> machine_kind;
   std::optional<std::string> kind;
   std::optional<std::string> status;
   // created_utc >= created_from (inclusive); ISO-8601 text compared as text, so a date alone
@@ -143,7 +154,7 @@ class JobRepository {
   virtual ~JobRepository() = default;
 
   // Stores `job` in one transaction and returns its id. Throws StorageError, e.g. when
-  // parent_job_id or settings_source_job_id names no stored job.
+  // machine_kind is empty or parent_job_id or settings_source_job_id names no stored job.
   virtual int64_t WriteJob(const JobRecord& job) = 0;
   virtual std::optional<JobRecord> ReadJob(int64_t id) = 0;
   virtual bool JobExists(int64_t id) = 0;

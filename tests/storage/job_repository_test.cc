@@ -1,6 +1,6 @@
 // Tests of the SQLite job history on ":memory:" and on a temporary file (COLMAP's
-// ParameterizedDatabaseTests): writes, listing with filters and paging, lineage, batches, and
-// that a file keeps everything across a reopen.
+// ParameterizedDatabaseTests): writes, listing with filters and paging, lineage, batches, that
+// a file keeps everything across a reopen, and that a file of release 0.1.0 migrates.
 #include "storage/job_repository.h"
 
 #include <gtest/gtest.h>
@@ -8,8 +8,11 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace gearloop {
@@ -19,6 +22,7 @@ JobRecord MakeJob(int teeth, const std::string& flank, const std::string& status
   JobRecord job;
   job.kind = "correction";
   job.status = status;
+  job.machine_kind = "flat-wheel-grinder";
   job.gear_teeth = teeth;
   job.gear_normal_module_mm = 6.0;
   job.gear_helix_angle_deg = 15.0;
@@ -64,7 +68,7 @@ class JobRepositoryTest : public ::testing::TestWithParam<bool> {
 };
 
 TEST_P(JobRepositoryTest, MigratesToCurrentSchema) {
-  EXPECT_EQ(repo_->SchemaVersion(), 1);
+  EXPECT_EQ(repo_->SchemaVersion(), 2);
   EXPECT_EQ(repo_->IntegrityCheck(), "ok");
   EXPECT_EQ(repo_->CountJobs(), 0);
 }
@@ -79,6 +83,7 @@ TEST_P(JobRepositoryTest, WritesAndReadsJobWithAllFields) {
   EXPECT_EQ(read->id, id);
   EXPECT_EQ(read->kind, "correction");
   EXPECT_EQ(read->status, "converged");
+  EXPECT_EQ(read->machine_kind, "flat-wheel-grinder");
   EXPECT_EQ(read->gear_teeth, 37);
   EXPECT_DOUBLE_EQ(read->gear_normal_module_mm, 6.0);
   EXPECT_DOUBLE_EQ(read->gear_helix_angle_deg, 15.0);
@@ -99,6 +104,44 @@ TEST_P(JobRepositoryTest, WritesAndReadsJobWithAllFields) {
   EXPECT_FALSE(repo_->ReadJob(id + 1000).has_value());
   EXPECT_TRUE(repo_->JobExists(id));
   EXPECT_FALSE(repo_->JobExists(id + 1000));
+}
+
+TEST_P(JobRepositoryTest, RoundTripsMachineKindInEveryReadPath) {
+  const int64_t grinder = repo_->WriteJob(MakeJob(37, "right"));
+  JobRecord bevel_job = MakeJob(0, "concave");
+  bevel_job.machine_kind = "free-form-bevel-generator";
+  bevel_job.settings_source_job_id = grinder;
+  const int64_t bevel = repo_->WriteJob(bevel_job);
+
+  EXPECT_EQ(repo_->ReadJob(grinder)->machine_kind, "flat-wheel-grinder");
+  EXPECT_EQ(repo_->ReadJob(bevel)->machine_kind, "free-form-bevel-generator");
+  const JobPage page = repo_->ListJobs(JobFilter{});
+  ASSERT_EQ(page.jobs.size(), 2u);
+  EXPECT_EQ(page.jobs[0].machine_kind, "free-form-bevel-generator");
+  EXPECT_EQ(page.jobs[1].machine_kind, "flat-wheel-grinder");
+  const std::vector<JobRecord> lineage = repo_->ReadLineage(grinder);
+  ASSERT_EQ(lineage.size(), 2u);
+  EXPECT_EQ(lineage[0].machine_kind, "flat-wheel-grinder");
+  EXPECT_EQ(lineage[1].machine_kind, "free-form-bevel-generator");
+
+  JobFilter family;
+  family.machine_kind = "free-form-bevel-generator";
+  const JobPage bevels = repo_->ListJobs(family);
+  EXPECT_EQ(bevels.total, 1);
+  ASSERT_EQ(bevels.jobs.size(), 1u);
+  EXPECT_EQ(bevels.jobs[0].id, bevel);
+  family.machine_kind = "flat-wheel-grinder";
+  EXPECT_EQ(repo_->ListJobs(family).total, 1);
+}
+
+TEST_P(JobRepositoryTest, RefusesJobWithoutMachineKindAndStoresNothing) {
+  JobRecord job = MakeJob(37, "right");
+  job.machine_kind.clear();
+  EXPECT_THROW(repo_->WriteJob(job), StorageError);
+  const int64_t batch = repo_->CreateBatch({"{}"});
+  EXPECT_THROW(repo_->CompleteBatchItem(batch, 0, job), StorageError);
+  EXPECT_EQ(repo_->CountJobs(), 0);
+  EXPECT_EQ(repo_->ReadPendingBatchItems().size(), 1u);
 }
 
 TEST_P(JobRepositoryTest, RefusesLinkToMissingJobAndStoresNothing) {
@@ -259,7 +302,7 @@ TEST(OpenJobRepository, KeepsJobsAndBatchesAcrossReopen) {
     batch = repo->CreateBatch({"{}", "{}"});
   }
   std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
-  EXPECT_EQ(repo->SchemaVersion(), 1);
+  EXPECT_EQ(repo->SchemaVersion(), 2);
   ASSERT_TRUE(repo->ReadJob(id).has_value());
   EXPECT_EQ(repo->ReadJob(id)->request_json, MakeJob(37, "right").request_json);
   EXPECT_EQ(repo->ReadPendingBatchItems().size(), 2u);
@@ -290,9 +333,251 @@ TEST(OpenJobRepository, UsesWriteAheadLogWithForeignKeys) {
   sqlite3_finalize(statement);
   ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr), SQLITE_OK);
   ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
-  EXPECT_EQ(sqlite3_column_int(statement, 0), 1);
+  EXPECT_EQ(sqlite3_column_int(statement, 0), 2);
   sqlite3_finalize(statement);
   sqlite3_close(db);
+}
+
+// The schema release 0.1.0 writes (PRAGMA user_version 1): its CreateJobTable,
+// CreateBatchTable and CreateBatchItemTable statements, verbatim. History files in the field
+// hold exactly this; never edit it.
+constexpr const char* kRelease010Schema =
+    "CREATE TABLE IF NOT EXISTS jobs ("
+    "  job_id INTEGER PRIMARY KEY AUTOINCREMENT,"
+    "  created_utc TEXT NOT NULL,"
+    "  kind TEXT NOT NULL,"
+    "  status TEXT NOT NULL,"
+    "  gear_teeth INTEGER NOT NULL,"
+    "  gear_normal_module_mm REAL NOT NULL,"
+    "  gear_helix_angle_deg REAL NOT NULL,"
+    "  gear_hand TEXT NOT NULL,"
+    "  flank TEXT NOT NULL,"
+    "  request_json TEXT NOT NULL,"
+    "  result_json TEXT NOT NULL,"
+    "  residual_rms_um REAL,"
+    "  best_reachable_rms_um REAL,"
+    "  rank INTEGER,"
+    "  elapsed_ms REAL NOT NULL,"
+    "  server_version TEXT NOT NULL,"
+    "  parent_job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET NULL,"
+    "  settings_source_job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET NULL);"
+    "CREATE INDEX IF NOT EXISTS jobs_gear ON jobs(gear_teeth, gear_normal_module_mm);"
+    "CREATE INDEX IF NOT EXISTS jobs_created ON jobs(created_utc);"
+    "CREATE INDEX IF NOT EXISTS jobs_parent ON jobs(parent_job_id);"
+    "CREATE INDEX IF NOT EXISTS jobs_settings_source ON jobs(settings_source_job_id);"
+    "CREATE TABLE IF NOT EXISTS batches ("
+    "  batch_id INTEGER PRIMARY KEY AUTOINCREMENT,"
+    "  created_utc TEXT NOT NULL,"
+    "  finished_utc TEXT,"
+    "  status TEXT NOT NULL,"
+    "  total_items INTEGER NOT NULL,"
+    "  done_items INTEGER NOT NULL DEFAULT 0,"
+    "  failed_items INTEGER NOT NULL DEFAULT 0);"
+    "CREATE TABLE IF NOT EXISTS batch_items ("
+    "  batch_id INTEGER NOT NULL REFERENCES batches(batch_id) ON DELETE CASCADE,"
+    "  item_index INTEGER NOT NULL,"
+    "  state TEXT NOT NULL DEFAULT 'pending',"
+    "  request_json TEXT NOT NULL,"
+    "  job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET NULL,"
+    "  error_status INTEGER,"
+    "  error_code TEXT,"
+    "  error_message TEXT,"
+    "  error_field TEXT,"
+    "  PRIMARY KEY (batch_id, item_index));"
+    "CREATE INDEX IF NOT EXISTS batch_items_state ON batch_items(state);";
+constexpr int kRelease010UserVersion = 1;
+
+// Release 0.1.0's INSERT of a job, verbatim (no machine_kind).
+constexpr const char* kRelease010InsertJob =
+    "INSERT INTO jobs (created_utc, kind, status, gear_teeth, gear_normal_module_mm, gear_helix_angle_deg,"
+    " gear_hand, flank, request_json, result_json, residual_rms_um, best_reachable_rms_um, rank, elapsed_ms,"
+    " server_version, parent_job_id, settings_source_job_id)"
+    " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17);";
+
+void ExecRaw(sqlite3* db, const std::string& sql) {
+  char* message = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
+  EXPECT_EQ(rc, SQLITE_OK) << sql << ": " << (message != nullptr ? message : "");
+  sqlite3_free(message);
+}
+
+int ReadRawUserVersion(const std::string& path) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* statement = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr), SQLITE_OK);
+  EXPECT_EQ(sqlite3_step(statement), SQLITE_ROW);
+  const int version = sqlite3_column_int(statement, 0);
+  sqlite3_finalize(statement);
+  sqlite3_close(db);
+  return version;
+}
+
+// Stores `job` the way release 0.1.0 did and returns its id.
+int64_t InsertRelease010Job(sqlite3* db, const JobRecord& job) {
+  sqlite3_stmt* s = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, kRelease010InsertJob, -1, &s, nullptr), SQLITE_OK);
+  const auto bind_text = [s](int index, const std::string& text) {
+    EXPECT_EQ(sqlite3_bind_text(s, index, text.c_str(), -1, SQLITE_TRANSIENT), SQLITE_OK);
+  };
+  const auto bind_optional_double = [s](int index, const std::optional<double>& value) {
+    EXPECT_EQ(value ? sqlite3_bind_double(s, index, *value) : sqlite3_bind_null(s, index), SQLITE_OK);
+  };
+  const auto bind_optional_int64 = [s](int index, const std::optional<int64_t>& value) {
+    EXPECT_EQ(value ? sqlite3_bind_int64(s, index, *value) : sqlite3_bind_null(s, index), SQLITE_OK);
+  };
+  bind_text(1, job.created_utc);
+  bind_text(2, job.kind);
+  bind_text(3, job.status);
+  EXPECT_EQ(sqlite3_bind_int(s, 4, job.gear_teeth), SQLITE_OK);
+  EXPECT_EQ(sqlite3_bind_double(s, 5, job.gear_normal_module_mm), SQLITE_OK);
+  EXPECT_EQ(sqlite3_bind_double(s, 6, job.gear_helix_angle_deg), SQLITE_OK);
+  bind_text(7, job.gear_hand);
+  bind_text(8, job.flank);
+  bind_text(9, job.request_json);
+  bind_text(10, job.result_json);
+  bind_optional_double(11, job.residual_rms_um);
+  bind_optional_double(12, job.best_reachable_rms_um);
+  bind_optional_int64(13, job.rank ? std::optional<int64_t>(*job.rank) : std::nullopt);
+  EXPECT_EQ(sqlite3_bind_double(s, 14, job.elapsed_ms), SQLITE_OK);
+  bind_text(15, job.server_version);
+  bind_optional_int64(16, job.parent_job_id);
+  bind_optional_int64(17, job.settings_source_job_id);
+  EXPECT_EQ(sqlite3_step(s), SQLITE_DONE);
+  sqlite3_finalize(s);
+  return sqlite3_last_insert_rowid(db);
+}
+
+// Every field but machine_kind; the JSON texts only when `with_documents`.
+void ExpectSameJob(const JobRecord& read, const JobRecord& expected, bool with_documents) {
+  SCOPED_TRACE("job " + std::to_string(expected.id));
+  EXPECT_EQ(read.id, expected.id);
+  EXPECT_EQ(read.created_utc, expected.created_utc);
+  EXPECT_EQ(read.kind, expected.kind);
+  EXPECT_EQ(read.status, expected.status);
+  EXPECT_EQ(read.gear_teeth, expected.gear_teeth);
+  EXPECT_EQ(read.gear_normal_module_mm, expected.gear_normal_module_mm);
+  EXPECT_EQ(read.gear_helix_angle_deg, expected.gear_helix_angle_deg);
+  EXPECT_EQ(read.gear_hand, expected.gear_hand);
+  EXPECT_EQ(read.flank, expected.flank);
+  EXPECT_EQ(read.request_json, with_documents ? expected.request_json : "");
+  EXPECT_EQ(read.result_json, with_documents ? expected.result_json : "");
+  EXPECT_EQ(read.residual_rms_um, expected.residual_rms_um);
+  EXPECT_EQ(read.best_reachable_rms_um, expected.best_reachable_rms_um);
+  EXPECT_EQ(read.rank, expected.rank);
+  EXPECT_EQ(read.elapsed_ms, expected.elapsed_ms);
+  EXPECT_EQ(read.server_version, expected.server_version);
+  EXPECT_EQ(read.parent_job_id, expected.parent_job_id);
+  EXPECT_EQ(read.settings_source_job_id, expected.settings_source_job_id);
+}
+
+TEST(OpenJobRepository, MigratesAFileOfRelease010) {
+  TempDatabasePath temp;
+  // A history file as release 0.1.0 leaves it: a grinder job, a bevel job (flank convex), a
+  // bevel job ground with its settings (flank concave, no rank, no reachable figure), a
+  // grinder replay, and a batch with one done and one pending item.
+  JobRecord grinder = MakeJob(37, "right");
+  grinder.created_utc = "2026-11-20T08:00:00.000Z";
+  grinder.server_version = "0.1.0";
+  JobRecord bevel;
+  bevel.created_utc = "2026-11-20T09:30:00.125Z";
+  bevel.kind = "closed_loop";
+  bevel.status = "not_converged";
+  bevel.gear_hand = "left";
+  bevel.flank = "convex";
+  bevel.request_json = R"({"machine":{"kind":"free-form-bevel-generator"}})";
+  bevel.result_json = R"({"machine_kind":"free-form-bevel-generator","side":"convex"})";
+  bevel.residual_rms_um = 1.25;
+  bevel.best_reachable_rms_um = 0.75;
+  bevel.rank = 9;
+  bevel.elapsed_ms = 12.0;
+  bevel.server_version = "0.1.0";
+  JobRecord next_bevel = bevel;
+  next_bevel.created_utc = "2026-11-20T09:30:01.500Z";
+  next_bevel.flank = "concave";
+  next_bevel.best_reachable_rms_um.reset();
+  next_bevel.rank.reset();
+  JobRecord replay = MakeJob(37, "left");
+  replay.created_utc = "2026-11-21T10:00:00.000Z";
+  replay.kind = "replay";
+  replay.gear_hand = "";
+  replay.server_version = "0.1.0";
+  int64_t batch = 0;
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
+    ExecRaw(db, "PRAGMA foreign_keys = ON; PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;");
+    ExecRaw(db, "BEGIN IMMEDIATE;");
+    ExecRaw(db, kRelease010Schema);
+    ExecRaw(db, "PRAGMA user_version = " + std::to_string(kRelease010UserVersion) + ";");
+    ExecRaw(db, "COMMIT;");
+    grinder.id = InsertRelease010Job(db, grinder);
+    bevel.id = InsertRelease010Job(db, bevel);
+    next_bevel.settings_source_job_id = bevel.id;
+    next_bevel.id = InsertRelease010Job(db, next_bevel);
+    replay.parent_job_id = grinder.id;
+    replay.id = InsertRelease010Job(db, replay);
+    ExecRaw(db,
+            "INSERT INTO batches (created_utc, total_items, status, finished_utc)"
+            " VALUES ('2026-11-21T11:00:00.000Z', 2, 'running', NULL);");
+    batch = sqlite3_last_insert_rowid(db);
+    ExecRaw(db, "INSERT INTO batch_items (batch_id, item_index, request_json) VALUES (" + std::to_string(batch) +
+                    ", 0, '{}'), (" + std::to_string(batch) + ", 1, '{}');");
+    ExecRaw(db, "UPDATE batch_items SET state = 'done', job_id = " + std::to_string(grinder.id) +
+                    " WHERE batch_id = " + std::to_string(batch) + " AND item_index = 0;");
+    ExecRaw(db, "UPDATE batches SET done_items = 1 WHERE batch_id = " + std::to_string(batch) + ";");
+    sqlite3_close(db);
+  }
+  ASSERT_EQ(ReadRawUserVersion(temp.path()), kRelease010UserVersion);
+  const std::vector<std::pair<JobRecord, std::string>> expected = {
+      {grinder, "flat-wheel-grinder"},
+      {bevel, "free-form-bevel-generator"},
+      {next_bevel, "free-form-bevel-generator"},
+      {replay, "flat-wheel-grinder"},
+  };
+
+  // Opened twice: the first open migrates, the second finds nothing left to do.
+  for (int open = 0; open < 2; ++open) {
+    SCOPED_TRACE(open == 0 ? "first open" : "reopen");
+    std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
+    EXPECT_EQ(repo->SchemaVersion(), 2);
+    EXPECT_EQ(repo->IntegrityCheck(), "ok");
+    EXPECT_EQ(repo->CountJobs(), 4);
+    for (const auto& [job, machine_kind] : expected) {
+      const std::optional<JobRecord> read = repo->ReadJob(job.id);
+      ASSERT_TRUE(read.has_value());
+      ExpectSameJob(*read, job, /*with_documents=*/true);
+      EXPECT_EQ(read->machine_kind, machine_kind);
+    }
+    const JobPage page = repo->ListJobs(JobFilter{});
+    ASSERT_EQ(page.jobs.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) {
+      // Newest first.
+      const auto& [job, machine_kind] = expected[expected.size() - 1 - i];
+      ExpectSameJob(page.jobs[i], job, /*with_documents=*/false);
+      EXPECT_EQ(page.jobs[i].machine_kind, machine_kind);
+    }
+    const std::vector<JobRecord> lineage = repo->ReadLineage(bevel.id);
+    ASSERT_EQ(lineage.size(), 2u);
+    EXPECT_EQ(lineage[1].id, next_bevel.id);
+    EXPECT_EQ(lineage[1].machine_kind, "free-form-bevel-generator");
+    const std::optional<BatchRecord> record = repo->ReadBatch(batch, /*with_items=*/true);
+    ASSERT_TRUE(record.has_value());
+    EXPECT_EQ(record->done, 1);
+    ASSERT_EQ(record->items.size(), 2u);
+    EXPECT_EQ(record->items[0].job_id, grinder.id);
+    ASSERT_EQ(repo->ReadPendingBatchItems().size(), 1u);
+  }
+  EXPECT_EQ(ReadRawUserVersion(temp.path()), 2);
+
+  // The migrated file takes new jobs of either family.
+  std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
+  JobRecord new_bevel = bevel;
+  new_bevel.created_utc.clear();
+  new_bevel.machine_kind = "free-form-bevel-generator";
+  const int64_t id = repo->WriteJob(new_bevel);
+  EXPECT_EQ(repo->ReadJob(id)->machine_kind, "free-form-bevel-generator");
+  EXPECT_EQ(repo->CountJobs(), 5);
 }
 
 TEST(OpenJobRepository, ThrowsStorageErrorForUnopenablePath) {
