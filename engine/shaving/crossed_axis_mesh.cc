@@ -85,6 +85,24 @@ MeshEvaluation CrossedAxisMesh::Evaluate(double roll_length_mm,
   return m;
 }
 
+void CrossedAxisMesh::CutterPoint(
+    double roll_length_mm,
+    double x_mm,
+    double work_angle_rad,
+    Eigen::Vector3d* cutter_point_mm,
+    Eigen::Matrix<double, 3, 2>* d_cutter_point) const {
+  const ModifiedFlankPoint p =
+      work_flank_.At(roll_length_mm, x_mm, /*with_normal=*/false);
+  const double c1 = std::cos(work_angle_rad), s1 = std::sin(work_angle_rad);
+  const double theta_s = CutterAngleRad(work_angle_rad);
+  const double cs = std::cos(theta_s), ss = -std::sin(theta_s);
+  const Eigen::Matrix3d rt = frame_.transpose();
+  const Eigen::Vector3d centre(0.0, centre_distance_mm_, 0.0);
+  *cutter_point_mm = RotX(cs, ss, rt * (RotX(c1, s1, p.position_mm) - centre));
+  d_cutter_point->col(0) = RotX(cs, ss, rt * RotX(c1, s1, p.d_roll));
+  d_cutter_point->col(1) = RotX(cs, ss, rt * RotX(c1, s1, p.d_x));
+}
+
 Eigen::Vector3d CrossedAxisMesh::CutterToWork(
     const Eigen::Vector3d& cutter_point_mm, double work_angle_rad) const {
   const double theta_s = CutterAngleRad(work_angle_rad);

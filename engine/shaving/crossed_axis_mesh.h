@@ -81,6 +81,14 @@ class CrossedAxisMesh {
                           double x_mm,
                           double work_angle_rad) const;
 
+  // P_s and its derivatives in L and x only (columns of `d_cutter_point`), for
+  // the 3 x 3 intersection of the global start: no normal, no meshing function.
+  void CutterPoint(double roll_length_mm,
+                   double x_mm,
+                   double work_angle_rad,
+                   Eigen::Vector3d* cutter_point_mm,
+                   Eigen::Matrix<double, 3, 2>* d_cutter_point) const;
+
   // A point given in the cutter frame Ss, expressed in the work frame S1 at
   // work angle theta1 (inverse of the P_s map).
   Eigen::Vector3d CutterToWork(const Eigen::Vector3d& cutter_point_mm,

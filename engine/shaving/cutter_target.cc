@@ -136,17 +136,20 @@ bool FindGlobalStart(const ShavingOptions& options,
       u = Eigen::Vector3d(
           std::sqrt(std::max(0.0, r2 - r_b * r_b)), p1.x(), 0.0);
     }
+    engine_internal::DampedNewtonOptions start_options = NewtonOptions(options);
+    start_options.max_iterations = options.max_start_iterations;
     const engine_internal::DampedNewtonSummary newton =
         engine_internal::DampedNewton<3>(
-            NewtonOptions(options),
+            start_options,
             Eigen::Vector3d::Ones(),
             [&](const Eigen::Vector3d& v,
                 Eigen::Vector3d* g,
                 Eigen::Matrix3d* jacobian) {
-              const MeshEvaluation m = mesh.Evaluate(v(0), v(1), theta1);
-              *g = m.cutter_point_mm - point.position_mm - v(2) * point.normal;
-              jacobian->col(0) = m.d_cutter_point.col(0);
-              jacobian->col(1) = m.d_cutter_point.col(1);
+              Eigen::Vector3d p_s;
+              Eigen::Matrix<double, 3, 2> d_p_s;
+              mesh.CutterPoint(v(0), v(1), theta1, &p_s, &d_p_s);
+              *g = p_s - point.position_mm - v(2) * point.normal;
+              jacobian->leftCols<2>() = d_p_s;
               jacobian->col(2) = -point.normal;
             },
             &u);
@@ -160,8 +163,10 @@ bool FindGlobalStart(const ShavingOptions& options,
     bool ok = newton.converged && u.allFinite() &&
               mesh.work_flank().OnActiveFlank(u(0), u(1));
     if (ok) {
-      const MeshEvaluation m = mesh.Evaluate(u(0), u(1), theta1);
-      ok = (m.cutter_point_mm - point.position_mm - u(2) * point.normal)
+      Eigen::Vector3d p_s;
+      Eigen::Matrix<double, 3, 2> d_p_s;
+      mesh.CutterPoint(u(0), u(1), theta1, &p_s, &d_p_s);
+      ok = (p_s - point.position_mm - u(2) * point.normal)
                .cwiseAbs()
                .maxCoeff() < options.residual_tolerance;
     }
@@ -188,6 +193,9 @@ bool ShavingOptions::IsValid(std::string* error) const {
     return fail("start_angle_range_rad must be in (0, pi]");
   }
   if (max_iterations < 1) return fail("max_iterations must be positive");
+  if (max_start_iterations < 1) {
+    return fail("max_start_iterations must be positive");
+  }
   if (!(step_tolerance > 0.0)) return fail("step_tolerance must be positive");
   if (!(residual_tolerance > 0.0))
     return fail("residual_tolerance must be positive");

@@ -72,6 +72,11 @@ struct ShavingOptions {
   double start_angle_range_rad = 1.2;
   // Newton iterations allowed per solve (3 x 3 start and 4 x 4).
   int max_iterations = 50;
+  // Newton iterations allowed per 3 x 3 intersection of the global start. From
+  // Q carried into S1 near the mesh, or warm from the previous angle, Newton
+  // needs 3-6; a sample that needs more starts far from the flank, where its
+  // root would be rejected anyway (it must lie on the real flank).
+  int max_start_iterations = 12;
   // Converged when a full Newton step moves every unknown by less than this (mm
   // for L1, x1 and lambda, rad for theta1), and the residual is then below
   // residual_tolerance (mm; the meshing function f in mm^2 per rad, N1r not

@@ -154,7 +154,8 @@ ReliefDerivatives DiagonallyModifiedFlank::Relief(double roll_length_mm,
 }
 
 ModifiedFlankPoint DiagonallyModifiedFlank::At(double roll_length_mm,
-                                               double x_mm) const {
+                                               double x_mm,
+                                               bool with_normal) const {
   const double rb = base_radius_mm_;
   const double k = lead_rate_per_mm_;
   const double cb = cos_base_helix_;
@@ -196,6 +197,7 @@ ModifiedFlankPoint DiagonallyModifiedFlank::At(double roll_length_mm,
   p.position_mm = r1 + d * n;
   p.d_roll = r_l + d_l * n + d * n_l;
   p.d_x = r_x + d_x * n + d * n_x;
+  if (!with_normal) return p;
   const Eigen::Vector3d p_ll = r_ll + d_ll * n + 2.0 * d_l * n_l + d * n_ll;
   const Eigen::Vector3d p_lx =
       r_lx + d_lx * n + d_l * n_x + d_x * n_l + d * n_lx;

@@ -117,8 +117,11 @@ class DiagonallyModifiedFlank {
   // delta1 and its derivatives.
   ReliefDerivatives Relief(double roll_length_mm, double x_mm) const;
   // R1r, its first derivatives and N1r with its first derivatives (second
-  // derivatives of R1r).
-  ModifiedFlankPoint At(double roll_length_mm, double x_mm) const;
+  // derivatives of R1r). With `with_normal` false only R1r and its first
+  // derivatives are filled (the normal and its derivatives stay zero).
+  ModifiedFlankPoint At(double roll_length_mm,
+                        double x_mm,
+                        bool with_normal = true) const;
 
  private:
   GearData gear_;
