@@ -104,9 +104,10 @@ TargetCoordinates ComputeTargetCoordinates(const FlankGrid& grid, const GearData
   // (L, x) plane, at the base helix angle. In the frames of MODEL.md §3 (the engine's), the
   // nominal contact roll phi1 is constant along L + x tan(beta_b) on the right flank and along
   // L - x tan(beta_b) on the left flank (mirror z -> -z of the right flank of gear -beta), with
-  // phi1 = w / r_b + const; tests/engine/target_modification_test.cc checks this against the
-  // envelope. MODEL.md §7 writes L - x tan(beta_b); the property it states (constant along a
-  // contact line) is what is implemented.
+  // phi1 = w / r_b + const: the sign sigma of MODEL.md §7 (corrected text). The right flank's
+  // L + x tan(beta_b) is also SHAVING.md §2's contact-line coordinate ("the points
+  // (L - t tan beta_b, x + t) are collinear"). tests/engine/target_modification_test.cc follows
+  // the wheel's instantaneous contact line and checks that w stays put on both flanks.
   const double sign = flank == Flank::kRight ? 1.0 : -1.0;
   const double tan_beta_b = gear.TanBaseHelixAngle();
   c.w = NormaliseToUnit(roll + sign * tan_beta_b * x);

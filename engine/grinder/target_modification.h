@@ -15,11 +15,12 @@
 //   xi  = (L - L_s) / (L_e - L_s)                   in [0, 1], root -> tip
 //   eta = (x - (x_s + x_e)/2) / ((x_e - x_s)/2)     in [-1, 1]
 //   w   = L + s x tan(beta_b), normalised to [0, 1] over the grid, constant along a contact line
-// where tan(beta_b) = tan(beta) cos(alpha_t) (GearData::TanBaseHelixAngle) and s = +1 on the
-// right flank, -1 on the left flank. In the engine's frames (MODEL.md §3) the nominal contact
-// roll phi1 is exactly w / r_b + const on both flanks (tested); MODEL.md §7 prints
-// w = L - x tan(beta_b), whose sign does not follow its contact lines on the right flank, so the
-// stated property (constant along a contact line) is what is implemented.
+// where tan(beta_b) = tan(beta) cos(alpha_t) (GearData::TanBaseHelixAngle, signed) and s = +1 on
+// the right flank, -1 on the left flank (MODEL.md §7 as corrected: the sign of the x term follows
+// the flank). In the engine's frames (MODEL.md §3) w is constant along the flat wheel's
+// instantaneous contact line and the nominal contact roll phi1 is w / r_b + const, on both flanks
+// and both hands (tests/engine/target_modification_test.cc). SHAVING.md §2 uses the same w on the
+// right flank of the shaved pinion.
 #ifndef GEARLOOP_ENGINE_GRINDER_TARGET_MODIFICATION_H_
 #define GEARLOOP_ENGINE_GRINDER_TARGET_MODIFICATION_H_
 

@@ -1,6 +1,8 @@
 #include "engine/grinder/target_modification.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include <Eigen/QR>
 #include <gtest/gtest.h>
@@ -110,10 +112,10 @@ TEST(TargetModification, SumOfModificationsAddsUp) {
   EXPECT_LT(g.Evaluate({}).cwiseAbs().maxCoeff(), kTolUm);
 }
 
-// w = L - x tan(beta_b) must be constant along a contact line of the generating plane: with the
-// nominal settings every grid point is ground at one roll angle phi1, and the points sharing a
-// contact line share phi1. So w must be an affine function of the nominal contact roll, on both
-// flanks and both hands (this checks the sign convention of MODEL.md §7 against the engine).
+// w = L + s x tan(beta_b) (s = +1 right flank, -1 left, MODEL.md §7) must be constant along a
+// contact line of the generating plane: with the nominal settings every grid point is ground at one
+// roll angle phi1, and the points sharing a contact line share phi1. So w must be an affine function
+// of the nominal contact roll, on both flanks and both hands.
 TEST(TargetModification, DiagonalCoordinateFollowsContactLines) {
   for (const GrindingSetup& setup :
        {testing::CutterSetup(Flank::kRight), testing::CutterSetup(Flank::kLeft),
@@ -134,6 +136,67 @@ TEST(TargetModification, DiagonalCoordinateFollowsContactLines) {
     const double misfit = (a * fit - c.w).cwiseAbs().maxCoeff();
     EXPECT_LT(misfit, 1e-3) << "flank " << (setup.flank == Flank::kLeft ? "left" : "right") << ", beta "
                             << setup.gear.helix_angle_rad;
+  }
+}
+
+// The same property seen directly (issue 18): hold the roll phi1 of the middle grid point's contact,
+// follow the flat wheel's instantaneous contact line across the face (for each phi_w the u_w where
+// the meshing function of the FlatWheelGrinder vanishes), and read w at its points. w does not
+// move along the line on either flank and either hand; with the other sign of the x term it moves
+// by about b tan(beta_b) (the sign MODEL.md §7 printed before its correction).
+TEST(TargetModification, DiagonalCoordinateIsConstantAlongTheInstantaneousContactLine) {
+  for (const GrindingSetup& setup :
+       {testing::CutterSetup(Flank::kRight), testing::CutterSetup(Flank::kLeft),
+        testing::RightHandSetup(Flank::kRight), testing::RightHandSetup(Flank::kLeft)}) {
+    const FlatWheelGrinder grinder(setup);
+    const MachineSettings& nominal = grinder.nominal();
+    const FlankGrid& grid = grinder.grid();
+    const EnvelopeContact middle = grinder.SolveContact(nominal, grid.At(2, 4));
+    ASSERT_EQ(middle.status, PointStatus::kOk);
+    const GearData& gear = setup.gear;
+    const double r_b = gear.BaseRadiusMm();
+    const double half_span_rad = 0.3 * gear.face_width_mm / setup.wheel.radius_mm;
+    const double sign = setup.flank == Flank::kRight ? 1.0 : -1.0;
+    // One row: 9 points of the contact line, then two corners of the grid that fix the
+    // normalisation of w (ComputeTargetCoordinates normalises over the points it is given).
+    FlankGrid line;
+    line.rows = 1;
+    line.columns = 11;
+    double wrong_min = 1e300, wrong_max = -1e300, x_min = 1e300, x_max = -1e300;
+    for (int k = 0; k < 9; ++k) {
+      const double phi_w = middle.wheel_phi_rad + half_span_rad * (k - 4) / 4.0;
+      double u = middle.wheel_u_mm;
+      double f = 0.0;
+      for (int it = 0; it < 50; ++it) {  // Newton on f(u_w) with a central-difference slope
+        grinder.SurfacePoint(nominal, u, phi_w, middle.roll_rad, &f);
+        if (std::abs(f) < 1e-12) break;
+        double fp = 0.0, fm = 0.0;
+        grinder.SurfacePoint(nominal, u + 1e-6, phi_w, middle.roll_rad, &fp);
+        grinder.SurfacePoint(nominal, u - 1e-6, phi_w, middle.roll_rad, &fm);
+        u -= f / ((fp - fm) / 2e-6);
+      }
+      ASSERT_LT(std::abs(f), 1e-9);
+      const Eigen::Vector3d p = grinder.SurfacePoint(nominal, u, phi_w, middle.roll_rad, nullptr);
+      FlankGridPoint point;
+      point.x_mm = p.x();
+      point.radius_mm = std::hypot(p.y(), p.z());
+      point.roll_length_mm = std::sqrt(point.radius_mm * point.radius_mm - r_b * r_b);
+      line.points.push_back(point);
+      const double wrong = point.roll_length_mm - sign * point.x_mm * gear.TanBaseHelixAngle();
+      wrong_min = std::min(wrong_min, wrong);
+      wrong_max = std::max(wrong_max, wrong);
+      x_min = std::min(x_min, p.x());
+      x_max = std::max(x_max, p.x());
+    }
+    line.points.push_back(grid.At(0, 0));
+    line.points.push_back(grid.At(4, 8));
+    const TargetCoordinates c = ComputeTargetCoordinates(line, gear, setup.flank);
+    const std::string what = std::string(setup.flank == Flank::kLeft ? "left" : "right") + " flank, beta " +
+                             std::to_string(gear.helix_angle_rad);
+    EXPECT_GT(x_max - x_min, 0.4 * gear.face_width_mm) << what;  // the line crosses the face
+    const double spread = c.w.head(9).maxCoeff() - c.w.head(9).minCoeff();
+    EXPECT_LT(spread, /*tol=*/1e-9) << what;
+    EXPECT_GT(wrong_max - wrong_min, 0.8 * (x_max - x_min) * std::abs(gear.TanBaseHelixAngle())) << what;
   }
 }
 
