@@ -33,7 +33,7 @@
 #include "engine/bevel/cradle_machine.h"
 #include "engine/bevel/freeform_machine.h"
 #include "server/correction_codec.h"
-#include "server/json_codec.h"
+#include "server/codec/grinder_codec.h"
 #include "server/simulation_handlers.h"
 
 namespace gearloop {

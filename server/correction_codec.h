@@ -34,7 +34,7 @@
 #include "engine/correction/correction.h"
 #include "engine/grinder/grinding_setup.h"
 #include "engine/grinder/grinder_settings.h"
-#include "server/json_codec.h"
+#include "server/codec/grinder_codec.h"
 #include "storage/job_repository.h"
 
 namespace gearloop {

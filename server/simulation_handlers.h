@@ -31,7 +31,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/simulation/measurement_simulator.h"
-#include "server/json_codec.h"
+#include "server/codec/grinder_codec.h"
 #include "storage/job_repository.h"
 
 namespace gearloop {

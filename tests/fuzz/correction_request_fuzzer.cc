@@ -21,7 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/correction_codec.h"
-#include "server/json_codec.h"
+#include "server/codec/grinder_codec.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "server/gearloop_server.h"
+#include "server/http/gearloop_server.h"
 
 
 #include <algorithm>
@@ -27,8 +27,8 @@
 #include "engine/core/sensitivity.h"
 #include "server/bevel_codec.h"
 #include "server/correction_codec.h"
-#include "server/json_codec.h"
-#include "server/metrics.h"
+#include "server/codec/grinder_codec.h"
+#include "server/http/metrics.h"
 #include "server/simulation_handlers.h"
 #include "storage/job_repository.h"
 #include "engine/core/units.h"
