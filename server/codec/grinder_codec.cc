@@ -281,4 +281,59 @@ nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& ev
           {"points", points}};
 }
 
+nlohmann::json NominalToJson(const GrindingSetup& setup, const MachineSettings& nominal, double roll_min_rad,
+                             double roll_max_rad) {
+  const GearData& g = setup.gear;
+  return {{"settings", MachineSettingsToJson(nominal)},
+          {"gear", GearToJson(g)},
+          {"flank", FlankName(setup.flank)},
+          {"pitch_radius_mm", g.PitchRadiusMm()},
+          {"base_radius_mm", g.BaseRadiusMm()},
+          {"transverse_pressure_angle_deg", g.TransversePressureAngleRad() * kDegPerRad},
+          {"form_roll_length_mm", g.FormRollLengthMm()},
+          {"tip_roll_length_mm", g.TipRollLengthMm()},
+          {"roll_range_deg", {roll_min_rad * kDegPerRad, roll_max_rad * kDegPerRad}}};
+}
+
+namespace {
+
+nlohmann::json SensitivitySummaryToJson(const SensitivitySummary& s) {
+  nlohmann::json values = nlohmann::json::array();
+  for (int i = 0; i < s.singular_values.size(); ++i) values.push_back(s.singular_values(i));
+  return nlohmann::json{{"singular_values", values},
+                        {"rank", s.rank},
+                        {"condition_number", std::isfinite(s.condition_number) ? nlohmann::json(s.condition_number)
+                                                                                : nlohmann::json(nullptr)}};
+}
+
+}  // namespace
+
+nlohmann::json SensitivityToJson(const Eigen::MatrixXd& matrix, const SensitivitySummary& raw,
+                                 const SensitivitySummary& normalised, const FlankGrid& grid,
+                                 const ModelEvaluation& evaluation) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int i = 0; i < matrix.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < matrix.cols(); ++j) row.push_back(matrix(i, j));
+    rows.push_back(row);
+  }
+  nlohmann::json names = nlohmann::json::array();
+  nlohmann::json units = nlohmann::json::array();
+  for (int j = 0; j < kNumGrinderParameters; ++j) {
+    names.push_back(GrinderParameterName(j));
+    std::string unit = j == kConeAngleIndex ? "deg" : GrinderParameterUnit(j);
+    units.push_back("um/" + unit);
+  }
+  nlohmann::json answer = SensitivitySummaryToJson(raw);
+  nlohmann::json evaluated = EvaluationToJson(grid, evaluation);
+  answer["matrix"] = rows;
+  answer["parameters"] = names;
+  answer["units"] = units;
+  answer["normalised"] = SensitivitySummaryToJson(normalised);
+  answer["rows"] = grid.rows * grid.columns;
+  answer["columns"] = kNumGrinderParameters;
+  answer["not_reached"] = evaluated["not_reached"];
+  return answer;
+}
+
 }  // namespace gearloop

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/core/machine_model.h"
+#include "engine/core/sensitivity.h"
 #include "engine/grinder/flank_grid.h"
 #include "engine/grinder/grinder_settings.h"
 #include "engine/grinder/grinding_setup.h"
@@ -56,6 +57,22 @@ std::string HandName(const GearData& gear);
 // "not_reached" [{row, column, status}], "reached", and "points" [{row, column,
 // roll_length_mm, radius_mm, x_mm, position_mm [3], normal [3]}] in row-major order.
 nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& evaluation);
+
+// POST /api/v1/nominal's answer: the nominal settings, the gear, the flank, its radii and roll
+// lengths and the roll range [deg] of the grid.
+nlohmann::json NominalToJson(const GrindingSetup& setup,
+                             const MachineSettings& nominal,
+                             double roll_min_rad,
+                             double roll_max_rad);
+
+// POST /api/v1/sensitivity's answer: the Jacobian `matrix_um` (cone-angle column per degree, as
+// the API quotes it), its parameter names and units, the raw and the column-normalised singular
+// values, rank and condition number, its size, and the points not reached.
+nlohmann::json SensitivityToJson(const Eigen::MatrixXd& matrix_um,
+                                 const SensitivitySummary& raw,
+                                 const SensitivitySummary& normalised,
+                                 const FlankGrid& grid,
+                                 const ModelEvaluation& evaluation);
 
 }  // namespace gearloop
 
