@@ -102,7 +102,8 @@ nlohmann::json CorrectionResultJson(const CorrectionProblem& problem, const Corr
   const int rows = problem.rows;
   const int columns = problem.columns;
   nlohmann::json result = CorrectionSummaryToJson(summary, columns);
-  for (const auto& item : problem.result_header(commanded).items()) result[item.key()] = item.value();
+  const nlohmann::json header = problem.result_header(commanded);
+  for (const auto& item : header.items()) result[item.key()] = item.value();
   if (step) {
     result[problem.parameters_key] = problem.parameters_to_json(step->parameters);
     result["delta"] = problem.delta_to_json(step->delta);
