@@ -23,7 +23,7 @@
 #include <thread>
 
 #include "server/demo_seed.h"
-#include "server/gearloop_server.h"
+#include "server/http/gearloop_server.h"
 
 namespace {
 

@@ -123,6 +123,7 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
     const SimulatedMeasurement cmm = SimulateMeasurement(model, commanded, hidden_errors, measurement);
     ++measurement.seed;
     it.true_error_um = cmm.true_deviations_um - target_um;
+    it.measured_um = cmm.measured_um;
     double sum2 = 0.0, max_abs = 0.0, msum2 = 0.0;
     int count = 0, mcount = 0;
     for (int i = 0; i < it.true_error_um.size(); ++i) {

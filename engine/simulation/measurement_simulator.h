@@ -98,6 +98,9 @@ struct ClosedLoopIteration {
   int part = 0;                          // 0 = ground with the initial settings
   Eigen::VectorXd commanded_parameters;  // what the machine was told
   Eigen::VectorXd true_error_um;         // true deviations - target (NaN where not reached)
+  // What the measuring machine reported for this part [um], row-major, NaN = missing (the mean of
+  // the teeth when several are measured): the grid the correction was computed from.
+  Eigen::VectorXd measured_um;
   double true_rms_um = 0.0;              // over the reached points (NaN when none is reached)
   double true_max_um = 0.0;
   double measured_rms_um = 0.0;          // of measured - target over the delivered points (NaN: none)

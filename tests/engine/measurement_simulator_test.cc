@@ -161,5 +161,34 @@ TEST(SimulateClosedLoop, CorrectsTheHiddenErrorsAndRecordsEachPart) {
   EXPECT_EQ(again.iterations[2].true_rms_um, run.iterations[2].true_rms_um);
 }
 
+TEST(SimulateClosedLoop, ReportsWhatTheMachineMeasuredForEachPart) {
+  const Cutter c;
+  const Eigen::VectorXd hidden = c.Hidden(5);
+  const Eigen::VectorXd target = Eigen::VectorXd::Zero(c.grinder.NumPoints());
+  ClosedLoopOptions loop;
+  loop.corrections = 2;
+  loop.measurement.probe_noise_um = 0.3;
+  loop.measurement.seed = 11;
+  loop.correction.probe_noise_um = 0.3;
+  const ClosedLoopResult run = SimulateClosedLoop(c.grinder, c.nominal, hidden, target, loop);
+  ASSERT_EQ(run.iterations.size(), 3u);
+  for (size_t k = 0; k < run.iterations.size(); ++k) {
+    // Part k is measured with the seed advanced by k: the same grid a client would get from the
+    // measuring machine for the commanded parameters of that part.
+    MeasurementSimulationOptions part = loop.measurement;
+    part.seed += k;
+    const SimulatedMeasurement cmm =
+        SimulateMeasurement(c.grinder, run.iterations[k].commanded_parameters, hidden, part);
+    ASSERT_EQ(run.iterations[k].measured_um.size(), cmm.measured_um.size());
+    for (int i = 0; i < cmm.measured_um.size(); ++i) {
+      if (std::isnan(cmm.measured_um(i))) {
+        EXPECT_TRUE(std::isnan(run.iterations[k].measured_um(i)));
+      } else {
+        EXPECT_EQ(run.iterations[k].measured_um(i), cmm.measured_um(i)) << "part " << k << " point " << i;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace gearloop

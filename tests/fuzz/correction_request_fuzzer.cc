@@ -1,9 +1,9 @@
 // tests/fuzz/correction_request_fuzzer.cc: libFuzzer target for the server's request parsing and
-// validation (issue 7). The input is an HTTP body as the handlers of POST /api/v1/corrections and
-// POST /api/v1/evaluate receive it; it runs through the same codec calls, without the network
-// and without the solve:
+// validation (issue 7). The input is an HTTP body as the services of POST /api/v1/corrections and
+// POST /api/v1/evaluate receive it; it runs through the same codec calls, without the network,
+// the model and the solve:
 //
-//   ParseJsonBody -> ParseCorrectionRequest               (corrections, replays, batch items)
+//   ParseJsonBody -> ParseGrindingSetup -> ParseCorrectionRequest   (corrections, replays, batch items)
 //   ParseJsonBody -> ParseGrindingSetup -> ParseMachineSettings   (nominal, evaluate, sensitivity)
 //
 // Besides the sanitizers' own findings it checks the codec's contract: a refusal is a 400 or a
@@ -20,8 +20,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/correction_codec.h"
-#include "server/json_codec.h"
+#include "server/codec/correction_codec.h"
+#include "server/codec/grinder_codec.h"
 
 namespace {
 
@@ -56,14 +56,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   Check(body.is_object(), "an accepted body is an object");
 
+  gearloop::GrindingSetup correction_setup;
   gearloop::CorrectionRequest request;
   error = gearloop::ApiError();
-  if (gearloop::ParseCorrectionRequest(body, &request, &error)) {
-    const int rows = request.setup.grid.profile_points;
-    const int columns = request.setup.grid.lead_points;
+  if (gearloop::ParseGrindingSetup(body, &correction_setup, &error) &&
+      gearloop::ParseCorrectionRequest(body, correction_setup.grid.profile_points, correction_setup.grid.lead_points,
+                                       /*target_modifications_allowed=*/true, &request, &error)) {
+    const int rows = correction_setup.grid.profile_points;
+    const int columns = correction_setup.grid.lead_points;
+    const Eigen::Index points = static_cast<Eigen::Index>(rows) * columns;
     Check(rows > 0 && columns > 0, "a positive grid");
-    Check(request.measured_um.size() == static_cast<Eigen::Index>(rows) * columns, "measurement of the grid's size");
-    Check(request.target_um.size() == static_cast<Eigen::Index>(rows) * columns, "target of the grid's size");
+    Check(request.measured_teeth_um.empty() ? request.measured_um.size() == points : request.measured_um.size() == 0,
+          "one measured grid of the grid's size, or teeth");
+    for (const Eigen::VectorXd& tooth : request.measured_teeth_um) Check(tooth.size() == points, "teeth of the grid's size");
+    Check(request.target_um.size() == points, "target of the grid's size");
     Check(request.target_um.allFinite(), "a finite target");
     for (Eigen::Index i = 0; i < request.measured_um.size(); ++i) {
       Check(!std::isinf(request.measured_um[i]), "no infinite measured point (NaN marks a missing one)");

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "server/gearloop_server.h"
+#include "server/http/gearloop_server.h"
 #include "tests/server/server_test_util.h"
 #include "engine/core/units.h"
 

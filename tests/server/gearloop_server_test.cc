@@ -1,7 +1,7 @@
 // End-to-end tests of the HTTP server: the real server on an ephemeral loopback port with a
 // real SQLite temp file, spoken to with httplib::Client. Every endpoint, the error cases, restart
 // persistence, replay and settings lineage, a batch of 200 items, access control.
-#include "server/gearloop_server.h"
+#include "server/http/gearloop_server.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Tests of the JSON codec: API names and units in, engine names and units out, and errors that
 // name the field with the API's own path.
-#include "server/json_codec.h"
+#include "server/codec/grinder_codec.h"
 
 #include <gtest/gtest.h>
 

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/gearloop_server.h"
+#include "server/http/gearloop_server.h"
 
 // Last: <httplib.h> brings <resolv.h> whose `_res` macro breaks Eigen headers included after it.
 #include <httplib.h>

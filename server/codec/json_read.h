@@ -1,16 +1,12 @@
-// server/json_codec.h: JSON <-> engine types for the HTTP API (API.md), and the API's error
-// body. The only place where JSON field names meet engine field names.
+// server/codec/json_read.h: the typed JSON readers every codec of the HTTP API (API.md) is built
+// from, the API's error body, and grids of numbers in both directions. Knows no machine family.
 //
 //   nlohmann::json body;
 //   ApiError error;
-//   GrindingSetup setup;
-//   if (!ParseJsonBody(req.body, &body, &error) || !ParseGrindingSetup(body, &setup, &error)) {
+//   double noise_um = 0.0;
+//   if (!ParseJsonBody(req.body, &body, &error) || !ReadNumber(body, "", "noise_um", false, &noise_um, &error)) {
 //     return RespondError(res, error);   // {"error": {"code", "message", "field"}}
 //   }
-//
-// Units: the API carries angles of the gear and the wheel profile in DEGREES (the engine in
-// radians), the helix angle unsigned with a hand ("left" -> beta > 0, MODEL.md §1), axis
-// coefficients as the machine takes them (X, Y, Z in mm, A, B, C in rad, per rad^k of roll).
 //
 // Errors follow the closed list of api/openapi.yaml:
 //   400 invalid_json     the body is not JSON (or nests deeper than kMaxJsonDepth)
@@ -18,8 +14,8 @@
 //   422 invalid_value    well-formed but impossible: an impossible gear, a range the wrong way
 // and "field" names the place with the API's own names ("gear.normal_pressure_angle_deg",
 // "grid.profile_range[0]", "measurement.deviations_um[2][7]").
-#ifndef GEARLOOP_SERVER_JSON_CODEC_H_
-#define GEARLOOP_SERVER_JSON_CODEC_H_
+#ifndef GEARLOOP_SERVER_CODEC_JSON_READ_H_
+#define GEARLOOP_SERVER_CODEC_JSON_READ_H_
 
 #include <string>
 #include <vector>
@@ -27,10 +23,6 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "engine/grinder/flank_grid.h"
-#include "engine/grinder/grinding_setup.h"
-#include "engine/core/machine_model.h"
-#include "engine/grinder/grinder_settings.h"
 
 namespace gearloop {
 
@@ -52,26 +44,6 @@ constexpr int kMaxJsonDepth = 32;
 // when it is JSON but not an object.
 bool ParseJsonBody(const std::string& text, nlohmann::json* body, ApiError* error);
 
-// Reads "gear", "wheel", "machine" (optional, zeros), "grid" (optional, defaults), "flank"
-// (optional, "right") from `request` and validates them with the engine (ValidateSetup);
-// engine field names in the engine's issue are mapped to the API's (ApiFieldPath).
-bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, ApiError* error);
-
-// Reads settings {"axes": {"X": [..7], ..., "C": [..]}, "wheel": {...}} found at `path` (for
-// error fields). Each axis takes 1..7 coefficients (missing higher orders are 0); "wheel" is
-// optional (a flat wheel).
-bool ParseMachineSettings(const nlohmann::json& settings,
-                          const std::string& path,
-                          MachineSettings* result,
-                          ApiError* error);
-
-// The settings in the API's shape (cone angle in degrees).
-nlohmann::json MachineSettingsToJson(const MachineSettings& settings);
-
-// Maps an engine field path ("gear.normal_pressure_angle_rad", "grid.profile_begin",
-// "settings.wheel.cone_angle_rad") to the API's name for it ("gear.normal_pressure_angle_deg",
-// "grid.profile_range[0]", "settings.wheel.cone_angle_deg"). Unknown paths pass unchanged.
-std::string ApiFieldPath(const std::string& engine_field);
 
 // Reads a rows x columns grid of numbers (array of rows) at `path`. When `allow_null`, null
 // entries are allowed and marked false in `present` (their value is 0); otherwise they are a
@@ -89,20 +61,11 @@ bool ParseGridValues(const nlohmann::json& value,
 // value) become null. `present` may be empty (all present).
 nlohmann::json GridToJson(const Eigen::VectorXd& values, const std::vector<bool>& present, int rows, int columns);
 
-// The API's view of the gear data ("helix_angle_deg" unsigned + "hand").
-nlohmann::json GearToJson(const GearData& gear);
+
+
 // `value` rounded to 9 decimals: degrees converted back from radians read as typed (15, not
 // 14.999999999999998).
 double RoundTo1e9(double value);
-// "left" / "right".
-const char* FlankName(Flank flank);
-// "left" for beta > 0, "right" for beta < 0, "" for a spur gear.
-std::string HandName(const GearData& gear);
-
-// The evaluation of `settings` on the grid: "deviations_um" (null where not reached),
-// "not_reached" [{row, column, status}], "reached", and "points" [{row, column,
-// roll_length_mm, radius_mm, x_mm, position_mm [3], normal [3]}] in row-major order.
-nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& evaluation);
 
 // Small typed readers used by the handlers; each fills `error` and returns false on failure.
 // A missing member is an error only when `required`; *found tells whether it was there.
@@ -144,6 +107,24 @@ bool ReadCoefficient(const nlohmann::json& value,
                      const std::string& requirement,
                      double* coefficient,
                      ApiError* error);
+// "a number", "an array", ...: the JSON type of `value` for error messages.
+std::string TypeName(const nlohmann::json& value);
+// `value` (named `path` in errors) as a finite number: 400 when not a number, 422 when not finite.
+bool NumberFromJson(const nlohmann::json& value, const std::string& path, double* out, ApiError* error);
+// Reads an optional [begin, end] pair of numbers at `key` (absent: *begin and *end stay).
+bool ReadRange(const nlohmann::json& object,
+               const std::string& path,
+               const char* key,
+               double* begin,
+               double* end,
+               ApiError* error);
+// Points *out at the object at `key` (nullptr when absent and not `required`); a non-object is a 400.
+bool RequireObject(const nlohmann::json& request,
+                   const std::string& path,
+                   const char* key,
+                   bool required,
+                   const nlohmann::json** out,
+                   ApiError* error);
 // `path` joined with `key` ("gear" + "teeth" -> "gear.teeth"; "" + "gear" -> "gear").
 std::string JoinPath(const std::string& path, const std::string& key);
 
@@ -152,4 +133,4 @@ ApiError InvalidValue(const std::string& field, const std::string& message);    
 
 }  // namespace gearloop
 
-#endif  // GEARLOOP_SERVER_JSON_CODEC_H_
+#endif  // GEARLOOP_SERVER_CODEC_JSON_READ_H_

@@ -1,14 +1,9 @@
-#include "server/bevel_codec.h"
+#include "server/codec/bevel_codec.h"
 
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <vector>
 
-#include "engine/bevel/conversion.h"
-#include "engine/bevel/freeform_generator.h"
-#include "engine/correction/correction.h"
-#include "engine/simulation/measurement_simulator.h"
 #include "engine/core/units.h"
 
 namespace gearloop {
@@ -69,55 +64,6 @@ bool ReadIntField(const nlohmann::json& object, const std::string& path, const c
   return true;
 }
 
-// The grid points on the cradle flank, in the API's shape.
-nlohmann::json GridPointsToJson(const BevelFlankGrid& grid) {
-  nlohmann::json points = nlohmann::json::array();
-  for (const BevelGridPoint& p : grid.points) {
-    points.push_back({{"row", p.row},
-                      {"column", p.column},
-                      {"cone_distance_mm", p.cone_distance_mm},
-                      {"polar_angle_deg", p.polar_angle_rad * kDegPerRad},
-                      {"roll_deg", p.contact.roll_rad * kDegPerRad},
-                      {"blade_u_mm", p.contact.blade_u_mm},
-                      {"position_mm", {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()}},
-                      {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}}});
-  }
-  return points;
-}
-
-// Job, its cradle grid and the motion to use (given, or converted from the summary).
-struct BevelSetup {
-  BevelPinionJob job;
-  BevelFlankGrid grid;
-  FreeFormMotion nominal;  // converted from the summary (the generator's reference)
-  FreeFormMotion motion;   // the request's motion, or `nominal`
-  bool motion_given = false;
-};
-
-bool PrepareBevel(const nlohmann::json& body, BevelSetup* setup, ApiError* error) {
-  if (!ParseBevelJob(body, &setup->job, error)) return false;
-  if (body.contains("motion") && !body.at("motion").is_null()) {
-    if (!ParseFreeFormMotion(body.at("motion"), "motion", &setup->motion, error)) return false;
-    setup->motion_given = true;
-    setup->grid = CradleGenerator(setup->job).BuildGrid();
-    if (!setup->grid.ok) {
-      *error = InvalidValue("job", "the flank grid is not found on the cradle flank: " + setup->grid.message);
-      return false;
-    }
-    setup->nominal = setup->motion;
-    return true;
-  }
-  const ConversionResult conversion = ConvertCradleToFreeForm(ConversionOptions(), setup->job);
-  if (!conversion.ok) {
-    *error = InvalidValue("job", "the cradle summary cannot be converted: " + conversion.message);
-    return false;
-  }
-  setup->grid = conversion.grid;
-  setup->nominal = conversion.motion;
-  setup->motion = conversion.motion;
-  return true;
-}
-
 nlohmann::json EntryToJson(const AxisSensitivityEntry& e, bool with_grid, int rows, int columns) {
   const bool angular = e.axis == "A" || e.axis == "B";
   nlohmann::json j = {{"parameter", e.parameter},
@@ -139,6 +85,21 @@ nlohmann::json EntryToJson(const AxisSensitivityEntry& e, bool with_grid, int ro
 }
 
 }  // namespace
+
+nlohmann::json GridPointsToJson(const BevelFlankGrid& grid) {
+  nlohmann::json points = nlohmann::json::array();
+  for (const BevelGridPoint& p : grid.points) {
+    points.push_back({{"row", p.row},
+                      {"column", p.column},
+                      {"cone_distance_mm", p.cone_distance_mm},
+                      {"polar_angle_deg", p.polar_angle_rad * kDegPerRad},
+                      {"roll_deg", p.contact.roll_rad * kDegPerRad},
+                      {"blade_u_mm", p.contact.blade_u_mm},
+                      {"position_mm", {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()}},
+                      {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}}});
+  }
+  return points;
+}
 
 bool ParseBevelJob(const nlohmann::json& body, BevelPinionJob* result, ApiError* error) {
   if (!body.contains("job")) {
@@ -314,9 +275,7 @@ nlohmann::json FreeFormMotionToJson(const FreeFormMotion& motion) {
   return j;
 }
 
-bool BevelConversion(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  BevelPinionJob job;
-  if (!ParseBevelJob(body, &job, error)) return false;
+bool ParseConversionOptions(const nlohmann::json& body, ConversionOptions* result, ApiError* error) {
   ConversionOptions options;
   if (body.contains("options") && !body.at("options").is_null()) {
     const nlohmann::json& o = body.at("options");
@@ -360,18 +319,18 @@ bool BevelConversion(const nlohmann::json& body, nlohmann::json* answer, ApiErro
     *error = InvalidValue("options", message);
     return false;
   }
-  const ConversionResult c = ConvertCradleToFreeForm(options, job);
-  if (!c.ok) {
-    *error = InvalidValue("job", "the cradle summary cannot be converted: " + c.message);
-    return false;
-  }
+  *result = options;
+  return true;
+}
+
+nlohmann::json ConversionToJson(const BevelPinionJob& job, const ConversionResult& c) {
   nlohmann::json fit = nlohmann::json::array();
   for (const AxisFitReport& r : c.fit) {
     fit.push_back({{"axis", r.axis},
                    {"max_" + r.unit, r.max_residual},
                    {"rms_" + r.unit, r.rms_residual}});
   }
-  *answer = {{"job", BevelJobToJson(job)},
+  return {{"job", BevelJobToJson(job)},
              {"degree", c.motion.degree},
              {"motion", FreeFormMotionToJson(c.motion)},
              {"roll_range_deg", {c.roll_min_rad * kDegPerRad, c.roll_max_rad * kDegPerRad}},
@@ -392,17 +351,12 @@ bool BevelConversion(const nlohmann::json& body, nlohmann::json* answer, ApiErro
              {"rows", c.grid.rows},
              {"columns", c.grid.columns},
              {"points", GridPointsToJson(c.grid)}};
-  return true;
 }
 
-bool BevelEvaluate(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  BevelSetup setup;
-  if (!PrepareBevel(body, &setup, error)) return false;
-  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
-  ModelEvaluation evaluation;
-  generator.Evaluate(setup.motion.ToVector(), /*with_jacobian=*/false, &evaluation);
-  const int rows = generator.GridRows();
-  const int columns = generator.GridColumns();
+nlohmann::json BevelEvaluationToJson(const BevelPinionJob& job, const FreeFormMotion& motion, const BevelFlankGrid& grid,
+                                     const ModelEvaluation& evaluation) {
+  const int rows = grid.rows;
+  const int columns = grid.columns;
   std::vector<bool> present(evaluation.status.size());
   nlohmann::json not_reached = nlohmann::json::array();
   int reached = 0;
@@ -415,20 +369,17 @@ bool BevelEvaluate(const nlohmann::json& body, nlohmann::json* answer, ApiError*
                              {"status", PointStatusName(evaluation.status[i])}});
     }
   }
-  *answer = {{"job", BevelJobToJson(setup.job)},
-             {"motion", FreeFormMotionToJson(setup.motion)},
+  return {{"job", BevelJobToJson(job)},
+             {"motion", FreeFormMotionToJson(motion)},
              {"rows", rows},
              {"columns", columns},
              {"deviations_um", GridToJson(evaluation.deviations_um, present, rows, columns)},
              {"not_reached", not_reached},
              {"reached", reached},
-             {"points", GridPointsToJson(setup.grid)}};
-  return true;
+             {"points", GridPointsToJson(grid)}};
 }
 
-bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  BevelSetup setup;
-  if (!PrepareBevel(body, &setup, error)) return false;
+bool ParseAxisSensitivityOptions(const nlohmann::json& body, AxisSensitivityOptions* result, ApiError* error) {
   AxisSensitivityOptions options;
   if (body.contains("errors") && !body.at("errors").is_null()) {
     const nlohmann::json& e = body.at("errors");
@@ -457,10 +408,13 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
     *error = InvalidValue("errors", message);
     return false;
   }
-  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
-  const AxisSensitivityTable table = ComputeAxisSensitivity(generator, setup.motion.ToVector(), options);
-  const int rows = generator.GridRows();
-  const int columns = generator.GridColumns();
+  *result = options;
+  return true;
+}
+
+nlohmann::json AxisSensitivityToJson(const BevelPinionJob& job, const FreeFormMotion& motion,
+                                     const AxisSensitivityOptions& options, const AxisSensitivityTable& table, int rows,
+                                     int columns) {
   nlohmann::json offsets = nlohmann::json::array();
   for (const AxisSensitivityEntry& e : table.offsets) offsets.push_back(EntryToJson(e, true, rows, columns));
   nlohmann::json coefficients = nlohmann::json::array();
@@ -469,8 +423,8 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
   for (int i : table.offset_ranking) offset_ranking.push_back(table.offsets[i].axis);
   nlohmann::json coefficient_ranking = nlohmann::json::array();
   for (int i : table.coefficient_ranking) coefficient_ranking.push_back(table.coefficients[i].parameter);
-  *answer = {{"job", BevelJobToJson(setup.job)},
-             {"motion", FreeFormMotionToJson(setup.motion)},
+  return {{"job", BevelJobToJson(job)},
+             {"motion", FreeFormMotionToJson(motion)},
              {"errors",
               {{"linear_error_mm", options.linear_error_mm},
                {"angular_error_deg", options.angular_error_rad * kDegPerRad},
@@ -481,17 +435,9 @@ bool BevelAxisSensitivity(const nlohmann::json& body, nlohmann::json* answer, Ap
              {"coefficients", coefficients},
              {"offset_ranking", offset_ranking},
              {"coefficient_ranking", coefficient_ranking}};
-  return true;
 }
 
-namespace {
-// The simulated machine of a bevel scenario: job, commanded motion, hidden axis errors (as
-// motion coefficients) and the measuring machine's options.
-bool ParseBevelSimulation(const nlohmann::json& body, BevelSetup* setup_out, FreeFormMotion* hidden_out,
-                          MeasurementSimulationOptions* measurement, ApiError* error) {
-  BevelSetup& setup = *setup_out;
-  if (!PrepareBevel(body, &setup, error)) return false;
-  const int degree = setup.motion.degree;
+bool ParseBevelHiddenErrors(const nlohmann::json& body, int degree, FreeFormMotion* hidden_out, ApiError* error) {
   FreeFormMotion& hidden = *hidden_out;
   hidden = FreeFormMotion::Zero(degree);
   if (body.contains("hidden_errors") && !body.at("hidden_errors").is_null()) {
@@ -523,213 +469,6 @@ bool ParseBevelSimulation(const nlohmann::json& body, BevelSetup* setup_out, Fre
       }
     }
   }
-  // The bevel simulations take no outlier or missing point lists.
-  return ParseMeasurementSimulation(body, /*with_point_lists=*/false, /*rows=*/0, /*columns=*/0, measurement, error);
-}
-
-}  // namespace
-
-bool BevelSimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  BevelSetup setup;
-  FreeFormMotion hidden;
-  MeasurementSimulationOptions m;
-  if (!ParseBevelSimulation(body, &setup, &hidden, &m, error)) return false;
-  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
-  const SimulatedMeasurement cmm = SimulateMeasurement(generator, setup.motion.ToVector(), hidden.ToVector(), m);
-  *answer = SimulatedMeasurementToJson(cmm, generator.GridRows(), generator.GridColumns());
-  (*answer)["machine_kind"] = kFreeFormBevelGeneratorKind;
-  (*answer)["hidden_errors"] = FreeFormMotionToJson(hidden);
-  (*answer)["motion"] = FreeFormMotionToJson(setup.motion);
-  return true;
-}
-
-bool BevelSimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError* error) {
-  BevelSetup setup;
-  FreeFormMotion hidden;
-  MeasurementSimulationOptions m;
-  if (!ParseBevelSimulation(body, &setup, &hidden, &m, error)) return false;
-  const int rows = setup.grid.rows;
-  const int columns = setup.grid.columns;
-  if (body.contains("target") && body.at("target").is_object() && body.at("target").contains("modifications")) {
-    *error = InvalidValue("target.modifications", "give a bevel target as target.deviations_um");
-    return false;
-  }
-  Eigen::VectorXd target_um;
-  if (!ParseCorrectionTarget(body, GrindingSetup(), rows, columns, &target_um, error)) return false;
-  long long corrections = 3;
-  if (!ReadInteger(body, "", "corrections", false, &corrections, error)) return false;
-  if (corrections < 1 || corrections > 20) {
-    *error = InvalidValue("corrections", "corrections must lie in [1, 20]");
-    return false;
-  }
-  // The solver knows the probe's noise unless told otherwise (as for the grinder).
-  nlohmann::json options_body = body.contains("options") ? body.at("options") : nlohmann::json::object();
-  if (options_body.is_object() && !options_body.contains("probe_noise_um")) {
-    options_body["probe_noise_um"] = m.probe_noise_um;
-  }
-  ClosedLoopOptions loop;
-  loop.corrections = static_cast<int>(corrections);
-  loop.measurement = m;
-  if (!ParseCorrectionOptions({{"options", options_body}}, rows, columns, &loop.correction, error)) return false;
-
-  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
-  const ClosedLoopResult result = SimulateClosedLoop(generator, setup.motion.ToVector(), hidden.ToVector(), target_um, loop);
-  const int degree = setup.motion.degree;
-  auto motion_json = [&](const Eigen::VectorXd& parameters) {
-    FreeFormMotion motion = FreeFormMotion::FromVector(degree, parameters);
-    motion.c_coefficients = setup.motion.c_coefficients;
-    return FreeFormMotionToJson(motion);
-  };
-  auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  nlohmann::json iterations = nlohmann::json::array();
-  run->jobs.clear();
-  for (size_t k = 0; k < result.iterations.size(); ++k) {
-    const ClosedLoopIteration& it = result.iterations[k];
-    nlohmann::json item = {{"part", it.part},
-                           {"motion", motion_json(it.commanded_parameters)},
-                           {"true_rms_um", finite_or_null(it.true_rms_um)},
-                           {"true_max_um", finite_or_null(it.true_max_um)},
-                           {"measured_rms_um", finite_or_null(it.measured_rms_um)},
-                           {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
-                           {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
-                                                       : nlohmann::json(nullptr)}};
-    Eigen::VectorXd delta;  // the step to the next part's motion (none after an unusable last correction)
-    if (it.corrected && k + 1 < result.iterations.size()) {
-      delta = result.iterations[k + 1].commanded_parameters - it.commanded_parameters;
-      item["correction"]["axis_motion"] = CorrectionAxisMotionJson(generator, delta, it.correction);
-    }
-    if (it.corrected && it.correction.IsSolutionUsable()) {
-      // A stored job per correction, replayable: the request a client would have sent, with the
-      // measurement the simulated machine reported for this part (seed advanced by one per part).
-      MeasurementSimulationOptions part_measurement = m;
-      part_measurement.seed += k;
-      const SimulatedMeasurement cmm =
-          SimulateMeasurement(generator, it.commanded_parameters, hidden.ToVector(), part_measurement);
-      nlohmann::json request = {{"machine", {{"kind", kFreeFormBevelGeneratorKind}}},
-                                {"job", body.at("job")},
-                                {"motion", motion_json(it.commanded_parameters)},
-                                {"measurement", {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}}},
-                                {"target", {{"deviations_um", GridToJson(target_um, {}, rows, columns)}}},
-                                {"options", options_body}};
-      nlohmann::json result_json = CorrectionSummaryToJson(it.correction, columns);
-      result_json["machine_kind"] = kFreeFormBevelGeneratorKind;
-      result_json["side"] = BevelFlankSideName(setup.job.side);
-      result_json["commanded_motion"] = motion_json(it.commanded_parameters);
-      if (k + 1 < result.iterations.size()) {
-        const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
-        result_json["motion"] = motion_json(next);
-        result_json["delta"] = FreeFormMotionToJson(FreeFormMotion::FromVector(degree, delta));
-        result_json["axis_motion"] = item["correction"]["axis_motion"];
-      }
-      result_json["predicted_residual_um"] = GridToJson(it.predicted_residual_um, {}, rows, columns);
-      result_json["predicted_change_um"] = GridToJson(it.predicted_change_um, {}, rows, columns);
-      result_json["measured_um"] = GridToJson(cmm.measured_um, {}, rows, columns);
-      result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
-      JobRecord job;
-      job.status = CorrectionStatusName(it.correction.status);
-      job.machine_kind = kFreeFormBevelGeneratorKind;
-      job.gear_hand = "left";
-      job.flank = BevelFlankSideName(setup.job.side);
-      job.request_json = request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-      job.result_json = result_json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-      if (std::isfinite(it.correction.residual_rms_um)) job.residual_rms_um = it.correction.residual_rms_um;
-      if (std::isfinite(it.correction.best_reachable_rms_um)) {
-        job.best_reachable_rms_um = it.correction.best_reachable_rms_um;
-      }
-      job.rank = it.correction.rank;
-      job.elapsed_ms = it.correction.elapsed_ms;
-      run->jobs.push_back(job);
-      item["job_index"] = static_cast<int>(run->jobs.size()) - 1;
-    }
-    iterations.push_back(item);
-  }
-  run->answer = {{"machine_kind", kFreeFormBevelGeneratorKind},
-                 {"completed", result.completed},
-                 {"message", result.message},
-                 {"hidden_errors", FreeFormMotionToJson(hidden)},
-                 {"iterations", iterations}};
-  return true;
-}
-
-bool IsBevelCorrectionRequest(const nlohmann::json& body) {
-  if (!body.is_object() || !body.contains("machine")) return false;
-  const nlohmann::json& machine = body.at("machine");
-  return machine.is_object() && machine.contains("kind") && machine.at("kind").is_string() &&
-         machine.at("kind").get<std::string>() == kFreeFormBevelGeneratorKind;
-}
-
-bool RunBevelCorrection(const nlohmann::json& body, CorrectionRun* run, ApiError* error) {
-  BevelSetup setup;
-  if (!PrepareBevel(body, &setup, error)) return false;
-  const int rows = setup.grid.rows;
-  const int columns = setup.grid.columns;
-  Eigen::VectorXd measured_um, target_um;
-  if (!ParseCorrectionMeasurement(body, rows, columns, &measured_um, error)) return false;
-  if (body.contains("target") && body.at("target").is_object() && body.at("target").contains("modifications")) {
-    *error = InvalidValue("target.modifications",
-                          "target modifications are defined for the grinder's involute flank; give a bevel target as "
-                          "target.deviations_um");
-    return false;
-  }
-  if (!ParseCorrectionTarget(body, GrindingSetup(), rows, columns, &target_um, error)) return false;
-  CorrectionOptions options;
-  if (!ParseCorrectionOptions(body, rows, columns, &options, error)) return false;
-  std::optional<int64_t> settings_source;
-  if (body.contains("settings_source_job_id") && !body.at("settings_source_job_id").is_null()) {
-    long long id = 0;
-    if (!ReadInteger(body, "", "settings_source_job_id", true, &id, error)) return false;
-    if (id <= 0) {
-      *error = InvalidValue("settings_source_job_id", "settings_source_job_id must name a stored job (id >= 1)");
-      return false;
-    }
-    settings_source = id;
-  }
-
-  const auto start = std::chrono::steady_clock::now();
-  const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
-  CorrectionInput input;
-  input.model = &generator;
-  input.current_parameters = setup.motion.ToVector();
-  input.measured_um = measured_um;
-  input.target_um = target_um;
-  run->result = ComputeCorrection(options, input);
-  run->solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const CorrectionSummary& s = run->result.summary;
-  if (s.status == CorrectionStatus::kInvalidInput) {
-    *error = InvalidValue("measurement", "the correction cannot be computed: " + s.message);
-    return false;
-  }
-  FreeFormMotion corrected = FreeFormMotion::FromVector(setup.motion.degree, run->result.parameters);
-  corrected.c_coefficients = setup.motion.c_coefficients;
-  const FreeFormMotion delta = FreeFormMotion::FromVector(setup.motion.degree, run->result.delta);
-
-  run->result_json = CorrectionSummaryToJson(s, columns);
-  run->result_json["machine_kind"] = kFreeFormBevelGeneratorKind;
-  run->result_json["side"] = BevelFlankSideName(setup.job.side);
-  run->result_json["motion"] = FreeFormMotionToJson(corrected);
-  run->result_json["delta"] = FreeFormMotionToJson(delta);
-  run->result_json["commanded_motion"] = FreeFormMotionToJson(setup.motion);
-  run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
-  run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
-  run->result_json["measured_um"] = GridToJson(measured_um, {}, rows, columns);
-  run->result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
-  run->result_json["axis_motion"] = CorrectionAxisMotionJson(generator, run->result.delta, s);
-
-  JobRecord& job = run->job;
-  job.status = CorrectionStatusName(s.status);
-  job.machine_kind = kFreeFormBevelGeneratorKind;
-  // A pinion flank has no tooth count or module in the summary; the pinion is left-hand (§2.4).
-  job.gear_teeth = 0;
-  job.gear_normal_module_mm = 0.0;
-  job.gear_helix_angle_deg = 0.0;
-  job.gear_hand = "left";
-  job.flank = BevelFlankSideName(setup.job.side);
-  job.result_json = run->result_json.dump();
-  if (std::isfinite(s.residual_rms_um)) job.residual_rms_um = s.residual_rms_um;
-  if (std::isfinite(s.best_reachable_rms_um)) job.best_reachable_rms_um = s.best_reachable_rms_um;
-  job.rank = s.rank;
-  job.elapsed_ms = run->solve_seconds * 1e3;
-  job.settings_source_job_id = settings_source;
   return true;
 }
 

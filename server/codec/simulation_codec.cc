@@ -1,22 +1,21 @@
-#include "server/simulation_handlers.h"
+#include "server/codec/simulation_codec.h"
 
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <string>
 
-#include "engine/grinder/flat_wheel_grinder.h"
-#include "engine/grinder/grinder_settings.h"
-#include "engine/simulation/measurement_simulator.h"
-#include "server/correction_codec.h"
 #include "engine/core/units.h"
+#include "engine/grinder/grinder_settings.h"
+#include "server/codec/correction_codec.h"
+#include "server/codec/grinder_codec.h"
 
 namespace gearloop {
 namespace {
 const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
+}  // namespace
 
 // Hidden errors given coefficient by coefficient; every part optional.
-bool ParseHiddenErrors(const nlohmann::json& value, Eigen::VectorXd* errors, ApiError* error) {
+bool ParseGrinderHiddenErrors(const nlohmann::json& value, Eigen::VectorXd* errors, ApiError* error) {
   const std::string path = "hidden_errors";
   errors->setZero(kNumGrinderParameters);
   if (!value.is_object()) {
@@ -76,8 +75,7 @@ bool ParseHiddenErrors(const nlohmann::json& value, Eigen::VectorXd* errors, Api
   return true;
 }
 
-bool ParseRandomHiddenErrors(const nlohmann::json& value, const FlatWheelGrinder& grinder, Eigen::VectorXd* errors,
-                             ApiError* error) {
+bool ParseRandomHiddenErrors(const nlohmann::json& value, RandomHiddenErrorsRequest* request, ApiError* error) {
   const std::string path = "random_hidden_errors";
   if (!value.is_object()) {
     *error = InvalidRequest(path, path + " must be an object {block_size, max_order, wheel_size, seed}");
@@ -122,10 +120,15 @@ bool ParseRandomHiddenErrors(const nlohmann::json& value, const FlatWheelGrinder
       fixed.push_back(name.get<std::string>());
     }
   }
-  *errors = RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), block_size,
-                               static_cast<int>(max_order), wheel_size, static_cast<std::uint64_t>(seed), fixed);
+  request->block_size = block_size;
+  request->max_order = static_cast<int>(max_order);
+  request->wheel_size = wheel_size;
+  request->seed = static_cast<std::uint64_t>(seed);
+  request->fixed_blocks = fixed;
   return true;
 }
+
+namespace {
 
 bool ParsePointList(const nlohmann::json& body, const char* key, int rows, int columns, std::vector<int>* indices,
                     ApiError* error) {
@@ -153,48 +156,10 @@ bool ParsePointList(const nlohmann::json& body, const char* key, int rows, int c
   return true;
 }
 
-// Everything the two simulations share.
-struct SimulationSetup {
-  GrindingSetup setup;
-  MachineSettings commanded;
-  Eigen::VectorXd hidden_errors;
-  MeasurementSimulationOptions measurement;
-};
-
-bool ParseSimulationSetup(const nlohmann::json& body, std::unique_ptr<FlatWheelGrinder>* grinder,
-                          SimulationSetup* sim, ApiError* error) {
-  if (!ParseGrindingSetup(body, &sim->setup, error)) return false;
-  if (body.contains("settings") && !body.at("settings").is_null()) {
-    if (!ParseMachineSettings(body.at("settings"), "settings", &sim->commanded, error)) return false;
-  } else {
-    sim->commanded = NominalSettings(sim->setup);
-  }
-  *grinder = std::make_unique<FlatWheelGrinder>(sim->setup);
-  const int rows = sim->setup.grid.profile_points;
-  const int columns = sim->setup.grid.lead_points;
-  sim->hidden_errors.setZero(kNumGrinderParameters);
-  if (body.contains("hidden_errors") && body.contains("random_hidden_errors")) {
-    *error = InvalidRequest("random_hidden_errors", "give hidden_errors or random_hidden_errors, not both");
-    return false;
-  }
-  if (body.contains("hidden_errors") && !ParseHiddenErrors(body.at("hidden_errors"), &sim->hidden_errors, error)) {
-    return false;
-  }
-  if (body.contains("random_hidden_errors") &&
-      !ParseRandomHiddenErrors(body.at("random_hidden_errors"), **grinder, &sim->hidden_errors, error)) {
-    return false;
-  }
-  return ParseMeasurementSimulation(body, /*with_point_lists=*/true, rows, columns, &sim->measurement, error);
-}
-
 nlohmann::json PointsJson(const std::vector<int>& indices, int columns) {
   nlohmann::json list = nlohmann::json::array();
   for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
   return list;
-}
-
-nlohmann::json FiniteOrNull(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
 }
 
 }  // namespace
@@ -271,28 +236,12 @@ nlohmann::json SimulatedMeasurementToJson(const SimulatedMeasurement& cmm, int r
   return answer;
 }
 
-bool SimulateMeasurement(const nlohmann::json& body, nlohmann::json* answer, ApiError* error) {
-  std::unique_ptr<FlatWheelGrinder> grinder;
-  SimulationSetup sim;
-  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
-  const int rows = grinder->GridRows();
-  const int columns = grinder->GridColumns();
-  const SimulatedMeasurement cmm =
-      SimulateMeasurement(*grinder, sim.commanded.ToVector(), sim.hidden_errors, sim.measurement);
-  *answer = SimulatedMeasurementToJson(cmm, rows, columns);
-  (*answer)["hidden_errors"] = MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors));
-  (*answer)["settings"] = MachineSettingsToJson(sim.commanded);
-  return true;
-}
-
-bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError* error) {
-  std::unique_ptr<FlatWheelGrinder> grinder;
-  SimulationSetup sim;
-  if (!ParseSimulationSetup(body, &grinder, &sim, error)) return false;
-  const int rows = grinder->GridRows();
-  const int columns = grinder->GridColumns();
-  Eigen::VectorXd target_um;
-  if (!ParseCorrectionTarget(body, sim.setup, rows, columns, &target_um, error)) return false;
+bool ParseClosedLoop(const nlohmann::json& body,
+                     int rows,
+                     int columns,
+                     ClosedLoopOptions* loop,
+                     nlohmann::json* options_body,
+                     ApiError* error) {
   long long corrections = 3;
   if (!ReadInteger(body, "", "corrections", false, &corrections, error)) return false;
   if (corrections < 1 || corrections > 20) {
@@ -300,89 +249,26 @@ bool SimulateClosedLoop(const nlohmann::json& body, ClosedLoopRun* run, ApiError
     return false;
   }
   // The solver knows the probe's noise unless told otherwise.
-  nlohmann::json options_body = body.contains("options") ? body.at("options") : nlohmann::json::object();
-  if (options_body.is_object() && !options_body.contains("probe_noise_um")) {
-    options_body["probe_noise_um"] = sim.measurement.probe_noise_um;
+  *options_body = body.contains("options") ? body.at("options") : nlohmann::json::object();
+  if (options_body->is_object() && !options_body->contains("probe_noise_um")) {
+    (*options_body)["probe_noise_um"] = loop->measurement.probe_noise_um;
   }
-  ClosedLoopOptions loop;
-  loop.corrections = static_cast<int>(corrections);
-  loop.measurement = sim.measurement;
-  if (!ParseCorrectionOptions({{"options", options_body}}, rows, columns, &loop.correction, error)) return false;
+  loop->corrections = static_cast<int>(corrections);
+  return ParseCorrectionOptions({{"options", *options_body}}, rows, columns, &loop->correction, error);
+}
 
-  const ClosedLoopResult result =
-      SimulateClosedLoop(*grinder, sim.commanded.ToVector(), sim.hidden_errors, target_um, loop);
-
-  nlohmann::json iterations = nlohmann::json::array();
-  run->jobs.clear();
-  for (size_t k = 0; k < result.iterations.size(); ++k) {
-    const ClosedLoopIteration& it = result.iterations[k];
-    const MachineSettings commanded = MachineSettings::FromVector(it.commanded_parameters);
-    nlohmann::json item = {{"part", it.part},
-                           {"settings", MachineSettingsToJson(commanded)},
-                           {"true_rms_um", FiniteOrNull(it.true_rms_um)},
-                           {"true_max_um", FiniteOrNull(it.true_max_um)},
-                           {"measured_rms_um", FiniteOrNull(it.measured_rms_um)},
-                           {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
-                           {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns)
-                                                       : nlohmann::json(nullptr)}};
-    // The delta of a correction is the step to the next part's settings; an unusable last
-    // correction has none.
-    Eigen::VectorXd delta;
-    if (it.corrected && k + 1 < result.iterations.size()) {
-      delta = result.iterations[k + 1].commanded_parameters - it.commanded_parameters;
-      item["correction"]["axis_motion"] = CorrectionAxisMotionJson(*grinder, delta, it.correction);
-    }
-    iterations.push_back(item);
-    if (!it.corrected || !it.correction.IsSolutionUsable()) continue;
-
-    // A stored job per correction: the request as a client would have sent it (so it can be
-    // replayed), with the measurement the simulated machine reported for this part (the loop
-    // advances the seed by one per part, so it is reproduced exactly).
-    MeasurementSimulationOptions m = sim.measurement;
-    m.seed += k;
-    const SimulatedMeasurement cmm = SimulateMeasurement(*grinder, it.commanded_parameters, sim.hidden_errors, m);
-    nlohmann::json request = nlohmann::json::object();
-    for (const char* key : {"gear", "wheel", "machine", "grid", "flank"}) {
-      if (body.contains(key)) request[key] = body.at(key);
-    }
-    request["settings"] = MachineSettingsToJson(commanded);
-    request["measurement"] = {{"deviations_um", GridToJson(cmm.measured_um, {}, rows, columns)}};
-    request["target"] = {{"deviations_um", GridToJson(target_um, {}, rows, columns)}};
-    request["options"] = options_body;
-    nlohmann::json result_json = CorrectionSummaryToJson(it.correction, columns);
-    if (k + 1 < result.iterations.size()) {
-      const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
-      result_json["settings"] = MachineSettingsToJson(MachineSettings::FromVector(next));
-      result_json["delta"] = MachineSettingsToJson(MachineSettings::FromVector(delta));
-      result_json["axis_motion"] = item["correction"]["axis_motion"];
-    }
-    result_json["predicted_residual_um"] = GridToJson(it.predicted_residual_um, {}, rows, columns);
-    result_json["predicted_change_um"] = GridToJson(it.predicted_change_um, {}, rows, columns);
-    result_json["measured_um"] = GridToJson(cmm.measured_um, {}, rows, columns);
-    result_json["target_um"] = GridToJson(target_um, {}, rows, columns);
-    JobRecord job;
-    job.status = CorrectionStatusName(it.correction.status);
-    job.machine_kind = "flat-wheel-grinder";
-    job.gear_teeth = sim.setup.gear.teeth;
-    job.gear_normal_module_mm = sim.setup.gear.normal_module_mm;
-    job.gear_helix_angle_deg = RoundTo1e9(std::fabs(sim.setup.gear.helix_angle_rad) / kRadPerDeg);
-    job.gear_hand = HandName(sim.setup.gear);
-    job.flank = FlankName(sim.setup.flank);
-    job.request_json = request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    job.result_json = result_json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    if (std::isfinite(it.correction.residual_rms_um)) job.residual_rms_um = it.correction.residual_rms_um;
-    if (std::isfinite(it.correction.best_reachable_rms_um)) job.best_reachable_rms_um = it.correction.best_reachable_rms_um;
-    job.rank = it.correction.rank;
-    job.elapsed_ms = it.correction.elapsed_ms;
-    run->jobs.push_back(job);
-    item["job_index"] = static_cast<int>(run->jobs.size()) - 1;
-    iterations.back() = item;
-  }
-  run->answer = {{"completed", result.completed},
-                 {"message", result.message},
-                 {"hidden_errors", MachineSettingsToJson(MachineSettings::FromVector(sim.hidden_errors))},
-                 {"iterations", iterations}};
-  return true;
+nlohmann::json ClosedLoopIterationToJson(const ClosedLoopIteration& it,
+                                         const std::string& parameters_key,
+                                         const nlohmann::json& commanded,
+                                         int rows,
+                                         int columns) {
+  return {{"part", it.part},
+          {parameters_key, commanded},
+          {"true_rms_um", FiniteOrNull(it.true_rms_um)},
+          {"true_max_um", FiniteOrNull(it.true_max_um)},
+          {"measured_rms_um", FiniteOrNull(it.measured_rms_um)},
+          {"true_error_um", GridToJson(it.true_error_um, {}, rows, columns)},
+          {"correction", it.corrected ? CorrectionSummaryToJson(it.correction, columns) : nlohmann::json(nullptr)}};
 }
 
 }  // namespace gearloop

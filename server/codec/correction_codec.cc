@@ -1,13 +1,10 @@
-#include "server/correction_codec.h"
+#include "server/codec/correction_codec.h"
 
-#include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <vector>
 
-#include "engine/grinder/flank_grid.h"
-#include "engine/grinder/flat_wheel_grinder.h"
-#include "engine/grinder/target_modification.h"
 #include "engine/core/units.h"
 
 namespace gearloop {
@@ -98,10 +95,6 @@ nlohmann::json PointList(const std::vector<int>& indices, int columns) {
   return list;
 }
 
-nlohmann::json FiniteOrNull(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
 // A unit as a key suffix, the API's way: "um" -> "_um", "1/mm" -> "_per_mm".
 std::string UnitSuffix(const std::string& unit) {
   std::string suffix;
@@ -119,6 +112,10 @@ std::string UnitSuffix(const std::string& unit) {
 }
 
 }  // namespace
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
 
 nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   nlohmann::json roll = nlohmann::json::array();
@@ -139,15 +136,10 @@ nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
 }
 
-nlohmann::json CorrectionAxisMotionJson(const MachineModel& model, const Eigen::VectorXd& delta,
-                                        const CorrectionSummary& summary) {
-  return AxisMotionToJson(
-      ComputeAxisMotion(model.ParameterBlocks(), delta, summary.roll_min_rad, summary.roll_max_rad));
-}
-
-// The measurement: one grid or several teeth averaged point by point.
+// The measurement: one grid, or several teeth handed to the engine as they are (it averages them
+// and knows that an averaged point is less noisy).
 bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
-                                ApiError* error) {
+                                std::vector<Eigen::VectorXd>* measured_teeth_um, ApiError* error) {
   if (!body.contains("measurement")) {
     *error = InvalidRequest("measurement", "missing required field measurement");
     return false;
@@ -174,7 +166,7 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int column
       *error = InvalidRequest("measurement.teeth", "measurement.teeth must be an array of 1 to 1000 grids");
       return false;
     }
-    std::vector<Eigen::VectorXd> grids;
+    measured_teeth_um->clear();
     for (size_t t = 0; t < teeth.size(); ++t) {
       Eigen::VectorXd grid;
       const std::string path = "measurement.teeth[" + std::to_string(t) + "]";
@@ -182,17 +174,21 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int column
       for (int i = 0; i < grid.size(); ++i) {
         if (!present[i]) grid(i) = std::numeric_limits<double>::quiet_NaN();
       }
-      grids.push_back(grid);
+      measured_teeth_um->push_back(grid);
     }
-    *measured_um = AverageTeeth(grids);
+    measured_um->resize(0);
     return true;
   }
   *error = InvalidRequest("measurement.deviations_um", "missing required field measurement.deviations_um");
   return false;
 }
 
-bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setup, int rows, int columns,
-                 Eigen::VectorXd* target_um, ApiError* error) {
+bool HasTargetModifications(const nlohmann::json& body) {
+  return body.contains("target") && body.at("target").is_object() && body.at("target").contains("modifications");
+}
+
+bool ParseCorrectionTarget(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* target_um,
+                           std::optional<std::vector<TargetModification>>* modifications, ApiError* error) {
   target_um->setZero(rows * columns);
   if (!body.contains("target") || body.at("target").is_null()) return true;
   const nlohmann::json& target = body.at("target");
@@ -211,14 +207,13 @@ bool ParseCorrectionTarget(const nlohmann::json& body, const GrindingSetup& setu
       *error = InvalidRequest("target.modifications", "target.modifications must be an array of at most 100 modifications");
       return false;
     }
-    std::vector<TargetModification> modifications(list.size());
+    std::vector<TargetModification> parsed(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
-      if (!ParseModification(list[i], "target.modifications[" + std::to_string(i) + "]", &modifications[i], error)) {
+      if (!ParseModification(list[i], "target.modifications[" + std::to_string(i) + "]", &parsed[i], error)) {
         return false;
       }
     }
-    const FlankGrid grid = BuildFlankGrid(setup);
-    *target_um = EvaluateTargetModifications(modifications, grid, setup.gear, setup.flank);
+    *modifications = std::move(parsed);
     return true;
   }
   *error = InvalidRequest("target", "target needs \"deviations_um\" or \"modifications\"");
@@ -363,77 +358,35 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
   return true;
 }
 
-bool ParseCorrectionRequest(const nlohmann::json& body, CorrectionRequest* request, ApiError* error) {
-  CorrectionRequest r;
-  if (!ParseGrindingSetup(body, &r.setup, error)) return false;
-  const int rows = r.setup.grid.profile_points;
-  const int columns = r.setup.grid.lead_points;
-  if (body.contains("settings") && !body.at("settings").is_null()) {
-    if (!ParseMachineSettings(body.at("settings"), "settings", &r.settings, error)) return false;
-  } else {
-    r.settings = NominalSettings(r.setup);
-  }
-  if (!ParseCorrectionMeasurement(body, rows, columns, &r.measured_um, error) ||
-      !ParseCorrectionTarget(body, r.setup, rows, columns, &r.target_um, error) ||
-      !ParseCorrectionOptions(body, rows, columns, &r.options, error)) {
+bool ParseSettingsSourceJobId(const nlohmann::json& body, std::optional<int64_t>* id, ApiError* error) {
+  id->reset();
+  if (!body.contains("settings_source_job_id") || body.at("settings_source_job_id").is_null()) return true;
+  long long value = 0;
+  if (!ReadInteger(body, "", "settings_source_job_id", true, &value, error)) return false;
+  if (value <= 0) {
+    *error = InvalidValue("settings_source_job_id", "settings_source_job_id must name a stored job (id >= 1)");
     return false;
   }
-  if (body.contains("settings_source_job_id") && !body.at("settings_source_job_id").is_null()) {
-    long long id = 0;
-    if (!ReadInteger(body, "", "settings_source_job_id", true, &id, error)) return false;
-    if (id <= 0) {
-      *error = InvalidValue("settings_source_job_id", "settings_source_job_id must name a stored job (id >= 1)");
-      return false;
-    }
-    r.settings_source_job_id = id;
-  }
-  *request = std::move(r);
+  *id = value;
   return true;
 }
 
-bool RunCorrection(const CorrectionRequest& request, CorrectionRun* run, ApiError* error) {
-  const auto start = std::chrono::steady_clock::now();
-  FlatWheelGrinder grinder(request.setup);
-  CorrectionInput input;
-  input.model = &grinder;
-  input.current_parameters = request.settings.ToVector();
-  input.measured_um = request.measured_um;
-  input.target_um = request.target_um;
-  run->result = ComputeCorrection(request.options, input);
-  run->solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const CorrectionSummary& s = run->result.summary;
-  if (s.status == CorrectionStatus::kInvalidInput) {
-    *error = InvalidValue("measurement", "the correction cannot be computed: " + s.message);
+bool ParseCorrectionRequest(const nlohmann::json& body, int rows, int columns, bool target_modifications_allowed,
+                            CorrectionRequest* request, ApiError* error) {
+  CorrectionRequest r;
+  if (!ParseCorrectionMeasurement(body, rows, columns, &r.measured_um, &r.measured_teeth_um, error)) return false;
+  if (!target_modifications_allowed && HasTargetModifications(body)) {
+    *error = InvalidValue("target.modifications",
+                          "target modifications are defined for the grinder's involute flank; give a bevel target as "
+                          "target.deviations_um");
     return false;
   }
-  const int rows = grinder.GridRows();
-  const int columns = grinder.GridColumns();
-  run->new_settings = MachineSettings::FromVector(run->result.parameters);
-  MachineSettings delta = MachineSettings::FromVector(run->result.delta);
-
-  run->result_json = CorrectionSummaryToJson(s, columns);
-  run->result_json["settings"] = MachineSettingsToJson(run->new_settings);
-  run->result_json["delta"] = MachineSettingsToJson(delta);
-  run->result_json["predicted_residual_um"] = GridToJson(run->result.predicted_residual_um, {}, rows, columns);
-  run->result_json["predicted_change_um"] = GridToJson(run->result.predicted_change_um, {}, rows, columns);
-  run->result_json["measured_um"] = GridToJson(request.measured_um, {}, rows, columns);
-  run->result_json["target_um"] = GridToJson(request.target_um, {}, rows, columns);
-  run->result_json["axis_motion"] = CorrectionAxisMotionJson(grinder, run->result.delta, s);
-
-  JobRecord& job = run->job;
-  job.status = CorrectionStatusName(s.status);
-  job.machine_kind = "flat-wheel-grinder";
-  job.gear_teeth = request.setup.gear.teeth;
-  job.gear_normal_module_mm = request.setup.gear.normal_module_mm;
-  job.gear_helix_angle_deg = RoundTo1e9(std::fabs(request.setup.gear.helix_angle_rad) * kDegPerRad);
-  job.gear_hand = HandName(request.setup.gear);
-  job.flank = FlankName(request.setup.flank);
-  job.result_json = run->result_json.dump();
-  if (std::isfinite(s.residual_rms_um)) job.residual_rms_um = s.residual_rms_um;
-  if (std::isfinite(s.best_reachable_rms_um)) job.best_reachable_rms_um = s.best_reachable_rms_um;
-  job.rank = s.rank;
-  job.elapsed_ms = run->solve_seconds * 1e3;
-  job.settings_source_job_id = request.settings_source_job_id;
+  if (!ParseCorrectionTarget(body, rows, columns, &r.target_um, &r.target_modifications, error) ||
+      !ParseCorrectionOptions(body, rows, columns, &r.options, error) ||
+      !ParseSettingsSourceJobId(body, &r.settings_source_job_id, error)) {
+    return false;
+  }
+  *request = std::move(r);
   return true;
 }
 

@@ -1,4 +1,4 @@
-// server/metrics.h: the server's Prometheus metrics (text exposition format 0.0.4).
+// server/http/metrics.h: the server's Prometheus metrics (text exposition format 0.0.4).
 //
 //   Metrics metrics;
 //   metrics.RecordRequest("POST /api/v1/corrections", 201, /*seconds=*/0.004);
@@ -14,8 +14,8 @@
 // `route` is the route's pattern ("GET /api/v1/corrections/{id}"), never the raw path, so the
 // number of series stays bounded whatever clients send; unmatched requests count as "unmatched".
 // Thread-safe.
-#ifndef GEARLOOP_SERVER_METRICS_H_
-#define GEARLOOP_SERVER_METRICS_H_
+#ifndef GEARLOOP_SERVER_HTTP_METRICS_H_
+#define GEARLOOP_SERVER_HTTP_METRICS_H_
 
 #include <array>
 #include <cstdint>
@@ -53,4 +53,4 @@ class Metrics {
 
 }  // namespace gearloop
 
-#endif  // GEARLOOP_SERVER_METRICS_H_
+#endif  // GEARLOOP_SERVER_HTTP_METRICS_H_

@@ -1,4 +1,4 @@
-// server/gearloop_server.h: the gearloop HTTP server (API.md, api/openapi.yaml): cpp-httplib
+// server/http/gearloop_server.h: the gearloop HTTP server (API.md, api/openapi.yaml): cpp-httplib
 // routes, one thin handler per endpoint (parse -> validate -> engine -> persist -> respond), the
 // SQLite job history, a bounded background pool for batches, metrics and the access log.
 //
@@ -15,8 +15,8 @@
 // Durability: a correction is answered 201 only after its job is committed; a batch is
 // answered 202 only after all its items are committed as pending, and pending items are picked
 // up again when the server starts, so no acknowledged work is lost by a stop or a crash.
-#ifndef GEARLOOP_SERVER_GEARLOOP_SERVER_H_
-#define GEARLOOP_SERVER_GEARLOOP_SERVER_H_
+#ifndef GEARLOOP_SERVER_HTTP_GEARLOOP_SERVER_H_
+#define GEARLOOP_SERVER_HTTP_GEARLOOP_SERVER_H_
 
 #include <cstddef>
 #include <memory>
@@ -84,4 +84,4 @@ class GearloopServer {
 
 }  // namespace gearloop
 
-#endif  // GEARLOOP_SERVER_GEARLOOP_SERVER_H_
+#endif  // GEARLOOP_SERVER_HTTP_GEARLOOP_SERVER_H_
