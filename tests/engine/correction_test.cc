@@ -661,6 +661,36 @@ TEST(ComputeCorrection, SeveralTeethActLikeTheirMeanWithReducedNoise) {
   EXPECT_EQ(ComputeCorrection(options, teeth).summary.status, CorrectionStatus::kInvalidInput);
 }
 
+// Three measured teeth given as teeth carry a third of the noise variance per point; the same
+// data given as one averaged grid does not know that. The predictive risk then regularises the
+// teeth less: a smaller lambda (LAYOUT.md step 3).
+TEST(ComputeCorrection, ThreeTeethReportASmallerLambdaThanTheirMeanAsOneGrid) {
+  const CutterWithHiddenErrors c(33);
+  MeasurementSimulationOptions cmm;
+  cmm.probe_noise_um = 0.5;
+  cmm.teeth = 3;
+  cmm.seed = 33;
+  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
+  CorrectionInput teeth;
+  teeth.model = &c.grinder;
+  teeth.current_parameters = c.nominal;
+  teeth.measured_teeth_um = part.teeth_um;
+  teeth.target_um = Eigen::VectorXd::Zero(c.grinder.grid().NumPoints());
+  CorrectionInput one_grid = teeth;
+  one_grid.measured_teeth_um.clear();
+  one_grid.measured_um = AverageTeeth(part.teeth_um);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.5;
+  const CorrectionResult from_teeth = ComputeCorrection(options, teeth);
+  const CorrectionResult from_one_grid = ComputeCorrection(options, one_grid);
+  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable()) << from_teeth.summary.message;
+  ASSERT_TRUE(from_one_grid.summary.IsSolutionUsable()) << from_one_grid.summary.message;
+  EXPECT_EQ(from_teeth.summary.rule, RegularisationRule::kUnbiasedPredictiveRisk);
+  EXPECT_GT(from_teeth.summary.regularisation_level, 0.0);
+  EXPECT_LT(from_teeth.summary.regularisation_level, from_one_grid.summary.regularisation_level);
+  EXPECT_GE(from_teeth.summary.effective_dof, from_one_grid.summary.effective_dof);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The comparison solvers and input validation.
 

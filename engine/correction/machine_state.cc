@@ -1,0 +1,56 @@
+// Step 0 of the correction (machine_state.h): the machine's real state from the measurement.
+#include "engine/correction/machine_state.h"
+
+#include <cmath>
+
+namespace gearloop {
+namespace correction_internal {
+
+bool MachineStateProblem(const CorrectionProblem& commanded, CorrectionProblem* state) {
+  *state = commanded;
+  const int n = commanded.num_points;
+  // The "measurement" is the model's own flank (NaN where it has none), the "target" the
+  // measured flank.
+  Eigen::VectorXd own_um = commanded.d0();
+  for (int i = 0; i < n; ++i) {
+    if (commanded.evaluation.status[i] != PointStatus::kOk) own_um(i) = kNaN;
+  }
+  state->measured_um = own_um;
+  state->error_um = own_um - commanded.measured_um;
+  // Several teeth: the mean is as noisy as one grid with sigma / sqrt(mean count); the shares
+  // per point are not kept (mean_teeth_averaged is 1 for a single grid: no change).
+  state->noise_share = Eigen::VectorXd::Ones(n);
+  if (state->probe_noise_um > 0.0) state->probe_noise_um /= std::sqrt(commanded.mean_teeth_averaged);
+  state->mean_teeth_averaged = 1.0;
+  // The bounds restrict the correction, not the machine's errors.
+  state->mode = CorrectionMode::kNextPart;
+  state->has_bounds = false;
+  state->lower = Eigen::VectorXd::Constant(commanded.num_parameters, -kInf);
+  state->upper = Eigen::VectorXd::Constant(commanded.num_parameters, kInf);
+  SelectPoints(state);
+  return !state->used.empty();
+}
+
+bool AcceptMachineState(const CorrectionProblem& commanded, const CorrectionResult& state,
+                        Eigen::VectorXd* state_parameters) {
+  if (!state.summary.IsSolutionUsable() || state.delta.size() != commanded.parameters.size() ||
+      !state.delta.allFinite()) {
+    return false;
+  }
+  *state_parameters = commanded.parameters + state.delta;
+  ModelEvaluation at_state;
+  commanded.model->Evaluate(*state_parameters, false, &at_state);
+  for (int i = 0; i < commanded.num_points; ++i) {
+    if (commanded.evaluation.status[i] == PointStatus::kOk && at_state.status[i] != PointStatus::kOk) return false;
+  }
+  return true;
+}
+
+void ReportMachineState(const CorrectionResult& state, CorrectionSummary* summary) {
+  summary->machine_state_estimated = true;
+  summary->machine_state_size = state.summary.correction_size;
+  summary->machine_state_misfit_rms_um = state.summary.residual_rms_um;
+}
+
+}  // namespace correction_internal
+}  // namespace gearloop

@@ -1,0 +1,173 @@
+// The constrained steps of the correction (rework_qp.h).
+#include "engine/correction/rework_qp.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+
+namespace gearloop {
+namespace correction_internal {
+
+bool SolveConvexQp(const Eigen::MatrixXd& hessian,
+                   const Eigen::VectorXd& g,
+                   const Eigen::MatrixXd& constraints,
+                   const Eigen::VectorXd& limits,
+                   Eigen::VectorXd* y) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(hessian);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::VectorXd y_free = llt.solve(g);
+  const int m = static_cast<int>(constraints.rows());
+  if (m == 0 || ((constraints * y_free - limits).array() <= 0.0).all()) {
+    *y = y_free;
+    return true;
+  }
+  const Eigen::MatrixXd hinv_gt = llt.solve(constraints.transpose());
+  const Eigen::MatrixXd q_mat = constraints * hinv_gt;
+  const Eigen::VectorXd q_vec = constraints * y_free - limits;
+  const double tol = 1e-12 * std::max(1.0, q_mat.diagonal().cwiseAbs().maxCoeff());
+
+  Eigen::VectorXd mu = Eigen::VectorXd::Zero(m);
+  std::vector<bool> passive(m, false);
+  auto solve_passive = [&](Eigen::VectorXd* z) {
+    std::vector<int> idx;
+    for (int i = 0; i < m; ++i) if (passive[i]) idx.push_back(i);
+    z->setZero(m);
+    if (idx.empty()) return;
+    Eigen::MatrixXd qpp(idx.size(), idx.size());
+    Eigen::VectorXd rhs(idx.size());
+    for (size_t a = 0; a < idx.size(); ++a) {
+      rhs(a) = q_vec(idx[a]);
+      for (size_t b = 0; b < idx.size(); ++b) qpp(a, b) = q_mat(idx[a], idx[b]);
+    }
+    const Eigen::VectorXd zp = qpp.completeOrthogonalDecomposition().solve(rhs);
+    for (size_t a = 0; a < idx.size(); ++a) (*z)(idx[a]) = zp(a);
+  };
+  for (int outer = 0; outer < 3 * m + 10; ++outer) {
+    const Eigen::VectorXd w = q_vec - q_mat * mu;  // minus the gradient of the dual
+    int best = -1;
+    double best_w = tol;
+    for (int i = 0; i < m; ++i) {
+      if (!passive[i] && w(i) > best_w) {
+        best_w = w(i);
+        best = i;
+      }
+    }
+    if (best < 0) break;
+    passive[best] = true;
+    for (int inner = 0; inner < 3 * m + 10; ++inner) {
+      Eigen::VectorXd z;
+      solve_passive(&z);
+      bool all_positive = true;
+      for (int i = 0; i < m; ++i) if (passive[i] && z(i) <= 0.0) all_positive = false;
+      if (all_positive) {
+        mu = z;
+        break;
+      }
+      double alpha = 1.0;
+      for (int i = 0; i < m; ++i) {
+        if (passive[i] && z(i) <= 0.0) alpha = std::min(alpha, mu(i) / (mu(i) - z(i)));
+      }
+      mu += alpha * (z - mu);
+      for (int i = 0; i < m; ++i) {
+        if (passive[i] && mu(i) <= 1e-15) {
+          passive[i] = false;
+          mu(i) = 0.0;
+        }
+      }
+    }
+  }
+  *y = y_free - hinv_gt * mu;
+  return true;
+}
+
+bool SolveLinearisedQp(const CorrectionProblem& problem,
+                       const KeptSubspace& subspace,
+                       const Eigen::MatrixXd& jacobian_k,
+                       const Eigen::VectorXd& change_k,
+                       const Eigen::VectorXd& z_k,
+                       Eigen::VectorXd* z) {
+  const std::vector<int>& used = problem.used;
+  const int k = subspace.k;
+  const Eigen::MatrixXd& tv = subspace.tv;
+  const Eigen::MatrixXd stv = jacobian_k * tv;  // n x k
+  Eigen::MatrixXd a(used.size(), k);
+  Eigen::VectorXd b(used.size());
+  for (size_t r = 0; r < used.size(); ++r) {
+    const int i = used[r];
+    const double sw = std::sqrt(problem.weights(i));
+    a.row(r) = sw * stv.row(i);
+    b(r) = -sw * (problem.error_um(i) + change_k(i) - stv.row(i).dot(z_k));
+  }
+  const double lambda = subspace.lambda;
+  const Eigen::MatrixXd hess = a.transpose() * a + (subspace.ridge + lambda * lambda) * Eigen::MatrixXd::Identity(k, k);
+  const Eigen::VectorXd grad = a.transpose() * b;
+  std::vector<Eigen::RowVectorXd> rows;
+  std::vector<double> lims;
+  if (problem.mode == CorrectionMode::kRework) {
+    for (int i : problem.reached) {
+      rows.push_back(stv.row(i));
+      lims.push_back(stv.row(i).dot(z_k) - change_k(i));
+    }
+  }
+  for (int c = 0; c < problem.NumFree(); ++c) {
+    const int j = problem.free[c];
+    if (std::isfinite(problem.upper(j))) {
+      rows.push_back(tv.row(j));
+      lims.push_back(problem.upper(j));
+    }
+    if (std::isfinite(problem.lower(j))) {
+      rows.push_back(-tv.row(j));
+      lims.push_back(-problem.lower(j));
+    }
+  }
+  Eigen::MatrixXd g_mat(rows.size(), k);
+  Eigen::VectorXd h_vec(rows.size());
+  for (size_t r = 0; r < rows.size(); ++r) {
+    g_mat.row(r) = rows[r];
+    h_vec(r) = lims[r];
+  }
+  return SolveConvexQp(hess, grad, g_mat, h_vec, z);
+}
+
+int RunReworkPasses(const CorrectionOptions& options,
+                    const CorrectionProblem& problem,
+                    const KeptSubspace& subspace,
+                    Eigen::VectorXd* z,
+                    Eigen::VectorXd* delta,
+                    std::string* not_converged) {
+  int pass = 0;
+  for (; pass < options.max_rework_passes; ++pass) {
+    ModelEvaluation ev;
+    problem.model->Evaluate(problem.parameters + *delta, true, &ev);
+    Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
+    double worst = 0.0;
+    bool lost = false;
+    for (int i : problem.reached) {
+      if (ev.status[i] != PointStatus::kOk) {
+        lost = true;
+        continue;
+      }
+      change(i) = ev.deviations_um(i) - problem.d0()(i);
+      worst = std::max(worst, change(i));
+    }
+    if (lost) {
+      *not_converged = "a grid point leaves the wheel under the rework correction";
+      break;
+    }
+    if (pass > 0 && worst <= options.rework_tolerance_um) break;
+    Eigen::VectorXd z_new;
+    if (!SolveLinearisedQp(problem, subspace, ev.jacobian_um, change, *z, &z_new)) {
+      *not_converged = "the constrained linear problem failed";
+      break;
+    }
+    *z = z_new;
+    *delta = subspace.tv * *z;
+  }
+  return pass;
+}
+
+}  // namespace correction_internal
+}  // namespace gearloop
