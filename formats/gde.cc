@@ -295,7 +295,7 @@ class GdeReader {
         !Factor(&net, path, names_.deviation_unit_attribute, Quantity::kDeviation, &deviation_factor)) {
       return false;
     }
-    // Points keyed by (d, z) in nanometres: a net written with 6 decimals keys exactly.
+    // Points keyed by (d, z) in nanometres.
     auto key = [](double mm) { return static_cast<long long>(std::llround(mm * 1e6)); };
     std::map<std::pair<long long, long long>, std::pair<int, double>> points;  // -> (P index, dev)
     std::map<long long, double> diameters, positions;
@@ -513,8 +513,8 @@ std::string WriteGde(const GdeExport& data, const GdeNames& names) {
         XmlElement p;
         p.name = names.point;
         const double z = swap ? b / 2.0 - x[j] : x[j] + b / 2.0;
-        p.attributes = {{names.point_diameter, Fixed(DiameterOfRollLengthMm(g, l[i]), 6)},
-                        {names.point_axial, Fixed(z, 6)},
+        p.attributes = {{names.point_diameter, Fixed(DiameterOfRollLengthMm(g, l[i]), 9)},
+                        {names.point_axial, Fixed(z, 9)},
                         {names.point_deviation, Fixed(net.deviations_um[index], 6)}};
         t.children.push_back(std::move(p));
       }

@@ -125,7 +125,9 @@ class MkaReader {
     // Values of the open trace.
     const unsigned char first = static_cast<unsigned char>(line.front());
     const bool numeric = std::isdigit(first) || first == '-' || first == '+' || first == '.';
-    if (numeric && !IsHeaderLine(line)) return ReadValues(number, line);
+    // Inside an open trace every line that is no header line or block start is a values line,
+    // so that "nan" or "x8.5" are refused as values.
+    if ((numeric || (trace_.open && !block_start)) && !IsHeaderLine(line)) return ReadValues(number, line);
     if (trace_.open) {
       const MeasuredTrace& t = file_->traces[trace_.index];
       return Fail(number, "only " + std::to_string(t.values_um.size()) + " values before this line; the trace head at line " +

@@ -47,7 +47,9 @@ struct Curve {
 double Evaluate(const Curve& c, double t) {
   const size_t n = c.t.size();
   if (n < 3) return kNaN;
-  const double slack = 1e-9 * std::max(1.0, std::abs(c.t.back() - c.t.front()));
+  // 1 nm of roll length: a grid point written to a file as a diameter and read back lands
+  // within it of the trace's end, and must not fall off.
+  const double slack = 1e-6;
   if (t < c.t.front() - slack || t > c.t.back() + slack) return kNaN;
   size_t i = static_cast<size_t>(std::lower_bound(c.t.begin(), c.t.end(), t) - c.t.begin());
   if (i >= n) i = n - 1;
