@@ -1,5 +1,5 @@
-// formats/measurement_file.cc: places, errors, text decoding and number syntax shared by the
-// readers.
+// formats/measurement_file.cc: places, errors, text decoding and number syntax
+// shared by the readers.
 #include "formats/measurement_file.h"
 
 #include <cctype>
@@ -10,7 +10,8 @@
 namespace gearloop {
 namespace {
 
-// Length of the valid UTF-8 sequence at s[i], 0 when invalid (overlong, surrogate, > U+10FFFF).
+// Length of the valid UTF-8 sequence at s[i], 0 when invalid (overlong,
+// surrogate, > U+10FFFF).
 size_t Utf8SequenceLength(std::string_view s, size_t i) {
   const unsigned char c = static_cast<unsigned char>(s[i]);
   if (c < 0x80) return 1;
@@ -34,12 +35,16 @@ size_t Utf8SequenceLength(std::string_view s, size_t i) {
     if ((d & 0xC0) != 0x80) return 0;
     cp = (cp << 6) | (d & 0x3F);
   }
-  if ((n == 2 && cp < 0x80) || (n == 3 && cp < 0x800) || (n == 4 && cp < 0x10000)) return 0;
+  if ((n == 2 && cp < 0x80) || (n == 3 && cp < 0x800) ||
+      (n == 4 && cp < 0x10000))
+    return 0;
   if (cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
   return n;
 }
 
-bool IsAllowedControl(unsigned char c) { return c == '\t' || c == '\n' || c == '\r'; }
+bool IsAllowedControl(unsigned char c) {
+  return c == '\t' || c == '\n' || c == '\r';
+}
 
 bool Refuse(int line, const std::string& message, FileError* error) {
   error->place = FilePlace{line, ""};
@@ -56,18 +61,27 @@ std::string FilePlace::ToString() const {
   return "file";
 }
 
-std::string FileError::ToString() const { return place.ToString() + ": " + message; }
+std::string FileError::ToString() const {
+  return place.ToString() + ": " + message;
+}
 
-bool DecodeMeasurementText(std::string_view bytes, std::string* utf8, FileError* error) {
+bool DecodeMeasurementText(std::string_view bytes,
+                           std::string* utf8,
+                           FileError* error) {
   if (bytes.size() > kMaxMeasurementFileBytes) {
     error->place = FilePlace{};
-    error->message = "the file has " + std::to_string(bytes.size()) + " bytes, more than the limit of " +
+    error->message = "the file has " + std::to_string(bytes.size()) +
+                     " bytes, more than the limit of " +
                      std::to_string(kMaxMeasurementFileBytes);
     error->too_large = true;
     return false;
   }
-  if (bytes.size() >= 2 && ((bytes[0] == '\xFF' && bytes[1] == '\xFE') || (bytes[0] == '\xFE' && bytes[1] == '\xFF'))) {
-    return Refuse(1, "the file is UTF-16 (or UTF-32) text; save it as UTF-8 or Latin-1", error);
+  if (bytes.size() >= 2 && ((bytes[0] == '\xFF' && bytes[1] == '\xFE') ||
+                            (bytes[0] == '\xFE' && bytes[1] == '\xFF'))) {
+    return Refuse(
+        1,
+        "the file is UTF-16 (or UTF-32) text; save it as UTF-8 or Latin-1",
+        error);
   }
   if (bytes.substr(0, 3) == "\xEF\xBB\xBF") bytes.remove_prefix(3);
   bool valid_utf8 = true;
@@ -76,8 +90,11 @@ bool DecodeMeasurementText(std::string_view bytes, std::string* utf8, FileError*
     const unsigned char c = static_cast<unsigned char>(bytes[i]);
     if (c == '\n') ++line;
     if ((c < 0x20 && !IsAllowedControl(c)) || c == 0x7F) {
-      return Refuse(line, "control character 0x" + std::string(1, "0123456789ABCDEF"[c >> 4]) +
-                              std::string(1, "0123456789ABCDEF"[c & 15]) + " in the text: not a text file",
+      return Refuse(line,
+                    "control character 0x" +
+                        std::string(1, "0123456789ABCDEF"[c >> 4]) +
+                        std::string(1, "0123456789ABCDEF"[c & 15]) +
+                        " in the text: not a text file",
                     error);
     }
     const size_t n = Utf8SequenceLength(bytes, i);
@@ -91,7 +108,8 @@ bool DecodeMeasurementText(std::string_view bytes, std::string* utf8, FileError*
     utf8->assign(bytes.data(), bytes.size());
     return true;
   }
-  // Latin-1: every byte is a character; 0x80-0x9F are C1 controls, which text never holds.
+  // Latin-1: every byte is a character; 0x80-0x9F are C1 controls, which text
+  // never holds.
   utf8->clear();
   utf8->reserve(bytes.size() + bytes.size() / 8);
   line = 1;
@@ -99,8 +117,10 @@ bool DecodeMeasurementText(std::string_view bytes, std::string* utf8, FileError*
     const unsigned char c = static_cast<unsigned char>(ch);
     if (c == '\n') ++line;
     if (c >= 0x80 && c < 0xA0) {
-      return Refuse(line, "byte 0x" + std::string(1, "0123456789ABCDEF"[c >> 4]) +
-                              std::string(1, "0123456789ABCDEF"[c & 15]) + " is neither UTF-8 nor Latin-1 text",
+      return Refuse(line,
+                    "byte 0x" + std::string(1, "0123456789ABCDEF"[c >> 4]) +
+                        std::string(1, "0123456789ABCDEF"[c & 15]) +
+                        " is neither UTF-8 nor Latin-1 text",
                     error);
     }
     if (c < 0x80) {
@@ -113,28 +133,36 @@ bool DecodeMeasurementText(std::string_view bytes, std::string* utf8, FileError*
   return true;
 }
 
-bool ParseDecimalNumber(std::string_view text, double* value, std::string* why) {
+bool ParseDecimalNumber(std::string_view text,
+                        double* value,
+                        std::string* why) {
   auto fail = [&](const std::string& message) {
     if (why != nullptr) *why = message;
     return false;
   };
-  const std::string shown = "'" + std::string(text.substr(0, 40)) + (text.size() > 40 ? "...'" : "'");
+  const std::string shown =
+      "'" + std::string(text.substr(0, 40)) + (text.size() > 40 ? "...'" : "'");
   if (text.empty()) return fail("an empty number");
   size_t i = 0;
   if (text[i] == '+' || text[i] == '-') ++i;
   size_t digits = 0;
-  while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])))
+    ++i, ++digits;
   if (i < text.size() && text[i] == ',') {
-    return fail(shown + " has a decimal comma; the file must use a decimal point");
+    return fail(shown +
+                " has a decimal comma; the file must use a decimal point");
   }
   if (i < text.size() && text[i] == '.') {
     ++i;
-    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])))
+      ++i, ++digits;
   }
   if (digits == 0) {
     std::string lower;
-    for (char c : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (lower.find("nan") != std::string::npos || lower.find("inf") != std::string::npos) {
+    for (char c : text)
+      lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (lower.find("nan") != std::string::npos ||
+        lower.find("inf") != std::string::npos) {
       return fail(shown + " is not a finite number");
     }
     return fail(shown + " is not a number");
@@ -143,11 +171,14 @@ bool ParseDecimalNumber(std::string_view text, double* value, std::string* why) 
     ++i;
     if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
     size_t exponent_digits = 0;
-    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++exponent_digits;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])))
+      ++i, ++exponent_digits;
     if (exponent_digits == 0) return fail(shown + " is not a number");
   }
   if (i != text.size()) {
-    if (text[i] == ',') return fail(shown + " has a decimal comma; the file must use a decimal point");
+    if (text[i] == ',')
+      return fail(shown +
+                  " has a decimal comma; the file must use a decimal point");
     return fail(shown + " is not a number");
   }
   const std::string copy(text);

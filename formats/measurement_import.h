@@ -1,15 +1,18 @@
-// formats/measurement_import.h: a measuring-machine file -> the deviation grid, its ISO 1328-1
-// figures and classes (METROLOGY.md §2 and §4): read (mka or GDE), cross-check the header with
-// the request's gear, interpolate the traces, evaluate.
+// formats/measurement_import.h: a measuring-machine file -> the deviation grid,
+// its ISO 1328-1 figures and classes (METROLOGY.md §2 and §4): read (mka or
+// GDE), cross-check the header with the request's gear, interpolate the traces,
+// evaluate.
 //
 //   MeasurementImportOptions options;
 //   options.format = MeasurementFormat::kMka;
 //   options.flank = Flank::kRight;
-//   MeasurementImportResult result = ImportMeasurementFile(options, gear, content);
-//   if (!result.ok) return Refuse(result.error.too_large ? 413 : 422, result.error);
-//   result.grid.deviations_um;  result.figures;  result.classes;  result.warnings;
+//   MeasurementImportResult result = ImportMeasurementFile(options, gear,
+//   content); if (!result.ok) return Refuse(result.error.too_large ? 413 : 422,
+//   result.error); result.grid.deviations_um;  result.figures;  result.classes;
+//   result.warnings;
 //
-// Nothing here throws on any content; a refusal names the file line or element path.
+// Nothing here throws on any content; a refusal names the file line or element
+// path.
 #ifndef GEARLOOP_FORMATS_MEASUREMENT_IMPORT_H_
 #define GEARLOOP_FORMATS_MEASUREMENT_IMPORT_H_
 
@@ -31,15 +34,15 @@ struct MeasurementImportOptions {
   // The grid's flank and the tooth (0 = mean of all teeth of the flank).
   Flank flank = Flank::kRight;
   int tooth = 0;
-  // Datum face; unset = the file's own (GDE) or x_negative. Set and contradicting the file:
-  // the option wins and a warning says so.
+  // Datum face; unset = the file's own (GDE) or x_negative. Set and
+  // contradicting the file: the option wins and a warning says so.
   std::optional<DatumFace> datum_face;
   TraceSignFactors sign;
   GridOptions grid;
   // GDE: which nets to read (an export holds measured, target and predicted).
   std::string gde_topography_kind = "measured";
-  // Header values may differ from the request by this much before the file is refused:
-  // lengths [mm], angles [deg].
+  // Header values may differ from the request by this much before the file is
+  // refused: lengths [mm], angles [deg].
   double length_tolerance_mm = 1e-3;
   double angle_tolerance_deg = 1e-3;
   double class_resolution_um = 0.01;
@@ -53,13 +56,15 @@ struct MeasurementImportResult {
   Iso1328Options iso_options;
   FlankFigures figures;
   AccuracyClasses classes;
-  // Crossing mismatch, header vs request (tip/root diameter, helix hand), datum face, ISO range.
+  // Crossing mismatch, header vs request (tip/root diameter, helix hand), datum
+  // face, ISO range.
   std::vector<std::string> warnings;
 };
 
-MeasurementImportResult ImportMeasurementFile(const MeasurementImportOptions& options,
-                                              const GearData& gear,
-                                              std::string_view content);
+MeasurementImportResult ImportMeasurementFile(
+    const MeasurementImportOptions& options,
+    const GearData& gear,
+    std::string_view content);
 
 }  // namespace gearloop
 

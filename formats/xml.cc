@@ -1,4 +1,5 @@
-// formats/xml.cc: a recursive-descent XML reader (depth-limited) and an indenting writer.
+// formats/xml.cc: a recursive-descent XML reader (depth-limited) and an
+// indenting writer.
 #include "formats/xml.h"
 
 #include <cctype>
@@ -6,8 +7,12 @@
 namespace gearloop {
 namespace {
 
-bool IsNameStart(unsigned char c) { return std::isalpha(c) || c == '_' || c == ':' || c >= 0x80; }
-bool IsNameChar(unsigned char c) { return IsNameStart(c) || std::isdigit(c) || c == '-' || c == '.'; }
+bool IsNameStart(unsigned char c) {
+  return std::isalpha(c) || c == '_' || c == ':' || c >= 0x80;
+}
+bool IsNameChar(unsigned char c) {
+  return IsNameStart(c) || std::isdigit(c) || c == '-' || c == '.';
+}
 bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
 
 void AppendUtf8(unsigned int cp, std::string* out) {
@@ -46,7 +51,9 @@ class Parser {
 
  private:
   bool AtEnd() const { return pos_ >= s_.size(); }
-  bool StartsWith(std::string_view what) const { return s_.substr(pos_, what.size()) == what; }
+  bool StartsWith(std::string_view what) const {
+    return s_.substr(pos_, what.size()) == what;
+  }
 
   void Advance(size_t n) {
     for (size_t k = 0; k < n && pos_ < s_.size(); ++k) {
@@ -71,7 +78,8 @@ class Parser {
   // Skips from the current "<!--" / "<?" to past its end.
   bool SkipUntil(std::string_view end, const char* what) {
     const size_t found = s_.find(end, pos_);
-    if (found == std::string_view::npos) return Fail(std::string("unterminated ") + what);
+    if (found == std::string_view::npos)
+      return Fail(std::string("unterminated ") + what);
     Advance(found + end.size() - pos_);
     return true;
   }
@@ -86,7 +94,8 @@ class Parser {
       } else if (StartsWith("<?")) {
         SkipUntil("?>", "processing instruction");
       } else if (StartsWith("<!DOCTYPE") || StartsWith("<!")) {
-        Fail(prolog ? "a DOCTYPE (DTD) is not accepted" : "markup after the root element");
+        Fail(prolog ? "a DOCTYPE (DTD) is not accepted"
+                    : "markup after the root element");
       } else {
         return;
       }
@@ -94,9 +103,11 @@ class Parser {
   }
 
   bool ParseName(std::string* name) {
-    if (AtEnd() || !IsNameStart(static_cast<unsigned char>(s_[pos_]))) return Fail("expected a name");
+    if (AtEnd() || !IsNameStart(static_cast<unsigned char>(s_[pos_])))
+      return Fail("expected a name");
     const size_t begin = pos_;
-    while (!AtEnd() && IsNameChar(static_cast<unsigned char>(s_[pos_]))) Advance(1);
+    while (!AtEnd() && IsNameChar(static_cast<unsigned char>(s_[pos_])))
+      Advance(1);
     name->assign(s_.substr(begin, pos_ - begin));
     return true;
   }
@@ -104,7 +115,8 @@ class Parser {
   // A reference after '&'; appends its character.
   bool ParseReference(std::string* out) {
     const size_t semi = s_.find(';', pos_);
-    if (semi == std::string_view::npos || semi - pos_ > 12) return Fail("'&' that starts no reference (write &amp;)");
+    if (semi == std::string_view::npos || semi - pos_ > 12)
+      return Fail("'&' that starts no reference (write &amp;)");
     const std::string_view ref = s_.substr(pos_ + 1, semi - pos_ - 1);
     if (ref == "lt") {
       out->push_back('<');
@@ -122,34 +134,41 @@ class Parser {
       if (digits.empty()) return Fail("empty character reference");
       unsigned long cp = 0;
       for (char c : digits) {
-        const int d = std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
-                      : (hex && std::isxdigit(static_cast<unsigned char>(c)))
-                          ? std::tolower(static_cast<unsigned char>(c)) - 'a' + 10
-                          : -1;
-        if (d < 0) return Fail("bad character reference &" + std::string(ref) + ";");
+        const int d =
+            std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
+            : (hex && std::isxdigit(static_cast<unsigned char>(c)))
+                ? std::tolower(static_cast<unsigned char>(c)) - 'a' + 10
+                : -1;
+        if (d < 0)
+          return Fail("bad character reference &" + std::string(ref) + ";");
         cp = cp * (hex ? 16 : 10) + static_cast<unsigned long>(d);
         if (cp > 0x10FFFF) return Fail("character reference out of range");
       }
-      if (cp == 0 || (cp >= 0xD800 && cp <= 0xDFFF) || (cp < 0x20 && cp != 9 && cp != 10 && cp != 13)) {
+      if (cp == 0 || (cp >= 0xD800 && cp <= 0xDFFF) ||
+          (cp < 0x20 && cp != 9 && cp != 10 && cp != 13)) {
         return Fail("character reference to a character XML does not allow");
       }
       AppendUtf8(static_cast<unsigned int>(cp), out);
     } else {
-      return Fail("unknown entity &" + std::string(ref) + "; (a DTD is not read)");
+      return Fail("unknown entity &" + std::string(ref) +
+                  "; (a DTD is not read)");
     }
     Advance(semi + 1 - pos_);
     return true;
   }
 
   bool ParseElement(XmlElement* element, int depth) {
-    if (depth > kMaxXmlDepth) return Fail("elements nested deeper than " + std::to_string(kMaxXmlDepth));
+    if (depth > kMaxXmlDepth)
+      return Fail("elements nested deeper than " +
+                  std::to_string(kMaxXmlDepth));
     element->line = line_;
     Advance(1);  // '<'
     if (!ParseName(&element->name)) return false;
     while (true) {
       const size_t before = pos_;
       SkipSpace();
-      if (AtEnd()) return Fail("unterminated start tag <" + element->name + ">");
+      if (AtEnd())
+        return Fail("unterminated start tag <" + element->name + ">");
       if (StartsWith("/>")) {
         Advance(2);
         return true;
@@ -158,14 +177,18 @@ class Parser {
         Advance(1);
         break;
       }
-      if (pos_ == before) return Fail("expected whitespace before an attribute in <" + element->name + ">");
+      if (pos_ == before)
+        return Fail("expected whitespace before an attribute in <" +
+                    element->name + ">");
       std::string name;
       if (!ParseName(&name)) return false;
       SkipSpace();
-      if (AtEnd() || s_[pos_] != '=') return Fail("attribute " + name + " without '='");
+      if (AtEnd() || s_[pos_] != '=')
+        return Fail("attribute " + name + " without '='");
       Advance(1);
       SkipSpace();
-      if (AtEnd() || (s_[pos_] != '"' && s_[pos_] != '\'')) return Fail("attribute " + name + " value not quoted");
+      if (AtEnd() || (s_[pos_] != '"' && s_[pos_] != '\''))
+        return Fail("attribute " + name + " value not quoted");
       const char quote = s_[pos_];
       Advance(1);
       std::string value;
@@ -185,7 +208,9 @@ class Parser {
         Advance(1);
       }
       for (const auto& [existing, unused] : element->attributes) {
-        if (existing == name) return Fail("attribute " + name + " repeated in <" + element->name + ">");
+        if (existing == name)
+          return Fail("attribute " + name + " repeated in <" + element->name +
+                      ">");
       }
       element->attributes.emplace_back(std::move(name), std::move(value));
     }
@@ -199,9 +224,11 @@ class Parser {
           std::string name;
           if (!ParseName(&name)) return false;
           SkipSpace();
-          if (AtEnd() || s_[pos_] != '>') return Fail("malformed end tag </" + name);
+          if (AtEnd() || s_[pos_] != '>')
+            return Fail("malformed end tag </" + name);
           if (name != element->name) {
-            return Fail("end tag </" + name + "> does not match <" + element->name + "> of line " +
+            return Fail("end tag </" + name + "> does not match <" +
+                        element->name + "> of line " +
                         std::to_string(element->line));
           }
           Advance(1);
@@ -212,7 +239,8 @@ class Parser {
         } else if (StartsWith("<![CDATA[")) {
           Advance(9);
           const size_t end = s_.find("]]>", pos_);
-          if (end == std::string_view::npos) return Fail("unterminated CDATA section");
+          if (end == std::string_view::npos)
+            return Fail("unterminated CDATA section");
           element->text.append(s_.substr(pos_, end - pos_));
           Advance(end + 3 - pos_);
         } else if (StartsWith("<?")) {
@@ -242,9 +270,15 @@ class Parser {
 void Escape(std::string_view in, bool attribute, std::string* out) {
   for (char c : in) {
     switch (c) {
-      case '<': *out += "&lt;"; break;
-      case '>': *out += "&gt;"; break;
-      case '&': *out += "&amp;"; break;
+      case '<':
+        *out += "&lt;";
+        break;
+      case '>':
+        *out += "&gt;";
+        break;
+      case '&':
+        *out += "&amp;";
+        break;
       case '"':
         if (attribute) {
           *out += "&quot;";
@@ -252,7 +286,8 @@ void Escape(std::string_view in, bool attribute, std::string* out) {
           *out += c;
         }
         break;
-      default: *out += c;
+      default:
+        *out += c;
     }
   }
 }
@@ -282,7 +317,8 @@ void Write(const XmlElement& e, int indent, std::string* out) {
 
 }  // namespace
 
-const std::string* XmlElement::Attribute(std::string_view attribute_name) const {
+const std::string* XmlElement::Attribute(
+    std::string_view attribute_name) const {
   for (const auto& [name, value] : attributes) {
     if (name == attribute_name) return &value;
   }

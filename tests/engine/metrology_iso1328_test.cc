@@ -1,9 +1,8 @@
-#include "engine/metrology/iso1328.h"
+#include <gtest/gtest.h>
 
 #include <cmath>
 
-#include <gtest/gtest.h>
-
+#include "engine/metrology/iso1328.h"
 #include "tests/formats/metrology_samples.h"
 
 namespace gearloop {
@@ -15,7 +14,10 @@ using testing::SampleForms;
 using testing::SampleGear;
 
 FlankFigures FiguresOf(const FlankForms& forms) {
-  return ComputeFlankFigures(Iso1328Options{}, SampleGear(), GridOptions{}, FormsOnGrid(forms, SampleGear()));
+  return ComputeFlankFigures(Iso1328Options{},
+                             SampleGear(),
+                             GridOptions{},
+                             FormsOnGrid(forms, SampleGear()));
 }
 
 // METROLOGY.md §4, "Worked numbers": class 5 and class 7 of the sample gear.
@@ -34,8 +36,11 @@ TEST(ComputeTolerances, TheSampleGearsClass5And7) {
   EXPECT_EQ(c7.fHb, 14.0);
   EXPECT_EQ(c7.ffb, 15.0);
   EXPECT_EQ(c7.Fb, 21.0);
-  // Rounded only at the end: class 7 is twice the UNROUNDED class 5 value (5.948 -> 11.896 -> 12).
-  EXPECT_NEAR(ComputeTolerances(SampleGear(), 5, /*rounded=*/false).fHa, 0.4 * 4.5 + 0.001 * 148.453 + 4, 1e-3);
+  // Rounded only at the end: class 7 is twice the UNROUNDED class 5 value
+  // (5.948 -> 11.896 -> 12).
+  EXPECT_NEAR(ComputeTolerances(SampleGear(), 5, /*rounded=*/false).fHa,
+              0.4 * 4.5 + 0.001 * 148.453 + 4,
+              1e-3);
 }
 
 TEST(RoundIso1328Tolerance, ThreeBands) {
@@ -47,8 +52,9 @@ TEST(RoundIso1328Tolerance, ThreeBands) {
 }
 
 TEST(ComputeTraceFigures, HandCheckedTrace) {
-  // e = 2 t + t^2 on t = -1, 0, 1: mean line slope 2 (f_H over 2 mm = 4), residuals 1/3, -2/3,
-  // 1/3 (f_f = 1), F = 3 - (-1) = 4, parabola exact: sag below the chord = -1 (concave).
+  // e = 2 t + t^2 on t = -1, 0, 1: mean line slope 2 (f_H over 2 mm = 4),
+  // residuals 1/3, -2/3, 1/3 (f_f = 1), F = 3 - (-1) = 4, parabola exact: sag
+  // below the chord = -1 (concave).
   const TraceFigures f = ComputeTraceFigures({-1, 0, 1}, {-1, 0, 3}, 2.0, 4.0);
   EXPECT_NEAR(f.slope_grid_um, 4.0, 1e-12);
   EXPECT_NEAR(f.slope_iso_um, 8.0, 1e-12);
@@ -94,7 +100,9 @@ TEST(ComputeFlankFigures, PureTwist) {
   EXPECT_NEAR(f.profile_traces.back().slope_grid_um, 5.0, 1e-9);
   EXPECT_NEAR(f.fHa_mean, 0.0, 1e-9);
   EXPECT_NEAR(f.fHb_mean, 0.0, 1e-9);
-  EXPECT_NEAR(f.twist_alpha, 10.0 * f.profile_evaluation_length_mm / f.profile_grid_extent_mm, 1e-9);
+  EXPECT_NEAR(f.twist_alpha,
+              10.0 * f.profile_evaluation_length_mm / f.profile_grid_extent_mm,
+              1e-9);
 }
 
 // METROLOGY.md §4: the sample right flank.
@@ -108,7 +116,9 @@ TEST(ComputeFlankFigures, SampleRightFlankFiguresAndClasses) {
   EXPECT_NEAR(f.Ca_mean_grid, 3.00, 5e-3);
   EXPECT_NEAR(f.Ca_mean, 5.53, 5e-3);
   EXPECT_NEAR(f.fHb_mean_grid, 5.00, 5e-3);
-  EXPECT_NEAR(f.fHb_mean, 5.625, 1e-9);  // METROLOGY.md prints 5.63, the sample GDE RESULTS 5.62
+  EXPECT_NEAR(f.fHb_mean,
+              5.625,
+              1e-9);  // METROLOGY.md prints 5.63, the sample GDE RESULTS 5.62
   EXPECT_NEAR(f.ffb_max_abs, 6.00, 5e-3);
   EXPECT_NEAR(f.Fb_max_abs, 10.00, 5e-3);
   EXPECT_NEAR(f.Cb_mean, 7.59, 5e-3);
@@ -126,9 +136,12 @@ TEST(ComputeFlankFigures, SampleRightFlankFiguresAndClasses) {
 }
 
 TEST(ComputeFlankFigures, FiguresOfTheDeviationFromATarget) {
-  const Eigen::VectorXd measured = FormsOnGrid(SampleForms(Flank::kRight), SampleGear());
-  const Eigen::VectorXd target = FormsOnGrid(FlankForms{3.0, 6.0, 0, 0, 0, 0}, SampleGear());  // the design crowning
-  const FlankFigures f = ComputeFlankFigures(Iso1328Options{}, SampleGear(), GridOptions{}, measured, target);
+  const Eigen::VectorXd measured =
+      FormsOnGrid(SampleForms(Flank::kRight), SampleGear());
+  const Eigen::VectorXd target = FormsOnGrid(
+      FlankForms{3.0, 6.0, 0, 0, 0, 0}, SampleGear());  // the design crowning
+  const FlankFigures f = ComputeFlankFigures(
+      Iso1328Options{}, SampleGear(), GridOptions{}, measured, target);
   ASSERT_TRUE(f.ok);
   EXPECT_NEAR(f.Ca_mean, 0.0, 1e-9);
   EXPECT_NEAR(f.Cb_mean, 0.0, 1e-9);
@@ -147,11 +160,14 @@ TEST(ClassifyFlank, WorseThan11IsNoClassAndTheValidityRangeWarns) {
 
 TEST(ComputeFlankFigures, BadInputIsAResult) {
   Eigen::VectorXd grid = FormsOnGrid(SampleForms(Flank::kRight), SampleGear());
-  EXPECT_FALSE(ComputeFlankFigures(Iso1328Options{}, SampleGear(), GridOptions{}, grid.head(44)).ok);
+  EXPECT_FALSE(ComputeFlankFigures(
+                   Iso1328Options{}, SampleGear(), GridOptions{}, grid.head(44))
+                   .ok);
   grid.segment(0, 3).setConstant(std::nan(""));
   grid.segment(9, 3).setConstant(std::nan(""));
   grid.segment(18, 3).setConstant(std::nan(""));
-  const FlankFigures f = ComputeFlankFigures(Iso1328Options{}, SampleGear(), GridOptions{}, grid);
+  const FlankFigures f =
+      ComputeFlankFigures(Iso1328Options{}, SampleGear(), GridOptions{}, grid);
   EXPECT_FALSE(f.ok);
   EXPECT_NE(f.message.find("column 0"), std::string::npos) << f.message;
   Iso1328Options bad;

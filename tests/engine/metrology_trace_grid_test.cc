@@ -1,10 +1,9 @@
-#include "engine/metrology/trace_grid.h"
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include <gtest/gtest.h>
-
+#include "engine/metrology/trace_grid.h"
 #include "tests/formats/metrology_samples.h"
 
 namespace gearloop {
@@ -16,9 +15,14 @@ using testing::FormsOnGrid;
 using testing::SampleForms;
 using testing::SampleGear;
 
-// A profile trace at z (from the datum face at x = -b/2) over d_begin..d_end in equal roll-length
-// steps, and a helix trace at d over z_begin..z_end, sampled from `forms`.
-MeasuredTrace Profile(const GearData& gear, const FlankForms& forms, Flank flank, double z, int n = 48) {
+// A profile trace at z (from the datum face at x = -b/2) over d_begin..d_end in
+// equal roll-length steps, and a helix trace at d over z_begin..z_end, sampled
+// from `forms`.
+MeasuredTrace Profile(const GearData& gear,
+                      const FlankForms& forms,
+                      Flank flank,
+                      double z,
+                      int n = 48) {
   MeasuredTrace t;
   t.kind = TraceKind::kProfile;
   t.flank = flank;
@@ -28,12 +32,17 @@ MeasuredTrace Profile(const GearData& gear, const FlankForms& forms, Flank flank
   const double l0 = RollLengthOfDiameterMm(gear, t.begin_mm);
   const double l1 = RollLengthOfDiameterMm(gear, t.end_mm);
   for (int i = 0; i < n; ++i) {
-    t.values_um.push_back(FormsAt(forms, gear, l0 + (l1 - l0) * i / (n - 1), z - gear.face_width_mm / 2));
+    t.values_um.push_back(FormsAt(
+        forms, gear, l0 + (l1 - l0) * i / (n - 1), z - gear.face_width_mm / 2));
   }
   return t;
 }
 
-MeasuredTrace Helix(const GearData& gear, const FlankForms& forms, Flank flank, double d, int n = 48) {
+MeasuredTrace Helix(const GearData& gear,
+                    const FlankForms& forms,
+                    Flank flank,
+                    double d,
+                    int n = 48) {
   MeasuredTrace t;
   t.kind = TraceKind::kHelix;
   t.flank = flank;
@@ -42,15 +51,22 @@ MeasuredTrace Helix(const GearData& gear, const FlankForms& forms, Flank flank, 
   t.end_mm = 39.0;
   for (int i = 0; i < n; ++i) {
     const double z = t.begin_mm + (t.end_mm - t.begin_mm) * i / (n - 1);
-    t.values_um.push_back(FormsAt(forms, gear, RollLengthOfDiameterMm(gear, d), z - gear.face_width_mm / 2));
+    t.values_um.push_back(FormsAt(forms,
+                                  gear,
+                                  RollLengthOfDiameterMm(gear, d),
+                                  z - gear.face_width_mm / 2));
   }
   return t;
 }
 
-std::vector<MeasuredTrace> SampleNetwork(const GearData& gear, const FlankForms& forms, Flank flank) {
+std::vector<MeasuredTrace> SampleNetwork(const GearData& gear,
+                                         const FlankForms& forms,
+                                         Flank flank) {
   std::vector<MeasuredTrace> traces;
-  for (double z : {3.0, 11.5, 20.0, 28.5, 37.0}) traces.push_back(Profile(gear, forms, flank, z));
-  for (double d : {143.0, 147.0, 151.0, 155.0}) traces.push_back(Helix(gear, forms, flank, d));
+  for (double z : {3.0, 11.5, 20.0, 28.5, 37.0})
+    traces.push_back(Profile(gear, forms, flank, z));
+  for (double d : {143.0, 147.0, 151.0, 155.0})
+    traces.push_back(Helix(gear, forms, flank, d));
   return traces;
 }
 
@@ -65,7 +81,10 @@ TEST(GridCoordinates, TheSampleGearsRowsAndColumns) {
   const std::vector<double> x = GridAxialPositionsMm(gear, GridOptions{});
   EXPECT_DOUBLE_EQ(x.front(), -16.0);
   EXPECT_DOUBLE_EQ(x.back(), 16.0);
-  EXPECT_NEAR(DiameterOfRollLengthMm(gear, RollLengthOfDiameterMm(gear, 148.453)), 148.453, 1e-12);
+  EXPECT_NEAR(
+      DiameterOfRollLengthMm(gear, RollLengthOfDiameterMm(gear, 148.453)),
+      148.453,
+      1e-12);
 }
 
 TEST(InterpolateTraces, ExactForProfilePlusLeadFormsPlusTwist) {
@@ -74,51 +93,66 @@ TEST(InterpolateTraces, ExactForProfilePlusLeadFormsPlusTwist) {
     const FlankForms forms = SampleForms(flank);
     TraceGridOptions options;
     options.flank = flank;
-    const TraceGridResult result = InterpolateTraces(options, gear, GridOptions{}, SampleNetwork(gear, forms, flank));
+    const TraceGridResult result = InterpolateTraces(
+        options, gear, GridOptions{}, SampleNetwork(gear, forms, flank));
     ASSERT_TRUE(result.ok) << result.message;
     EXPECT_TRUE(result.not_measured.empty());
     EXPECT_EQ(result.profile_traces, 5);
     EXPECT_EQ(result.helix_traces, 4);
     EXPECT_LT(result.max_crossing_mismatch_um, 1e-9);
     const Eigen::VectorXd truth = FormsOnGrid(forms, gear);
-    for (int p = 0; p < 45; ++p) EXPECT_NEAR(result.deviations_um[p], truth[p], /*tol_um=*/1e-9) << p;
+    for (int p = 0; p < 45; ++p)
+      EXPECT_NEAR(result.deviations_um[p], truth[p], /*tol_um=*/1e-9) << p;
   }
 }
 
 TEST(InterpolateTraces, OneProfileAndOneHelixTraceIsTheSumModel) {
   const GearData gear = SampleGear();
-  const FlankForms forms{3.0, 6.0, 4.0, 5.0, 0.0, 1.0};  // no twist: the sum model is exact
-  const std::vector<MeasuredTrace> traces = {Profile(gear, forms, Flank::kRight, 20.0),
-                                             Helix(gear, forms, Flank::kRight, 148.453)};
-  const TraceGridResult result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
+  const FlankForms forms{
+      3.0, 6.0, 4.0, 5.0, 0.0, 1.0};  // no twist: the sum model is exact
+  const std::vector<MeasuredTrace> traces = {
+      Profile(gear, forms, Flank::kRight, 20.0),
+      Helix(gear, forms, Flank::kRight, 148.453)};
+  const TraceGridResult result =
+      InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   ASSERT_TRUE(result.ok) << result.message;
   const Eigen::VectorXd truth = FormsOnGrid(forms, gear);
-  for (int p = 0; p < 45; ++p) EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
+  for (int p = 0; p < 45; ++p)
+    EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
 }
 
-TEST(InterpolateTraces, ExtrapolatesLinearlyAtMostATenthBeyondTheOutermostTrace) {
+TEST(InterpolateTraces,
+     ExtrapolatesLinearlyAtMostATenthBeyondTheOutermostTrace) {
   const GearData gear = SampleGear();
   const FlankForms forms = SampleForms(Flank::kRight);
   const Eigen::VectorXd truth = FormsOnGrid(forms, gear);
   auto network = [&](std::vector<double> zs) {
     std::vector<MeasuredTrace> traces;
-    for (double z : zs) traces.push_back(Profile(gear, forms, Flank::kRight, z));
-    for (double d : {143.0, 147.0, 151.0, 155.0}) traces.push_back(Helix(gear, forms, Flank::kRight, d));
+    for (double z : zs)
+      traces.push_back(Profile(gear, forms, Flank::kRight, z));
+    for (double d : {143.0, 147.0, 151.0, 155.0})
+      traces.push_back(Helix(gear, forms, Flank::kRight, d));
     return traces;
   };
-  // Outer columns at z = 4 and 36: 3.5 mm beyond traces at 7.5 and 32.5, within 0.1 b = 4 mm,
-  // and exact (linear extrapolation across traces reproduces the twist).
-  TraceGridResult result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, network({7.5, 20.0, 32.5}));
+  // Outer columns at z = 4 and 36: 3.5 mm beyond traces at 7.5 and 32.5, within
+  // 0.1 b = 4 mm, and exact (linear extrapolation across traces reproduces the
+  // twist).
+  TraceGridResult result = InterpolateTraces(
+      TraceGridOptions{}, gear, GridOptions{}, network({7.5, 20.0, 32.5}));
   ASSERT_TRUE(result.ok) << result.message;
-  for (int p = 0; p < 45; ++p) EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
-  // 6 mm beyond traces at 10 and 30: column 0 cannot be formed, and a grid trace without 3
-  // points is refused (METROLOGY.md §5).
-  result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, network({10.0, 20.0, 30.0}));
+  for (int p = 0; p < 45; ++p)
+    EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
+  // 6 mm beyond traces at 10 and 30: column 0 cannot be formed, and a grid
+  // trace without 3 points is refused (METROLOGY.md §5).
+  result = InterpolateTraces(
+      TraceGridOptions{}, gear, GridOptions{}, network({10.0, 20.0, 30.0}));
   EXPECT_FALSE(result.ok);
-  EXPECT_NE(result.message.find("grid column 0"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("grid column 0"), std::string::npos)
+      << result.message;
   TraceGridOptions wider;
   wider.max_extrapolation_fraction = 0.2;
-  result = InterpolateTraces(wider, gear, GridOptions{}, network({10.0, 20.0, 30.0}));
+  result = InterpolateTraces(
+      wider, gear, GridOptions{}, network({10.0, 20.0, 30.0}));
   ASSERT_TRUE(result.ok) << result.message;
   EXPECT_NEAR(result.deviations_um[0], truth[0], 1e-9);
 }
@@ -126,13 +160,16 @@ TEST(InterpolateTraces, ExtrapolatesLinearlyAtMostATenthBeyondTheOutermostTrace)
 TEST(InterpolateTraces, RefusesAGridRowWithFewerThanThreePoints) {
   const GearData gear = SampleGear();
   const FlankForms forms = SampleForms(Flank::kRight);
-  std::vector<MeasuredTrace> traces = {Profile(gear, forms, Flank::kRight, 20.0)};
+  std::vector<MeasuredTrace> traces = {
+      Profile(gear, forms, Flank::kRight, 20.0)};
   traces.push_back(Helix(gear, forms, Flank::kRight, 143.0));
   traces.back().begin_mm = 19.0;
   traces.back().end_mm = 21.0;  // a helix trace over 2 mm of the face
-  const TraceGridResult result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
+  const TraceGridResult result =
+      InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   EXPECT_FALSE(result.ok);
-  EXPECT_NE(result.message.find("figures need 3"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("figures need 3"), std::string::npos)
+      << result.message;
 }
 
 TEST(InterpolateTraces, AveragesTeethAndReportsTheirSpread) {
@@ -145,7 +182,8 @@ TEST(InterpolateTraces, AveragesTeethAndReportsTheirSpread) {
     t.tooth = 7;
     traces.push_back(t);
   }
-  TraceGridResult mean = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
+  TraceGridResult mean =
+      InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   ASSERT_TRUE(mean.ok) << mean.message;
   EXPECT_EQ(mean.teeth, (std::vector<int>{1, 7}));
   const Eigen::VectorXd truth = FormsOnGrid(a, gear);
@@ -155,11 +193,13 @@ TEST(InterpolateTraces, AveragesTeethAndReportsTheirSpread) {
   }
   TraceGridOptions only7;
   only7.tooth = 7;
-  const TraceGridResult seven = InterpolateTraces(only7, gear, GridOptions{}, traces);
+  const TraceGridResult seven =
+      InterpolateTraces(only7, gear, GridOptions{}, traces);
   ASSERT_TRUE(seven.ok);
   EXPECT_NEAR(seven.deviations_um[0], truth[0] + 2.0, 1e-9);
   only7.tooth = 3;
-  const TraceGridResult none = InterpolateTraces(only7, gear, GridOptions{}, traces);
+  const TraceGridResult none =
+      InterpolateTraces(only7, gear, GridOptions{}, traces);
   EXPECT_FALSE(none.ok);
   EXPECT_EQ(none.message, "no trace of the right flank of tooth 3 in the file");
 }
@@ -167,18 +207,23 @@ TEST(InterpolateTraces, AveragesTeethAndReportsTheirSpread) {
 TEST(InterpolateTraces, DatumFaceAtPlusXSwapsFlanksAndMirrorsTheFace) {
   const GearData gear = SampleGear();
   const FlankForms forms = SampleForms(Flank::kRight);
-  // The file's LEFT flank seen from a datum face at x = +b/2 is the grid's right flank; its z
-  // runs from +b/2 towards -b/2. Build its traces from the mirrored truth.
+  // The file's LEFT flank seen from a datum face at x = +b/2 is the grid's
+  // right flank; its z runs from +b/2 towards -b/2. Build its traces from the
+  // mirrored truth.
   FlankForms mirrored = forms;
   mirrored.slope_beta = -forms.slope_beta;
   mirrored.twist = -forms.twist;
   TraceGridOptions options;
   options.datum_face = DatumFace::kXPositive;
   const TraceGridResult result =
-      InterpolateTraces(options, gear, GridOptions{}, SampleNetwork(gear, mirrored, Flank::kLeft));
+      InterpolateTraces(options,
+                        gear,
+                        GridOptions{},
+                        SampleNetwork(gear, mirrored, Flank::kLeft));
   ASSERT_TRUE(result.ok) << result.message;
   const Eigen::VectorXd truth = FormsOnGrid(forms, gear);
-  for (int p = 0; p < 45; ++p) EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
+  for (int p = 0; p < 45; ++p)
+    EXPECT_NEAR(result.deviations_um[p], truth[p], 1e-9) << p;
 }
 
 TEST(InterpolateTraces, SignFactorsAndCrossingMismatch) {
@@ -187,16 +232,19 @@ TEST(InterpolateTraces, SignFactorsAndCrossingMismatch) {
   std::vector<MeasuredTrace> traces = SampleNetwork(gear, forms, Flank::kRight);
   for (MeasuredTrace& t : traces) {
     if (t.kind == TraceKind::kHelix) {
-      for (double& v : t.values_um) v = -v;  // raw helix curves of the "other" generation
+      for (double& v : t.values_um)
+        v = -v;  // raw helix curves of the "other" generation
     }
   }
-  const TraceGridResult wrong = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
+  const TraceGridResult wrong =
+      InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   ASSERT_TRUE(wrong.ok);
   EXPECT_GT(wrong.max_crossing_mismatch_um, 2.0);
   ASSERT_EQ(wrong.warnings.size(), 1u);
   TraceGridOptions options;
   options.sign.helix_right = -1.0;
-  const TraceGridResult right = InterpolateTraces(options, gear, GridOptions{}, traces);
+  const TraceGridResult right =
+      InterpolateTraces(options, gear, GridOptions{}, traces);
   ASSERT_TRUE(right.ok);
   EXPECT_LT(right.max_crossing_mismatch_um, 1e-9);
   EXPECT_TRUE(right.warnings.empty());
@@ -207,13 +255,15 @@ TEST(InterpolateTraces, BadInputIsAResultNamingTheTrace) {
   const FlankForms forms = SampleForms(Flank::kRight);
   std::vector<MeasuredTrace> traces = SampleNetwork(gear, forms, Flank::kRight);
   traces[6].position_mm = 120.0;  // a helix trace inside the base circle
-  TraceGridResult result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
+  TraceGridResult result =
+      InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   EXPECT_FALSE(result.ok);
   EXPECT_EQ(result.trace_index, 6);
   EXPECT_NE(result.message.find("inside the base circle"), std::string::npos);
 
   traces = SampleNetwork(gear, forms, Flank::kRight);
-  for (size_t i = 2; i < traces[2].values_um.size(); ++i) traces[2].values_um[i] = std::nan("");
+  for (size_t i = 2; i < traces[2].values_um.size(); ++i)
+    traces[2].values_um[i] = std::nan("");
   result = InterpolateTraces(TraceGridOptions{}, gear, GridOptions{}, traces);
   EXPECT_FALSE(result.ok);
   EXPECT_EQ(result.trace_index, 2);
@@ -227,7 +277,9 @@ TEST(InterpolateTraces, BadInputIsAResultNamingTheTrace) {
   TraceGridOptions options;
   options.sign.profile_left = 2.0;
   EXPECT_FALSE(InterpolateTraces(options, gear, GridOptions{}, traces).ok);
-  EXPECT_FALSE(InterpolateTraces(TraceGridOptions{}, GearData{}, GridOptions{}, traces).ok);
+  EXPECT_FALSE(
+      InterpolateTraces(TraceGridOptions{}, GearData{}, GridOptions{}, traces)
+          .ok);
 }
 
 }  // namespace

@@ -1,9 +1,9 @@
 #include "formats/mka_reader.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "tests/formats/metrology_samples.h"
 
@@ -12,8 +12,12 @@ namespace {
 
 using testing::ReadSample;
 
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+std::string Replace(std::string s,
+                    const std::string& from,
+                    const std::string& to) {
+  for (size_t at = s.find(from); at != std::string::npos;
+       at = s.find(from, at + to.size()))
+    s.replace(at, from.size(), to);
   return s;
 }
 
@@ -52,12 +56,19 @@ TEST(ReadMkaFile, TheSample) {
   EXPECT_EQ(h.helix_hand, "right");
 }
 
-// UTF-8 with BOM and CRLF (the sample), LF without BOM, and Latin-1: the same traces.
+// UTF-8 with BOM and CRLF (the sample), LF without BOM, and Latin-1: the same
+// traces.
 TEST(ReadMkaFile, ToleratesBomCrlfAndLatin1) {
   const std::string sample = ReadSample("sample_topography.mka");
   std::string lf = Replace(sample.substr(3), "\r\n", "\n");
-  std::string latin1 = Replace(Replace(Replace(lf, "\xC3\xA4", "\xE4"), "\xC3\x9F", "\xDF"), "\xCE\xB2", "b");
-  latin1 = Replace(Replace(Replace(latin1, "\xCE\xB1", "a"), "\xC2\xB0", "\xB0"), "\xC3\xBC", "\xFC");
+  std::string latin1 =
+      Replace(Replace(Replace(lf, "\xC3\xA4", "\xE4"), "\xC3\x9F", "\xDF"),
+              "\xCE\xB2",
+              "b");
+  latin1 =
+      Replace(Replace(Replace(latin1, "\xCE\xB1", "a"), "\xC2\xB0", "\xB0"),
+              "\xC3\xBC",
+              "\xFC");
   MeasurementFile a, b, c;
   FileError error;
   ASSERT_TRUE(ReadMkaFile(sample, &a, &error)) << error.ToString();
@@ -76,18 +87,21 @@ TEST(ReadMkaFile, ToleratesBomCrlfAndLatin1) {
 }
 
 TEST(ReadMkaFile, PlainBlocksMapToMidFaceAndTheMeasuringDiameter) {
-  std::string sample = Replace(ReadSample("sample_topography.mka").substr(3), "\r\n", "\n");
+  std::string sample =
+      Replace(ReadSample("sample_topography.mka").substr(3), "\r\n", "\n");
   const size_t first = sample.find("TOPOGRAFIE:");
   std::string head = sample.substr(0, first);
-  std::string body = "Profil:\nZahn-Nr.: 3 rechts / 4 Werte\n 1.0 2.0 3.0 4.0\nZahn-Nr.: 3 links / 4 Werte\n 1 2 3 4\n"
-                     "Flankenlinie:\nZahn-Nr.: 3 rechts / 3 Werte\n 0.5 0.25\n 0.0\n"
-                     "Teilung:\n  1  2.0  3.0 ...whatever the pitch table holds\n";
+  std::string body =
+      "Profil:\nZahn-Nr.: 3 rechts / 4 Werte\n 1.0 2.0 3.0 4.0\nZahn-Nr.: 3 "
+      "links / 4 Werte\n 1 2 3 4\n"
+      "Flankenlinie:\nZahn-Nr.: 3 rechts / 3 Werte\n 0.5 0.25\n 0.0\n"
+      "Teilung:\n  1  2.0  3.0 ...whatever the pitch table holds\n";
   MeasurementFile file;
   FileError error;
   ASSERT_TRUE(ReadMkaFile(head + body, &file, &error)) << error.ToString();
   ASSERT_EQ(file.traces.size(), 3u);
   EXPECT_EQ(file.traces[0].tooth, 3);
-  EXPECT_DOUBLE_EQ(file.traces[0].position_mm, 20.0);    // b / 2
+  EXPECT_DOUBLE_EQ(file.traces[0].position_mm, 20.0);     // b / 2
   EXPECT_DOUBLE_EQ(file.traces[2].position_mm, 148.453);  // code 46
   EXPECT_EQ(file.traces[2].kind, TraceKind::kHelix);
 }

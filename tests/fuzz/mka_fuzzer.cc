@@ -1,10 +1,12 @@
-// tests/fuzz/mka_fuzzer.cc: libFuzzer target for the Klingelnberg .mka reader and the import
-// pipeline behind it (formats/mka_reader.h, formats/measurement_import.h; issue 15).
+// tests/fuzz/mka_fuzzer.cc: libFuzzer target for the Klingelnberg .mka reader
+// and the import pipeline behind it (formats/mka_reader.h,
+// formats/measurement_import.h; issue 15).
 //
-// Besides the sanitizers' own findings it checks the contract of METROLOGY.md §5: a refusal
-// says why and where (a file line, or the file as a whole for the size limit and a missing
-// trace), never an exception; an accepted file gives a 5 x 9 grid whose defined values are finite
-// and figures that are finite. The whole input is the file's text; the sample gear is the request.
+// Besides the sanitizers' own findings it checks the contract of METROLOGY.md
+// §5: a refusal says why and where (a file line, or the file as a whole for the
+// size limit and a missing trace), never an exception; an accepted file gives a
+// 5 x 9 grid whose defined values are finite and figures that are finite. The
+// whole input is the file's text; the sample gear is the request.
 //
 //   build-fuzz/tests/fuzz/mka_fuzzer -max_total_time=60 corpus/mka
 #include <cmath>
@@ -50,17 +52,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!gearloop::ReadMkaFile(content, &file, &error)) {
     Check(!error.message.empty(), "a refusal says why");
     Check(error.place.line >= 0, "a line number or 0");
-    Check(error.place.element_path.empty(), "an mka refusal names a line, not an element");
+    Check(error.place.element_path.empty(),
+          "an mka refusal names a line, not an element");
   } else {
     Check(!file.traces.empty(), "an accepted file has traces");
-    Check(file.trace_places.size() == file.traces.size(), "every trace has its place");
+    Check(file.trace_places.size() == file.traces.size(),
+          "every trace has its place");
   }
 
-  for (gearloop::Flank flank : {gearloop::Flank::kRight, gearloop::Flank::kLeft}) {
+  for (gearloop::Flank flank :
+       {gearloop::Flank::kRight, gearloop::Flank::kLeft}) {
     gearloop::MeasurementImportOptions options;
     options.format = gearloop::MeasurementFormat::kMka;
     options.flank = flank;
-    const gearloop::MeasurementImportResult result = gearloop::ImportMeasurementFile(options, gear, content);
+    const gearloop::MeasurementImportResult result =
+        gearloop::ImportMeasurementFile(options, gear, content);
     if (!result.ok) {
       Check(!result.error.message.empty(), "an import refusal says why");
       Check(!result.error.ToString().empty(), "the refusal renders");
@@ -72,8 +78,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       Check(std::isnan(v) || std::isfinite(v), "grid values finite or missing");
     }
     Check(result.figures.ok, "an accepted import has figures");
-    Check(std::isfinite(result.figures.fHa_mean) && std::isfinite(result.figures.Fb_max_abs) &&
-              std::isfinite(result.figures.Ca_mean) && std::isfinite(result.figures.twist_beta_grid),
+    Check(std::isfinite(result.figures.fHa_mean) &&
+              std::isfinite(result.figures.Fb_max_abs) &&
+              std::isfinite(result.figures.Ca_mean) &&
+              std::isfinite(result.figures.twist_beta_grid),
           "finite figures");
   }
   return 0;
