@@ -11,6 +11,11 @@ OUT_DIR/correction_request/  request bodies: the examples of clients/examples (a
 OUT_DIR/csv_grid/            CSV grids: clients/examples/measurement.csv and the good and bad
                              files of tests/clients/data, each behind the two option bytes of
                              csv_grid_fuzzer.cc (5 x 9, missing points allowed or not)
+OUT_DIR/mka/                 Klingelnberg curve files: the sample of tests/formats/data, with LF
+                             and without byte-order mark, in Latin-1, as plain Profil: blocks,
+                             truncated, and with a huge value count
+OUT_DIR/gde/                 GDE XML: the sample, a measured/target/predicted export layout, and
+                             a few broken ones (truncated, decimal comma, duplicate point)
 
 The seeds are generated rather than kept as copies so that they follow the test data; the fuzzers
 add what they find to OUT_DIR (keep it in a build directory).
@@ -34,6 +39,36 @@ def write(directory, data):
     with open(os.path.join(directory, name), "wb") as f:
         f.write(data)
     return 1
+
+
+def write_measurement_files(out):
+    mka_dir = os.path.join(out, "mka")
+    gde_dir = os.path.join(out, "gde")
+    os.makedirs(mka_dir, exist_ok=True)
+    os.makedirs(gde_dir, exist_ok=True)
+    data = os.path.join(ROOT, "tests/formats/data")
+    with open(os.path.join(data, "sample_topography.mka"), "rb") as f:
+        mka = f.read()
+    with open(os.path.join(data, "sample_topography.gde.xml"), "rb") as f:
+        gde = f.read()
+    n = 0
+    lf = mka[3:].replace(b"\r\n", b"\n")
+    n += write(mka_dir, mka)
+    n += write(mka_dir, lf)
+    n += write(mka_dir, lf.decode("utf-8").encode("latin-1", "replace"))
+    n += write(mka_dir, mka[: len(mka) // 3])
+    n += write(mka_dir, mka.replace(b"48 Werte", b"99999999 Werte", 1))
+    head = lf[: lf.index(b"TOPOGRAFIE:")]
+    n += write(mka_dir, head + b"Profil:\nZahn-Nr.: 1 rechts / 4 Werte\n 1.0 2.0 3.0 4.0\n"
+                             b"Flankenlinie:\nZahn-Nr.: 1 rechts / 3 Werte\n 0.5 0.25 0.0\nTeilung:\n 1 2 3\n")
+    n += write(gde_dir, gde)
+    n += write(gde_dir, gde[: len(gde) // 2])
+    n += write(gde_dir, gde.replace(b'dev="-3.999"', b'dev="-3,999"'))
+    n += write(gde_dir, gde.replace(b'z="5.600" dev="-12.939"', b'z="2.000" dev="-12.939"'))
+    n += write(gde_dir, gde.replace(b"<TOPOGRAPHY tooth", b'<TOPOGRAPHY kind="target" tooth', 1)
+               .replace(b"</MEASUREMENT_RESULTS>", gde[gde.index(b"<TOPOGRAPHY"):gde.index(b"</MEASUREMENT_RESULTS>")]
+                        + b"</MEASUREMENT_RESULTS>"))
+    return n
 
 
 def main():
@@ -74,7 +109,9 @@ def main():
             text = f.read()
         n_grids += write(grids, b"\x0c\x08" + text)  # 5 x 9, missing points allowed
         n_grids += write(grids, b"\x04\x08" + text)  # 5 x 9, complete (a target grid)
-    print(f"make_corpus: {n_requests} request seeds in {requests}, {n_grids} grid seeds in {grids}")
+    n_files = write_measurement_files(out)
+    print(f"make_corpus: {n_requests} request seeds in {requests}, {n_grids} grid seeds in {grids}, "
+          f"{n_files} measurement-file seeds in {out}/mka and {out}/gde")
     return 0
 
 
