@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace gearloop {
 
 Eigen::Vector3d FlankSection::Normal(double height_mm) const {

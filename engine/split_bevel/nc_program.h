@@ -11,7 +11,7 @@
 //   (DERIVED RB=... MN=... ZC=... RI=... RM=... RE=... BETAI=... BETAM=... BETAE=... HA=... HF=... W=...)
 //   (TOOL R0=... S=...)
 //   (MACHINE P=... AMIN=... AMAX=... BMIN=... BMAX=...)
-//   (SETUP APEXX=... APEXY=... APEZ=... PSIMID=... SEGMENT=...)
+//   (SETUP APEXX=... APEXY=... APEXZ=... PSIMID=... SEGMENT=...)
 //   G90 G21 G94
 //   per pass i = 1, 2, ...:
 //     (PASS i SLOT k FLANK CONVEX LEVEL j POINTS n)
