@@ -94,39 +94,56 @@ FlankSection SplitBevelFlankSurface::Section(double cone_distance_mm) const {
 // r = X - F and F_R = p' + h g':
 //   D'  = -r . F_R                         (envelope: r . g = 0 at h*)
 //   D'' = F_R . F_R + h*' (p' . g) - r . (p'' + h g'') - h*' (r . g'),   h*' = -p' . g + (X - p) . g'.
-// The step is accepted without a new section once it is below the tolerance: the point is then
-// off by less than |F_R| times the tolerance along the flank, which moves the normal distance only
-// to second order.
+// Each iterate takes p, p', g, g' (and p'', g'') from the anchor section by Taylor expansion in
+// d = R - R_anchor (exact at d = 0); the anchor moves (one exact section) only when |d| exceeds
+// kTaylorRadiusMm. Newton stops after a step below the tolerance and takes that step to first order
+// (point F + F_R step, normal of the section before it): Newton's error after a step s is about
+// (D''' / 2 D'') s^2, some 1e-13 mm for s = 1e-5 mm here, the first-order point is off by
+// |F_RR| s^2 / 2 (1e-13 mm), and the normal turns by |N_R| s (1e-8 rad), which moves the normal
+// distance (X - F) . N only to second order.
 SplitBevelFlankSurface::NearestPoint SplitBevelFlankSurface::Nearest(const Eigen::Vector3d& point_mm,
-                                                                     const FlankSection& start,
+                                                                     double guess_mm,
+                                                                     FlankSection* anchor,
                                                                      double step_tolerance_mm,
                                                                      int max_iterations) const {
   NearestPoint out;
-  FlankSection s = start;
+  double r = guess_mm;
   for (int iteration = 0; iteration <= max_iterations; ++iteration) {
-    const double u = (point_mm - s.pitch_point_mm).dot(s.ruling);  // h* (length along g)
-    const Eigen::Vector3d f = s.pitch_point_mm + u * s.ruling;
-    const Eigen::Vector3d f_r = s.d_pitch_point + u * s.d_ruling;
+    if (!(r > gear_.base_radius_mm)) break;  // left the involute's domain: not converged
+    if (std::abs(r - anchor->cone_distance_mm) > kTaylorRadiusMm) {
+      *anchor = Section(r);
+      ++out.exact_sections;
+    }
+    const FlankSection& a = *anchor;
+    const double d = r - a.cone_distance_mm;
+    const Eigen::Vector3d p = a.pitch_point_mm + d * (a.d_pitch_point + (0.5 * d) * a.d2_pitch_point);
+    const Eigen::Vector3d p1 = a.d_pitch_point + d * a.d2_pitch_point;
+    const Eigen::Vector3d g = a.ruling + d * (a.d_ruling + (0.5 * d) * a.d2_ruling);
+    const Eigen::Vector3d g1 = a.d_ruling + d * a.d2_ruling;
+
+    const Eigen::Vector3d xp = point_mm - p;
+    const double u = xp.dot(g);  // h* (length along g)
+    const Eigen::Vector3d f = p + u * g;
+    const Eigen::Vector3d f_r = p1 + u * g1;
     const Eigen::Vector3d res = point_mm - f;
-    const double pg = s.d_pitch_point.dot(s.ruling);
-    const double du = -pg + (point_mm - s.pitch_point_mm).dot(s.d_ruling);
+    const double pg = p1.dot(g);
+    const double du = -pg + xp.dot(g1);
     const double gradient = res.dot(f_r);  // -D'
-    double hessian =
-        f_r.squaredNorm() + du * pg - res.dot(s.d2_pitch_point + u * s.d2_ruling) - du * res.dot(s.d_ruling);
+    double hessian = f_r.squaredNorm() + du * pg - res.dot(a.d2_pitch_point + u * a.d2_ruling) - du * res.dot(g1);
     if (!(hessian > 0.0)) hessian = f_r.squaredNorm();  // not convex here: a gradient step
     const double step = gradient / hessian;
     out.iterations = iteration;
     if (std::abs(step) < step_tolerance_mm || iteration == max_iterations) {
       out.converged = std::abs(step) < step_tolerance_mm;
-      out.cone_distance_mm = s.cone_distance_mm;
+      // The last step taken to first order: F(R + step) = F + F_R step + O(step^2).
+      out.cone_distance_mm = r + step;
       out.height_mm = u * cos_alpha_;
-      out.point_mm = f;
-      out.normal = s.Normal(out.height_mm);
+      out.point_mm = f + step * f_r;
+      const Eigen::Vector3d n = f_r.cross(g).normalized();
+      out.normal = n.dot(a.slot_side) < 0.0 ? Eigen::Vector3d(-n) : n;
       break;
     }
-    const double next = s.cone_distance_mm + step;
-    if (!(next > gear_.base_radius_mm)) break;  // left the involute's domain: not converged
-    s = Section(next);
+    r += step;
   }
   return out;
 }

@@ -1,6 +1,7 @@
 #include "engine/split_bevel/nc_program.h"
 
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -25,9 +26,49 @@ std::string Upper(const char* s) {
   return out;
 }
 
-std::string AxisWords(const HeadAxes& axes) {
-  return "X" + Fixed(axes.x_mm, 4) + " Y" + Fixed(axes.y_mm, 4) + " Z" + Fixed(axes.z_mm, 4) + " A" +
-         Fixed(RadToDeg(axes.a_rad), 4) + " B" + Fixed(RadToDeg(axes.b_rad), 4);
+// Appends x with 4 decimals, x * 10^4 rounded half away from zero: the same digits as "%.4f" but
+// for values whose x * 10^4 sits within a rounding error of a half (printf rounds the binary value
+// exactly, this the product); -0.0000 is written 0.0000. Forty thousand points make 200 000 numbers,
+// which snprintf would spend most of the listing's time on.
+void AppendFixed4(double x, std::string* out) {
+  const double scaled = x * 1e4;
+  if (!(std::abs(scaled) < 9e15)) {  // not representable as an exact integer count of 1e-4
+    *out += Fixed(x, 4);
+    return;
+  }
+  long long q = std::llround(scaled);
+  if (q < 0) {
+    out->push_back('-');
+    q = -q;
+  }
+  char digits[24];
+  int n = 0;
+  long long whole = q / 10000;
+  do {
+    digits[n++] = static_cast<char>('0' + whole % 10);
+    whole /= 10;
+  } while (whole != 0);
+  while (n > 0) out->push_back(digits[--n]);
+  const int fraction = static_cast<int>(q % 10000);
+  const char tail[5] = {'.',
+                        static_cast<char>('0' + fraction / 1000),
+                        static_cast<char>('0' + fraction / 100 % 10),
+                        static_cast<char>('0' + fraction / 10 % 10),
+                        static_cast<char>('0' + fraction % 10)};
+  out->append(tail, 5);
+}
+
+void AppendAxisWords(const HeadAxes& axes, std::string* out) {
+  out->push_back('X');
+  AppendFixed4(axes.x_mm, out);
+  out->append(" Y");
+  AppendFixed4(axes.y_mm, out);
+  out->append(" Z");
+  AppendFixed4(axes.z_mm, out);
+  out->append(" A");
+  AppendFixed4(RadToDeg(axes.a_rad), out);
+  out->append(" B");
+  AppendFixed4(RadToDeg(axes.b_rad), out);
 }
 
 // The pivot moved back (toward the spindle) along the tool axis, same A and B.
@@ -48,7 +89,9 @@ std::string FormatSplitBevelNcProgram(const SplitBevelRequest& request, const Sp
   const auto mm = [](double x) { return Fixed(x, 6); };
   const auto deg = [](double rad) { return Fixed(RadToDeg(rad), 6); };
   std::string nc;
-  nc.reserve(256 + 64 * 60 * result.passes.size() * (result.passes.empty() ? 0 : result.passes[0].points.size()));
+  size_t lines = 0;
+  for (const SplitBevelPass& pass : result.passes) lines += pass.points.size() + 3;
+  nc.reserve(1024 + 72 * lines);
   nc += "%\n(GEARLOOP SPLIT-BEVEL 1)\n";
   nc += "(GEAR Z=" + std::to_string(d.teeth) + " DELTA=" + deg(d.pitch_angle_rad) +
         " RE=" + mm(d.outer_cone_distance_mm) + " B=" + mm(d.outer_cone_distance_mm - d.inner_cone_distance_mm) +
@@ -76,13 +119,18 @@ std::string FormatSplitBevelNcProgram(const SplitBevelRequest& request, const Sp
           Upper(SplitBevelFlankName(pass.flank)) + " LEVEL " + std::to_string(pass.level) + " POINTS " +
           std::to_string(pass.points.size()) + ")\n";
     if (pass.points.empty()) continue;
-    nc += "G00 " + AxisWords(StandBack(pass.points.front().axes)) + "\n";
+    nc += "G00 ";
+    AppendAxisWords(StandBack(pass.points.front().axes), &nc);
+    nc += "\n";
     for (size_t j = 0; j < pass.points.size(); ++j) {
-      nc += "G01 " + AxisWords(pass.points[j].axes);
+      nc += "G01 ";
+      AppendAxisWords(pass.points[j].axes, &nc);
       if (j == 0) nc += feed;
       nc += "\n";
     }
-    nc += "G00 " + AxisWords(StandBack(pass.points.back().axes)) + "\n";
+    nc += "G00 ";
+    AppendAxisWords(StandBack(pass.points.back().axes), &nc);
+    nc += "\n";
   }
   nc += "M30\n%\n";
   return nc;

@@ -20,7 +20,8 @@
 //     G00 X... Y... Z... A... B...          retract: the last pivot moved 5 mm back along the axis
 //   M30
 //   %
-// Lengths mm and angles deg in the header with 6 decimals; axis words with 4 decimals (-0.0000 is
+// Lengths mm and angles deg in the header with 6 decimals; axis words with 4 decimals, the value
+// times 10^4 rounded half away from zero (-0.0000 is
 // written 0.0000). The KEY=value header lines are comments for the operator; a reader needs only
 // the G words.
 #ifndef GEARLOOP_ENGINE_SPLIT_BEVEL_NC_PROGRAM_H_

@@ -351,11 +351,22 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
         const Eigen::Vector3d pivot_m = centre_m + pivot * axis_m;
         point.axes = HeadAxes{pivot_m.x(), pivot_m.y(), pivot_m.z(), angles.a_rad, angles.b_rad};
 
-        // Side deviation along the tool's side line from the tip height up to the addendum.
+        // Side deviation along the tool's side line from the tip height up to the addendum. The foot
+        // point moves smoothly with the height: each Newton starts from the parabola through the
+        // three previous feet (the line through two at the third height), with the last exact section
+        // as its anchor.
+        FlankSection anchor = s;
+        double foot_previous = s.cone_distance_mm, foot_before = s.cone_distance_mm, foot_third = 0.0;
         for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
           const double height = tip + (gear.addendum_mm - tip) * h / (kSplitBevelDeviationHeights - 1);
           const Eigen::Vector3d x = point.tool_centre_mm + ((height - tip) / cos_alpha) * point.tool_axis;
-          const SplitBevelFlankSurface::NearestPoint near = flank.Nearest(x, s);
+          const double guess = h < 2   ? foot_previous
+                               : h == 2 ? 2.0 * foot_previous - foot_before
+                                        : 3.0 * (foot_previous - foot_before) + foot_third;
+          const SplitBevelFlankSurface::NearestPoint near = flank.Nearest(x, guess, &anchor);
+          foot_third = foot_before;
+          foot_before = foot_previous;
+          foot_previous = near.cone_distance_mm;
           const double gap = (x - near.point_mm).dot(near.normal) - tool.radius_mm;
           pass.side_deviation_mm.min_mm = std::min(pass.side_deviation_mm.min_mm, gap);
           pass.side_deviation_mm.max_mm = std::max(pass.side_deviation_mm.max_mm, gap);

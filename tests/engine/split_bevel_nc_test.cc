@@ -180,6 +180,8 @@ TEST(FormatSplitBevelNcProgram, RoundTripToFourDecimals) {
       }
     }
     EXPECT_GT(count, 100u) << g.name;
+    EXPECT_EQ(result.nc_program.find("-0.0000 "), std::string::npos);
+    EXPECT_EQ(result.nc_program.find("-0.0000\n"), std::string::npos);
   }
 }
 
