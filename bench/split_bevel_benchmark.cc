@@ -1,7 +1,8 @@
-// split_bevel_benchmark: one split-bevel trajectory request of issue 14's size, 2 000 stations x
-// 10 depth levels x 2 flanks (40 000 points, 360 000 side-deviation foot points), engine side,
-// single thread; goal < 50 ms on the 2-core machine. Run: build/bench/split_bevel_benchmark
-// (see BENCHMARKS.md, "Split bevel trajectory").
+// split_bevel_benchmark: one split-bevel trajectory request of issue 14's size,
+// 2 000 stations x 10 depth levels x 2 flanks (40 000 points, 360 000
+// side-deviation foot points), engine side, single thread; goal < 50 ms on the
+// 2-core machine. Run: build/bench/split_bevel_benchmark (see BENCHMARKS.md,
+// "Split bevel trajectory").
 #include <benchmark/benchmark.h>
 
 #include "engine/core/units.h"
@@ -10,8 +11,9 @@
 
 namespace {
 
-// The right-hand wheel of the tests (tests/engine/split_bevel_test_gears.h): z = 75, delta = 70 deg,
-// m_et = 40 mm, b = 240 mm, beta_m = 35 deg, alpha = 20 deg, r0 = 8 mm, 0.2 mm stock, pivot 300 mm.
+// The right-hand wheel of the tests (tests/engine/split_bevel_test_gears.h): z
+// = 75, delta = 70 deg, m_et = 40 mm, b = 240 mm, beta_m = 35 deg, alpha = 20
+// deg, r0 = 8 mm, 0.2 mm stock, pivot 300 mm.
 gearloop::SplitBevelRequest Request(bool nc) {
   gearloop::SplitBevelRequest r;
   r.gear.teeth = 75;
@@ -24,7 +26,8 @@ gearloop::SplitBevelRequest Request(bool nc) {
   r.tool.radius_mm = 8.0;
   r.tool.stock_mm = 0.2;
   r.cut.slot_index = 3;
-  r.cut.flanks = {gearloop::SplitBevelFlank::kConvex, gearloop::SplitBevelFlank::kConcave};
+  r.cut.flanks = {gearloop::SplitBevelFlank::kConvex,
+                  gearloop::SplitBevelFlank::kConcave};
   r.cut.depth_levels = 10;
   r.cut.steps = 2000;
   r.machine.pivot_length_mm = 300.0;
@@ -35,7 +38,8 @@ gearloop::SplitBevelRequest Request(bool nc) {
 void BM_SplitTrajectory2000x10x2(benchmark::State& state) {
   const gearloop::SplitBevelRequest request = Request(/*nc=*/false);
   for (auto _ : state) {
-    gearloop::SplitBevelResult result = gearloop::ComputeSplitTrajectory(request);
+    gearloop::SplitBevelResult result =
+        gearloop::ComputeSplitTrajectory(request);
     if (!result.ok) state.SkipWithError(result.message.c_str());
     benchmark::DoNotOptimize(result.passes.data());
   }
@@ -45,7 +49,8 @@ BENCHMARK(BM_SplitTrajectory2000x10x2)->Unit(benchmark::kMillisecond);
 void BM_SplitTrajectory2000x10x2WithNc(benchmark::State& state) {
   const gearloop::SplitBevelRequest request = Request(/*nc=*/true);
   for (auto _ : state) {
-    gearloop::SplitBevelResult result = gearloop::ComputeSplitTrajectory(request);
+    gearloop::SplitBevelResult result =
+        gearloop::ComputeSplitTrajectory(request);
     if (!result.ok) state.SkipWithError(result.message.c_str());
     benchmark::DoNotOptimize(result.nc_program.data());
   }

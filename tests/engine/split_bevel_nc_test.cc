@@ -1,7 +1,8 @@
-// The NC listing of a split-bevel trajectory (engine/split_bevel/nc_program.h, SPLIT_BEVEL.md §8):
-// its line formats, and the round trip: the listing parsed back gives every point's X Y Z A B to its
-// 4 decimals. The parser lives here, in the test: the engine only builds the text.
-#include "engine/split_bevel/nc_program.h"
+// The NC listing of a split-bevel trajectory (engine/split_bevel/nc_program.h,
+// SPLIT_BEVEL.md §8): its line formats, and the round trip: the listing parsed
+// back gives every point's X Y Z A B to its 4 decimals. The parser lives here,
+// in the test: the engine only builds the text.
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -9,10 +10,9 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "engine/core/units.h"
 #include "engine/split_bevel/head_kinematics.h"
+#include "engine/split_bevel/nc_program.h"
 #include "engine/split_bevel/trajectory.h"
 #include "tests/engine/split_bevel_test_gears.h"
 
@@ -42,9 +42,12 @@ bool ParseMove(const std::string& line, NcMove* move) {
   std::istringstream in(line);
   std::string word;
   in >> word;
-  if (word == "G00") move->g = 0;
-  else if (word == "G01") move->g = 1;
-  else return false;
+  if (word == "G00")
+    move->g = 0;
+  else if (word == "G01")
+    move->g = 1;
+  else
+    return false;
   std::string expected = "XYZAB";
   double* targets[] = {&move->x, &move->y, &move->z, &move->a, &move->b};
   for (int i = 0; i < 5; ++i) {
@@ -72,8 +75,13 @@ NcListing ParseListing(const std::string& text) {
     if (line.rfind("(PASS ", 0) == 0) {
       NcPass pass;
       char flank[32] = {0};
-      EXPECT_EQ(std::sscanf(line.c_str(), "(PASS %d SLOT %d FLANK %31s LEVEL %d POINTS %d)", &pass.number, &pass.slot,
-                            flank, &pass.level, &pass.points),
+      EXPECT_EQ(std::sscanf(line.c_str(),
+                            "(PASS %d SLOT %d FLANK %31s LEVEL %d POINTS %d)",
+                            &pass.number,
+                            &pass.slot,
+                            flank,
+                            &pass.level,
+                            &pass.points),
                 5)
           << line;
       pass.flank = flank;
@@ -106,7 +114,11 @@ TEST(FormatSplitBevelNcProgram, LineFormats) {
   EXPECT_EQ(nc.lines[3].rfind("(DERIVED RB=", 0), 0u) << nc.lines[3];
   EXPECT_EQ(nc.lines[4], "(TOOL R0=7.000000 S=0.500000)");
   EXPECT_EQ(nc.lines[5].rfind("(MACHINE P=350.000000 ", 0), 0u) << nc.lines[5];
-  EXPECT_EQ(nc.lines[6].rfind("(SETUP APEXX=400.000000 APEXY=-50.000000 APEXZ=600.000000 ", 0), 0u) << nc.lines[6];
+  EXPECT_EQ(
+      nc.lines[6].rfind(
+          "(SETUP APEXX=400.000000 APEXY=-50.000000 APEXZ=600.000000 ", 0),
+      0u)
+      << nc.lines[6];
   EXPECT_EQ(nc.lines[7], "G90 G21 G94");
   EXPECT_EQ(nc.lines[nc.lines.size() - 2], "M30");
   EXPECT_EQ(nc.lines.back(), "%");
@@ -116,14 +128,16 @@ TEST(FormatSplitBevelNcProgram, LineFormats) {
     EXPECT_EQ(nc.lines[i].find(')'), nc.lines[i].size() - 1);
   }
   EXPECT_NE(nc.lines[2].find("HAND=LEFT"), std::string::npos);
-  // Passes: header, one approach G00, n G01 (F on the first only), one retract G00.
+  // Passes: header, one approach G00, n G01 (F on the first only), one retract
+  // G00.
   ASSERT_EQ(nc.passes.size(), result.passes.size());
   for (size_t i = 0; i < nc.passes.size(); ++i) {
     const NcPass& p = nc.passes[i];
     const SplitBevelPass& q = result.passes[i];
     EXPECT_EQ(p.number, static_cast<int>(i) + 1);
     EXPECT_EQ(p.slot, -2);
-    EXPECT_EQ(p.flank, q.flank == SplitBevelFlank::kConvex ? "CONVEX" : "CONCAVE");
+    EXPECT_EQ(p.flank,
+              q.flank == SplitBevelFlank::kConvex ? "CONVEX" : "CONCAVE");
     EXPECT_EQ(p.level, q.level);
     EXPECT_EQ(p.points, static_cast<int>(q.points.size()));
     ASSERT_EQ(p.moves.size(), q.points.size() + 2);
@@ -133,25 +147,31 @@ TEST(FormatSplitBevelNcProgram, LineFormats) {
       EXPECT_EQ(p.moves[j].g, 1);
       EXPECT_EQ(p.moves[j].f, j == 1 ? 150.0 : 0.0);
     }
-    // Approach and retract: the first / last pivot 5 mm back along the tool axis, same A B.
-    for (const auto& [move, point] : {std::make_pair(p.moves.front(), q.points.front()),
-                                      std::make_pair(p.moves.back(), q.points.back())}) {
-      const Eigen::Vector3d axis = HeadToolAxis(point.axes.a_rad, point.axes.b_rad);
+    // Approach and retract: the first / last pivot 5 mm back along the tool
+    // axis, same A B.
+    for (const auto& [move, point] :
+         {std::make_pair(p.moves.front(), q.points.front()),
+          std::make_pair(p.moves.back(), q.points.back())}) {
+      const Eigen::Vector3d axis =
+          HeadToolAxis(point.axes.a_rad, point.axes.b_rad);
       EXPECT_NEAR(move.x, Rounded4(point.axes.x_mm + 5.0 * axis.x()), 1e-9);
       EXPECT_NEAR(move.y, Rounded4(point.axes.y_mm + 5.0 * axis.y()), 1e-9);
       EXPECT_NEAR(move.z, Rounded4(point.axes.z_mm + 5.0 * axis.z()), 1e-9);
       EXPECT_NEAR(move.a, Rounded4(RadToDeg(point.axes.a_rad)), 1e-9);
       EXPECT_NEAR(move.b, Rounded4(RadToDeg(point.axes.b_rad)), 1e-9);
-      // The tool centre stands back from the flank: farther from the apex-side work.
-      const ToolPose stand = HeadForward(HeadAxes{move.x, move.y, move.z, DegToRad(move.a), DegToRad(move.b)},
-                                         r.machine.pivot_length_mm);
+      // The tool centre stands back from the flank: farther from the apex-side
+      // work.
+      const ToolPose stand = HeadForward(
+          HeadAxes{move.x, move.y, move.z, DegToRad(move.a), DegToRad(move.b)},
+          r.machine.pivot_length_mm);
       const ToolPose at = HeadForward(point.axes, r.machine.pivot_length_mm);
       EXPECT_NEAR((stand.centre_mm - at.centre_mm).norm(), 5.0, 1e-3);
     }
   }
 }
 
-// The listing parsed back gives every point's X Y Z A B to its 4 decimals, on every test gear.
+// The listing parsed back gives every point's X Y Z A B to its 4 decimals, on
+// every test gear.
 TEST(FormatSplitBevelNcProgram, RoundTripToFourDecimals) {
   for (const auto& g : AllGears()) {
     SplitBevelRequest r = g.request;
@@ -167,7 +187,8 @@ TEST(FormatSplitBevelNcProgram, RoundTripToFourDecimals) {
       for (size_t j = 0; j < q.points.size(); ++j) {
         const NcMove& m = nc.passes[i].moves[j + 1];
         const HeadAxes& a = q.points[j].axes;
-        // Within half a unit of the fourth decimal, and equal to the value rounded there.
+        // Within half a unit of the fourth decimal, and equal to the value
+        // rounded there.
         const double half = 0.5e-4 * (1 + 1e-9);
         EXPECT_LE(std::abs(m.x - a.x_mm), half);
         EXPECT_LE(std::abs(m.y - a.y_mm), half);

@@ -1,6 +1,8 @@
-// The split-bevel requests the tests share (tests/engine/split_bevel_*_test.cc): a right-hand
-// wheel, a left-hand wheel with every optional field given, and a left-hand pinion cut to a chord
-// tolerance. Degrees written as degrees, converted here as the API's codec will.
+// The split-bevel requests the tests share
+// (tests/engine/split_bevel_*_test.cc): a right-hand wheel, a left-hand wheel
+// with every optional field given, and a left-hand pinion cut to a chord
+// tolerance. Degrees written as degrees, converted here as the API's codec
+// will.
 #ifndef GEARLOOP_TESTS_ENGINE_SPLIT_BEVEL_TEST_GEARS_H_
 #define GEARLOOP_TESTS_ENGINE_SPLIT_BEVEL_TEST_GEARS_H_
 
@@ -13,9 +15,10 @@
 namespace gearloop {
 namespace split_bevel_test {
 
-// z = 75, delta = 70 deg, m_et = 40 mm (Re = 1596.3 mm), b = 240 mm, beta_m = 35 deg right hand,
-// alpha = 20 deg, default tooth proportions; r0 = 8 mm, 0.2 mm stock; slot 3, both flanks, 4 levels,
-// 61 stations from the toe; TCP mode, apex at the machine origin.
+// z = 75, delta = 70 deg, m_et = 40 mm (Re = 1596.3 mm), b = 240 mm, beta_m =
+// 35 deg right hand, alpha = 20 deg, default tooth proportions; r0 = 8 mm, 0.2
+// mm stock; slot 3, both flanks, 4 levels, 61 stations from the toe; TCP mode,
+// apex at the machine origin.
 inline SplitBevelRequest RightHandWheel() {
   SplitBevelRequest r;
   r.gear.teeth = 75;
@@ -34,9 +37,10 @@ inline SplitBevelRequest RightHandWheel() {
   return r;
 }
 
-// z = 60, delta = 60 deg, Re = 1200 mm, b = 180 mm, beta_e = 40 deg left hand, alpha = 22.5 deg,
-// h_a = 24, h_f = 31, w = 40 mm; r0 = 7 mm, 0.5 mm stock; slot -2, concave then convex, 3 levels,
-// 25 stations from the heel; pivot 350 mm, apex at (400, -50, 600), a 30 deg segment.
+// z = 60, delta = 60 deg, Re = 1200 mm, b = 180 mm, beta_e = 40 deg left hand,
+// alpha = 22.5 deg, h_a = 24, h_f = 31, w = 40 mm; r0 = 7 mm, 0.5 mm stock;
+// slot -2, concave then convex, 3 levels, 25 stations from the heel; pivot 350
+// mm, apex at (400, -50, 600), a 30 deg segment.
 inline SplitBevelRequest LeftHandWheel() {
   SplitBevelRequest r;
   r.gear.teeth = 60;
@@ -63,9 +67,9 @@ inline SplitBevelRequest LeftHandWheel() {
   return r;
 }
 
-// z = 19, delta = 20 deg, m_et = 30 mm, b = 120 mm, beta_m = 35 deg left hand, alpha = 20 deg;
-// r0 = 6 mm, no stock; slot 0, both flanks, 2 levels, stations for a 0.01 mm chord tolerance;
-// pivot 200 mm.
+// z = 19, delta = 20 deg, m_et = 30 mm, b = 120 mm, beta_m = 35 deg left hand,
+// alpha = 20 deg; r0 = 6 mm, no stock; slot 0, both flanks, 2 levels, stations
+// for a 0.01 mm chord tolerance; pivot 200 mm.
 inline SplitBevelRequest LeftHandPinion() {
   SplitBevelRequest r;
   r.gear.teeth = 19;
@@ -90,7 +94,9 @@ struct NamedRequest {
 };
 
 inline std::vector<NamedRequest> AllGears() {
-  return {{"RightHandWheel", RightHandWheel()}, {"LeftHandWheel", LeftHandWheel()}, {"LeftHandPinion", LeftHandPinion()}};
+  return {{"RightHandWheel", RightHandWheel()},
+          {"LeftHandWheel", LeftHandWheel()},
+          {"LeftHandPinion", LeftHandPinion()}};
 }
 
 }  // namespace split_bevel_test
