@@ -12,9 +12,9 @@ namespace gearloop {
 namespace {
 
 std::string Fixed(double x, int decimals) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, x);
-  std::string s = buffer;
+  const int length = std::snprintf(nullptr, 0, "%.*f", decimals, x);
+  std::string s(static_cast<size_t>(length), '\0');
+  std::snprintf(s.data(), s.size() + 1, "%.*f", decimals, x);
   // A value that rounds to zero is written without its sign.
   if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos)
     s.erase(0, 1);
@@ -28,21 +28,18 @@ std::string Upper(const char* s) {
   return out;
 }
 
-// Appends x with 4 decimals, x * 10^4 rounded half away from zero: the same
-// digits as "%.4f" but for values whose x * 10^4 sits within a rounding error
-// of a half (printf rounds the binary value exactly, this the product); -0.0000
-// is written 0.0000. Forty thousand points make 200 000 numbers, which snprintf
-// would spend most of the listing's time on.
-void AppendFixed4(double x, std::string* out) {
-  const double scaled = x * 1e4;
-  if (!(std::abs(scaled) <
-        9e15)) {  // not representable as an exact integer count of 1e-4
-    *out += Fixed(x, 4);
-    return;
-  }
-  long long q = std::llround(scaled);
+// Writes x with 4 decimals at *cursor and advances it: x * 10^4 rounded half
+// away from zero (the digits of "%.4f" except where x * 10^4 sits within a
+// rounding error of a half: printf rounds the binary value exactly, this the
+// product); -0.0000 is written 0.0000. Forty thousand points make 200 000
+// numbers, which snprintf would spend most of the listing's time on. At most 22
+// characters; |x| must be below 9e11 (kMaxFastFixed4).
+constexpr double kMaxFastFixed4 = 9e11;
+void WriteFixed4(double x, char** cursor) {
+  char* out = *cursor;
+  long long q = std::llround(x * 1e4);
   if (q < 0) {
-    out->push_back('-');
+    *out++ = '-';
     q = -q;
   }
   char digits[24];
@@ -52,27 +49,46 @@ void AppendFixed4(double x, std::string* out) {
     digits[n++] = static_cast<char>('0' + whole % 10);
     whole /= 10;
   } while (whole != 0);
-  while (n > 0) out->push_back(digits[--n]);
+  while (n > 0) *out++ = digits[--n];
   const int fraction = static_cast<int>(q % 10000);
-  const char tail[5] = {'.',
-                        static_cast<char>('0' + fraction / 1000),
-                        static_cast<char>('0' + fraction / 100 % 10),
-                        static_cast<char>('0' + fraction / 10 % 10),
-                        static_cast<char>('0' + fraction % 10)};
-  out->append(tail, 5);
+  *out++ = '.';
+  *out++ = static_cast<char>('0' + fraction / 1000);
+  *out++ = static_cast<char>('0' + fraction / 100 % 10);
+  *out++ = static_cast<char>('0' + fraction / 10 % 10);
+  *out++ = static_cast<char>('0' + fraction % 10);
+  *cursor = out;
 }
 
-void AppendAxisWords(const HeadAxes& axes, std::string* out) {
-  out->push_back('X');
-  AppendFixed4(axes.x_mm, out);
-  out->append(" Y");
-  AppendFixed4(axes.y_mm, out);
-  out->append(" Z");
-  AppendFixed4(axes.z_mm, out);
-  out->append(" A");
-  AppendFixed4(RadToDeg(axes.a_rad), out);
-  out->append(" B");
-  AppendFixed4(RadToDeg(axes.b_rad), out);
+// Appends "<g> X.. Y.. Z.. A.. B..<tail>\n".
+void AppendMove(const char* g,
+                const HeadAxes& axes,
+                const std::string& tail,
+                std::string* out) {
+  char line[160];
+  char* c = line;
+  const auto word = [&](char letter, double value) {
+    *c++ = ' ';
+    *c++ = letter;
+    if (std::abs(value) < kMaxFastFixed4) {
+      WriteFixed4(value, &c);
+    } else {  // a setup far off any machine: snprintf's digits, however many
+      out->append(line, c - line);
+      c = line;
+      *out += Fixed(value, 4);
+    }
+  };
+  c[0] = g[0];
+  c[1] = g[1];
+  c[2] = g[2];
+  c += 3;
+  word('X', axes.x_mm);
+  word('Y', axes.y_mm);
+  word('Z', axes.z_mm);
+  word('A', RadToDeg(axes.a_rad));
+  word('B', RadToDeg(axes.b_rad));
+  out->append(line, c - line);
+  out->append(tail);
+  out->push_back('\n');
 }
 
 // The pivot moved back (toward the spindle) along the tool axis, same A and B.
@@ -139,18 +155,12 @@ std::string FormatSplitBevelNcProgram(const SplitBevelRequest& request,
           std::to_string(pass.level) + " POINTS " +
           std::to_string(pass.points.size()) + ")\n";
     if (pass.points.empty()) continue;
-    nc += "G00 ";
-    AppendAxisWords(StandBack(pass.points.front().axes), &nc);
-    nc += "\n";
+    AppendMove("G00", StandBack(pass.points.front().axes), std::string(), &nc);
     for (size_t j = 0; j < pass.points.size(); ++j) {
-      nc += "G01 ";
-      AppendAxisWords(pass.points[j].axes, &nc);
-      if (j == 0) nc += feed;
-      nc += "\n";
+      AppendMove(
+          "G01", pass.points[j].axes, j == 0 ? feed : std::string(), &nc);
     }
-    nc += "G00 ";
-    AppendAxisWords(StandBack(pass.points.back().axes), &nc);
-    nc += "\n";
+    AppendMove("G00", StandBack(pass.points.back().axes), std::string(), &nc);
   }
   nc += "M30\n%\n";
   return nc;
