@@ -83,10 +83,12 @@ struct HeadLimits {
 };
 
 // The angles for a tool axis, chosen as SPLIT_BEVEL.md §6 says. With previous
-// == nullptr (first point of the program): branch 1 with B in (-180, 180].
-// Otherwise, among both branches and B + 360 deg m within the limits, the
-// candidate nearest the previous point by max(|dA|, |dB|), ties to branch 1.
-// Returns false when no candidate lies within the limits.
+// == nullptr (first point of the program): branch 1 with B in (-180, 180] (B =
+// 0 if the tool lies along Y), and false if that is outside the limits: §6
+// fixes the first point's branch and offers no other. Otherwise, among both
+// branches and B + 360 deg m within the limits, the candidate nearest the
+// previous point by max(|dA|, |dB|), ties to branch 1. Returns false when no
+// candidate lies within the limits.
 bool ChooseHeadAngles(const Eigen::Vector3d& axis_m,
                       const HeadAngles* previous,
                       const HeadLimits& limits,

@@ -176,6 +176,14 @@ TEST(ChooseHeadAngles, ToolAlongYKeepsThePreviousB) {
   EXPECT_EQ(h.b_rad, 0.7);
 }
 
+TEST(ChooseHeadAngles, FirstPointAlongYTakesBZero) {
+  HeadAngles h{1.0, 1.0};
+  ASSERT_TRUE(ChooseHeadAngles(
+      Eigen::Vector3d(0.0, 1.0, 0.0), nullptr, HeadLimits(), &h));
+  EXPECT_NEAR(h.a_rad, -kPi / 2, 1e-15);
+  EXPECT_EQ(h.b_rad, 0.0);
+}
+
 TEST(ChooseHeadAngles, NoCandidateWithinTheLimits) {
   HeadLimits narrow;
   narrow.a_min_rad = DegToRad(-10.0);
