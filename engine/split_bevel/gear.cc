@@ -50,7 +50,7 @@ SplitBevelGearData DeriveSplitBevelGear(const SplitBevelGear& gear) {
   return d;
 }
 
-double Involute(double x_rad) { return std::tan(x_rad) - x_rad; }
+double SplitBevelInvolute(double x_rad) { return std::tan(x_rad) - x_rad; }
 
 double SpiralAngleAt(const SplitBevelGearData& gear, double cone_distance_mm) {
   return std::acos(gear.base_radius_mm / cone_distance_mm);
@@ -76,8 +76,8 @@ double CentreLineAzimuth(const SplitBevelGearData& gear,
                          double cone_distance_mm) {
   return SlotAzimuth(gear, slot) +
          gear.hand_sign *
-             (Involute(SpiralAngleAt(gear, cone_distance_mm)) -
-              Involute(gear.mean_spiral_angle_rad)) /
+             (SplitBevelInvolute(SpiralAngleAt(gear, cone_distance_mm)) -
+              SplitBevelInvolute(gear.mean_spiral_angle_rad)) /
              std::sin(gear.pitch_angle_rad);
 }
 
@@ -104,7 +104,7 @@ double FlankLineAzimuthOffset(const SplitBevelGearData& gear,
                               int slot,
                               SplitBevelFlank flank) {
   return SlotAzimuth(gear, slot) -
-         gear.hand_sign * Involute(gear.mean_spiral_angle_rad) /
+         gear.hand_sign * SplitBevelInvolute(gear.mean_spiral_angle_rad) /
              std::sin(gear.pitch_angle_rad) +
          FlankTurn(gear, flank);
 }

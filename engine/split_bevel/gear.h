@@ -100,8 +100,9 @@ struct SplitBevelGearData {
 // and every derived value is finite.
 SplitBevelGearData DeriveSplitBevelGear(const SplitBevelGear& gear);
 
-// inv x = tan x - x.
-double Involute(double x_rad);
+// inv x = tan x - x (the grinder family has its own gearloop::Involute; the
+// families include nothing of each other).
+double SplitBevelInvolute(double x_rad);
 // beta(R) = acos(r_b / R) [rad], for R >= r_b.
 double SpiralAngleAt(const SplitBevelGearData& gear, double cone_distance_mm);
 // Pitch-line arc length from the inner end, S(R) = (R^2 - Ri^2) / (2 r_b) [mm]
