@@ -1,0 +1,498 @@
+#include "engine/split_bevel/trajectory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <utility>
+
+#include "engine/core/units.h"
+#include "engine/split_bevel/flank.h"
+#include "engine/split_bevel/nc_program.h"
+
+namespace gearloop {
+
+namespace {
+
+// Range limits compare in radians; a degree bound converted to radians may sit
+// an ulp off, so the inclusive bounds (delta <= 90 deg, segment_angle <= 360
+// deg) allow this much.
+constexpr double kAngleSlackRad = 1e-12;
+
+std::string Number(double x) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.10g", x);
+  return buffer;
+}
+
+bool Fail(const std::string& field,
+          const std::string& message,
+          std::string* out_field,
+          std::string* out_message) {
+  if (out_field != nullptr) *out_field = field;
+  if (out_message != nullptr) *out_message = message;
+  return false;
+}
+
+// n_s-side azimuth difference brought into (-pi, pi].
+double AngleDifference(double a, double b) {
+  double d = std::remainder(a - b, 2.0 * kPi);
+  if (d <= -kPi) d += 2.0 * kPi;
+  return d;
+}
+
+double SegmentMid(const SplitBevelRequest& request,
+                  const SplitBevelGearData& gear) {
+  return request.setup.segment_mid_rad
+             ? *request.setup.segment_mid_rad
+             : SlotAzimuth(gear, request.cut.slot_index);
+}
+
+}  // namespace
+
+bool SplitBevelRequest::IsValid(std::string* field,
+                                std::string* message) const {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  const auto finite = [](double x) { return std::isfinite(x); };
+  const auto deg = [](double rad) { return Number(RadToDeg(rad)); };
+
+  // --- gear ---
+  if (gear.teeth < 1)
+    return fail("gear.teeth",
+                "gear.teeth must be >= 1, got " + std::to_string(gear.teeth));
+  if (!finite(gear.pitch_angle_rad) || gear.pitch_angle_rad <= 0.0 ||
+      gear.pitch_angle_rad > kPi / 2 + kAngleSlackRad)
+    return fail("gear.pitch_angle_deg",
+                "gear.pitch_angle_deg must be in (0, 90], got " +
+                    deg(gear.pitch_angle_rad));
+  if (gear.outer_cone_distance_mm.has_value() ==
+      gear.outer_transverse_module_mm.has_value())
+    return fail("gear.outer_cone_distance_mm",
+                std::string("give exactly one of gear.outer_cone_distance_mm "
+                            "and gear.outer_transverse_module_mm (") +
+                    (gear.outer_cone_distance_mm ? "both" : "neither") +
+                    " given)");
+  if (gear.outer_cone_distance_mm && (!finite(*gear.outer_cone_distance_mm) ||
+                                      *gear.outer_cone_distance_mm <= 0.0))
+    return fail("gear.outer_cone_distance_mm",
+                "gear.outer_cone_distance_mm must be > 0, got " +
+                    Number(*gear.outer_cone_distance_mm));
+  if (gear.outer_transverse_module_mm &&
+      (!finite(*gear.outer_transverse_module_mm) ||
+       *gear.outer_transverse_module_mm <= 0.0))
+    return fail("gear.outer_transverse_module_mm",
+                "gear.outer_transverse_module_mm must be > 0, got " +
+                    Number(*gear.outer_transverse_module_mm));
+  const double re = gear.outer_cone_distance_mm
+                        ? *gear.outer_cone_distance_mm
+                        : gear.teeth * *gear.outer_transverse_module_mm /
+                              (2.0 * std::sin(gear.pitch_angle_rad));
+  if (!finite(gear.face_width_mm) || gear.face_width_mm <= 0.0 ||
+      gear.face_width_mm >= re)
+    return fail("gear.face_width_mm",
+                "gear.face_width_mm must be in (0, Re = " + Number(re) +
+                    "), got " + Number(gear.face_width_mm));
+  if (gear.mean_spiral_angle_rad.has_value() ==
+      gear.outer_spiral_angle_rad.has_value())
+    return fail("gear.mean_spiral_angle_deg",
+                std::string("give exactly one of gear.mean_spiral_angle_deg "
+                            "and gear.outer_spiral_angle_deg (") +
+                    (gear.mean_spiral_angle_rad ? "both" : "neither") +
+                    " given)");
+  const std::string spiral_field = gear.mean_spiral_angle_rad
+                                       ? "gear.mean_spiral_angle_deg"
+                                       : "gear.outer_spiral_angle_deg";
+  const double spiral = gear.mean_spiral_angle_rad
+                            ? *gear.mean_spiral_angle_rad
+                            : *gear.outer_spiral_angle_rad;
+  if (!finite(spiral) || spiral <= 0.0 || spiral >= DegToRad(60.0))
+    return fail(spiral_field,
+                spiral_field + " must be in (0, 60), got " + deg(spiral));
+  if (!finite(gear.pressure_angle_rad) || gear.pressure_angle_rad <= 0.0 ||
+      gear.pressure_angle_rad >= DegToRad(45.0))
+    return fail("gear.pressure_angle_deg",
+                "gear.pressure_angle_deg must be in (0, 45), got " +
+                    deg(gear.pressure_angle_rad));
+  const std::pair<const std::optional<double>*, const char*> proportions[] = {
+      {&gear.addendum_mm, "gear.addendum_mm"},
+      {&gear.dedendum_mm, "gear.dedendum_mm"},
+      {&gear.slot_width_mm, "gear.slot_width_mm"}};
+  for (const auto& [value, name] : proportions) {
+    if (value->has_value() && (!finite(**value) || **value <= 0.0))
+      return fail(name,
+                  std::string(name) + " must be > 0, got " + Number(**value));
+  }
+
+  // --- tool ---
+  if (!finite(tool.radius_mm) || tool.radius_mm <= 0.0)
+    return fail("tool.radius_mm",
+                "tool.radius_mm must be > 0, got " + Number(tool.radius_mm));
+  if (!finite(tool.stock_mm) || tool.stock_mm <= -tool.radius_mm)
+    return fail("tool.stock_mm",
+                "tool.stock_mm must be > -tool.radius_mm = " +
+                    Number(-tool.radius_mm) + ", got " + Number(tool.stock_mm));
+
+  // --- cut ---
+  if (std::abs(static_cast<long long>(cut.slot_index)) >= gear.teeth)
+    return fail("cut.slot_index",
+                "|cut.slot_index| must be < gear.teeth = " +
+                    std::to_string(gear.teeth) + ", got " +
+                    std::to_string(cut.slot_index));
+  if (cut.flanks.empty())
+    return fail("cut.flanks",
+                "cut.flanks must name at least one of convex, concave");
+  for (size_t i = 0; i < cut.flanks.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (cut.flanks[i] == cut.flanks[j])
+        return fail("cut.flanks",
+                    std::string("cut.flanks names ") +
+                        SplitBevelFlankName(cut.flanks[i]) + " more than once");
+    }
+  }
+  if (cut.depth_levels < 1 || cut.depth_levels > kSplitBevelMaxLevels)
+    return fail("cut.depth_levels",
+                "cut.depth_levels must be in 1..100, got " +
+                    std::to_string(cut.depth_levels));
+  if (cut.steps && cut.chord_tolerance_mm)
+    return fail("cut.steps",
+                "give at most one of cut.steps and cut.chord_tolerance_mm "
+                "(both given)");
+  if (cut.steps && (*cut.steps < 2 || *cut.steps > kSplitBevelMaxSteps))
+    return fail(
+        "cut.steps",
+        "cut.steps must be in 2..20001, got " + std::to_string(*cut.steps));
+  if (cut.chord_tolerance_mm &&
+      (!finite(*cut.chord_tolerance_mm) ||
+       *cut.chord_tolerance_mm < kSplitBevelMinChordToleranceMm))
+    return fail("cut.chord_tolerance_mm",
+                "cut.chord_tolerance_mm must be >= 1e-4, got " +
+                    Number(*cut.chord_tolerance_mm));
+  if (!finite(cut.feed_mm_per_min) || cut.feed_mm_per_min <= 0.0)
+    return fail(
+        "cut.feed_mm_per_min",
+        "cut.feed_mm_per_min must be > 0, got " + Number(cut.feed_mm_per_min));
+
+  // --- machine ---
+  if (!finite(machine.pivot_length_mm) || machine.pivot_length_mm < 0.0)
+    return fail("machine.pivot_length_mm",
+                "machine.pivot_length_mm must be >= 0, got " +
+                    Number(machine.pivot_length_mm));
+  const HeadLimits& limits = machine.limits;
+  if (!finite(limits.a_min_rad) || !finite(limits.a_max_rad) ||
+      limits.a_min_rad >= limits.a_max_rad)
+    return fail(
+        "machine.a_limits_deg",
+        "machine.a_limits_deg must be [min, max] with min < max, got [" +
+            deg(limits.a_min_rad) + ", " + deg(limits.a_max_rad) + "]");
+  if (!finite(limits.b_min_rad) || !finite(limits.b_max_rad) ||
+      limits.b_min_rad >= limits.b_max_rad)
+    return fail(
+        "machine.b_limits_deg",
+        "machine.b_limits_deg must be [min, max] with min < max, got [" +
+            deg(limits.b_min_rad) + ", " + deg(limits.b_max_rad) + "]");
+
+  // --- setup ---
+  if (!setup.apex_mm.allFinite())
+    return fail("setup.apex_mm", "setup.apex_mm must be three finite numbers");
+  if (setup.segment_mid_rad && !finite(*setup.segment_mid_rad))
+    return fail("setup.segment_mid_deg",
+                "setup.segment_mid_deg must be finite");
+  if (setup.segment_angle_rad &&
+      (!finite(*setup.segment_angle_rad) || *setup.segment_angle_rad <= 0.0 ||
+       *setup.segment_angle_rad > 2.0 * kPi + kAngleSlackRad))
+    return fail("setup.segment_angle_deg",
+                "setup.segment_angle_deg must be in (0, 360], got " +
+                    deg(*setup.segment_angle_rad));
+
+  // --- the gear, tool and segment together ---
+  const SplitBevelGearData d = DeriveSplitBevelGear(gear);
+  if (!(d.base_radius_mm < d.inner_cone_distance_mm))
+    return fail(spiral_field,
+                "the base circle r_b = " + Number(d.base_radius_mm) +
+                    " mm is not inside the inner cone distance Ri = " +
+                    Number(d.inner_cone_distance_mm) + " mm: lower " +
+                    spiral_field + " or the face width");
+  const double ta = std::tan(d.pressure_angle_rad),
+               ca = std::cos(d.pressure_angle_rad),
+               sa = std::sin(d.pressure_angle_rad);
+  const double root_width = d.slot_width_mm - 2.0 * d.dedendum_mm * ta;
+  if (root_width <= 0.0)
+    return fail("gear.dedendum_mm",
+                "the slot closes above the root: w - 2 h_f tan(alpha) = " +
+                    Number(root_width) + " mm <= 0");
+  const double r0s = tool.radius_mm + tool.stock_mm;
+  const double wide = (2.0 * tool.radius_mm + tool.stock_mm) *
+                      std::cos(2.0 * d.pressure_angle_rad);
+  const double room = d.slot_width_mm * ca - 2.0 * d.dedendum_mm * sa;
+  if (wide > room)
+    return fail(
+        "tool.radius_mm",
+        "the tool is too wide for the slot: (2 r0 + s) cos(2 alpha) = " +
+            Number(wide) +
+            " mm > w cos(alpha) - 2 h_f sin(alpha) = " + Number(room) + " mm");
+  if (std::find(cut.flanks.begin(),
+                cut.flanks.end(),
+                SplitBevelFlank::kConcave) != cut.flanks.end()) {
+    const double bend =
+        (d.inner_cone_distance_mm * std::sin(d.inner_spiral_angle_rad) -
+         d.dedendum_mm * ta) /
+        ca;
+    if (r0s >= bend)
+      return fail(
+          "tool.radius_mm",
+          "the concave flank is more curved than the tool allows: r0 + s = " +
+              Number(r0s) +
+              " mm >= (Ri sin(beta_i) - h_f tan(alpha)) / cos(alpha) = " +
+              Number(bend) + " mm");
+  }
+  if (setup.segment_angle_rad) {
+    const double mid = SegmentMid(*this, d);
+    const double half = 0.5 * *setup.segment_angle_rad;
+    for (const SplitBevelFlank flank : cut.flanks) {
+      // psi_f(R) is monotonic in R: its ends bound the line.
+      for (const double r :
+           {d.inner_cone_distance_mm, d.outer_cone_distance_mm}) {
+        const double off =
+            AngleDifference(FlankLineAzimuth(d, cut.slot_index, flank, r), mid);
+        if (std::abs(off) > half)
+          return fail("cut.slot_index",
+                      std::string("the ") + SplitBevelFlankName(flank) +
+                          " pitch line of slot " +
+                          std::to_string(cut.slot_index) + " reaches " +
+                          deg(off) +
+                          " deg from segment_mid_deg at R = " + Number(r) +
+                          " mm, outside the segment's +-" + deg(half) + " deg");
+      }
+    }
+  }
+  return true;
+}
+
+Eigen::Vector3d SplitBevelToolCentre(const SplitBevelFlankSurface& flank,
+                                     const SplitBevelTool& tool,
+                                     double cone_distance_mm,
+                                     double height_mm) {
+  const FlankSection s = flank.Section(cone_distance_mm);
+  return s.Point(height_mm) +
+         (tool.radius_mm + tool.stock_mm) * s.Normal(height_mm);
+}
+
+double SplitBevelChordDeviation(const SplitBevelFlankSurface& flank,
+                                const SplitBevelTool& tool,
+                                double height_mm,
+                                int stations) {
+  const SplitBevelGearData& gear = flank.gear();
+  const double total = ArcLengthAt(gear, gear.outer_cone_distance_mm);
+  const int halves = 2 * (stations - 1);
+  const auto centre = [&](int i) {
+    return SplitBevelToolCentre(
+        flank, tool, ConeDistanceAtArc(gear, total * i / halves), height_mm);
+  };
+  double worst = 0.0;
+  Eigen::Vector3d a = centre(0);
+  for (int j = 0; j + 1 < stations; ++j) {
+    const Eigen::Vector3d mid = centre(2 * j + 1);
+    const Eigen::Vector3d b = centre(2 * j + 2);
+    // Distance from the mid-station's centre to the chord segment [a, b].
+    const Eigen::Vector3d ab = b - a;
+    const double t = std::clamp((mid - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    worst = std::max(worst, (a + t * ab - mid).norm());
+    a = b;
+  }
+  return worst;
+}
+
+namespace {
+
+// The smallest n >= 2 whose mid-station deviation is within the tolerance; 0
+// when even 20001 is not enough. The deviation of a smooth path falls as 1 / (n
+// - 1)^2, so n is first estimated from n = 3, then bracketed and bisected (the
+// bisection assumes the deviation does not rise with n, which holds for the
+// smooth, slowly turning paths of one flank).
+int StationsForTolerance(const SplitBevelFlankSurface& flank,
+                         const SplitBevelTool& tool,
+                         double height_mm,
+                         double tolerance_mm) {
+  const auto ok = [&](int n) {
+    return SplitBevelChordDeviation(flank, tool, height_mm, n) <= tolerance_mm;
+  };
+  if (ok(2)) return 2;
+  const double d3 = SplitBevelChordDeviation(flank, tool, height_mm, 3);
+  if (d3 <= tolerance_mm) return 3;
+  const double estimate = 1.0 + 2.0 * std::sqrt(d3 / tolerance_mm);
+  int lo = 3;  // fails
+  int hi = static_cast<int>(
+      std::min<double>(std::ceil(1.1 * estimate) + 1.0, kSplitBevelMaxSteps));
+  while (!ok(hi)) {
+    if (hi >= kSplitBevelMaxSteps) return 0;
+    lo = hi;
+    hi = std::min(2 * hi, kSplitBevelMaxSteps);
+  }
+  const int guess_lo = static_cast<int>(std::floor(0.9 * estimate));
+  if (guess_lo > lo && guess_lo < hi && !ok(guess_lo)) lo = guess_lo;
+  while (hi - lo > 1) {
+    const int mid = lo + (hi - lo) / 2;
+    (ok(mid) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
+}  // namespace
+
+SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
+  SplitBevelResult result;
+  if (!request.IsValid(&result.field, &result.message)) return result;
+  const SplitBevelGearData gear = DeriveSplitBevelGear(request.gear);
+  result.derived = gear;
+  result.segment_mid_rad = SegmentMid(request, gear);
+  result.blank_to_machine =
+      SplitBevelBlankToMachine(result.segment_mid_rad, request.setup.apex_mm);
+  const Eigen::Matrix3d rotation = result.blank_to_machine.block<3, 3>(0, 0);
+  const Eigen::Vector3d apex = request.setup.apex_mm;
+
+  const SplitBevelCut& cut = request.cut;
+  const SplitBevelTool& tool = request.tool;
+  const double offset = tool.radius_mm + tool.stock_mm;
+  const double cos_alpha = std::cos(gear.pressure_angle_rad);
+  const double total_arc = ArcLengthAt(gear, gear.outer_cone_distance_mm);
+  const double depth = gear.addendum_mm + gear.dedendum_mm;
+  const double pivot = request.machine.pivot_length_mm;
+
+  HeadAngles previous;
+  bool have_previous = false;
+  for (const SplitBevelFlank flank_side : cut.flanks) {
+    const SplitBevelFlankSurface flank(gear, cut.slot_index, flank_side);
+    // Sections at the stations, shared by the levels that use the same n.
+    std::vector<FlankSection> sections;
+    std::vector<double> arcs;
+    for (int level = 0; level < cut.depth_levels; ++level) {
+      const double tip =
+          gear.addendum_mm - (level + 1) * depth / cut.depth_levels;
+      int n = cut.steps.value_or(kSplitBevelDefaultSteps);
+      if (cut.chord_tolerance_mm) {
+        n = StationsForTolerance(flank, tool, tip, *cut.chord_tolerance_mm);
+        if (n == 0) {
+          SplitBevelResult failed;
+          failed.derived = gear;
+          failed.field = "cut.chord_tolerance_mm";
+          failed.message =
+              "cut.chord_tolerance_mm = " + Number(*cut.chord_tolerance_mm) +
+              " mm needs more than " + std::to_string(kSplitBevelMaxSteps) +
+              " stations on the " + SplitBevelFlankName(flank_side) +
+              " flank, level " + std::to_string(level);
+          return failed;
+        }
+      }
+      if (static_cast<int>(sections.size()) != n) {
+        sections.clear();
+        arcs.clear();
+        sections.reserve(n);
+        arcs.reserve(n);
+        for (int j = 0; j < n; ++j) {
+          const int i = cut.from == SplitBevelStart::kToe ? j : n - 1 - j;
+          // The ends exactly at Ri and Re.
+          const double arc = i == n - 1 ? total_arc : total_arc * i / (n - 1);
+          const double r = i == 0       ? gear.inner_cone_distance_mm
+                           : i == n - 1 ? gear.outer_cone_distance_mm
+                                        : ConeDistanceAtArc(gear, arc);
+          arcs.push_back(arc);
+          sections.push_back(flank.Section(r));
+        }
+      }
+
+      SplitBevelPass pass;
+      pass.slot = cut.slot_index;
+      pass.flank = flank_side;
+      pass.level = level;
+      pass.tip_height_mm = tip;
+      pass.side_deviation_mm.min_mm = std::numeric_limits<double>::infinity();
+      pass.side_deviation_mm.max_mm = -std::numeric_limits<double>::infinity();
+      pass.points.resize(n);
+      for (int j = 0; j < n; ++j) {
+        const FlankSection& s = sections[j];
+        SplitBevelPoint& point = pass.points[j];
+        point.arc_mm = arcs[j];
+        point.cone_distance_mm = s.cone_distance_mm;
+        point.spiral_angle_rad = s.spiral_angle_rad;
+        point.pitch_point_mm = s.pitch_point_mm;
+        point.flank_point_mm = s.Point(tip);
+        point.flank_normal = s.Normal(tip);
+        point.tool_centre_mm =
+            point.flank_point_mm + offset * point.flank_normal;
+        point.tool_axis = s.ruling;
+
+        const Eigen::Vector3d axis_m = rotation * point.tool_axis;
+        const Eigen::Vector3d centre_m = apex + rotation * point.tool_centre_mm;
+        HeadAngles angles;
+        if (!ChooseHeadAngles(axis_m,
+                              have_previous ? &previous : nullptr,
+                              request.machine.limits,
+                              &angles)) {
+          SplitBevelResult failed;
+          failed.derived = gear;
+          failed.field = "machine.a_limits_deg";
+          failed.message =
+              std::string(
+                  "no head position within the axis limits for the tool axis "
+                  "at R = ") +
+              Number(s.cone_distance_mm) + " mm on the " +
+              SplitBevelFlankName(flank_side) + " flank, level " +
+              std::to_string(level) + " (A in [" +
+              Number(RadToDeg(request.machine.limits.a_min_rad)) + ", " +
+              Number(RadToDeg(request.machine.limits.a_max_rad)) +
+              "] deg, B in [" +
+              Number(RadToDeg(request.machine.limits.b_min_rad)) + ", " +
+              Number(RadToDeg(request.machine.limits.b_max_rad)) + "] deg)";
+          return failed;
+        }
+        previous = angles;
+        have_previous = true;
+        // The pivot from the requested axis itself (a_m(A, B) equals it to
+        // rounding).
+        const Eigen::Vector3d pivot_m = centre_m + pivot * axis_m;
+        point.axes = HeadAxes{
+            pivot_m.x(), pivot_m.y(), pivot_m.z(), angles.a_rad, angles.b_rad};
+
+        // Side deviation along the tool's side line from the tip height up to
+        // the addendum. The foot point moves smoothly with the height: each
+        // Newton starts from the parabola through the three previous feet (the
+        // line through two at the third height), with the last exact section as
+        // its anchor.
+        FlankSection anchor = s;
+        double foot_previous = s.cone_distance_mm,
+               foot_before = s.cone_distance_mm, foot_third = 0.0;
+        for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
+          const double height = tip + (gear.addendum_mm - tip) * h /
+                                          (kSplitBevelDeviationHeights - 1);
+          const Eigen::Vector3d x =
+              point.tool_centre_mm +
+              ((height - tip) / cos_alpha) * point.tool_axis;
+          const double guess =
+              h < 2    ? foot_previous
+              : h == 2 ? 2.0 * foot_previous - foot_before
+                       : 3.0 * (foot_previous - foot_before) + foot_third;
+          const SplitBevelFlankSurface::NearestPoint near =
+              flank.Nearest(x, guess, &anchor);
+          foot_third = foot_before;
+          foot_before = foot_previous;
+          foot_previous = near.cone_distance_mm;
+          const double gap =
+              (x - near.point_mm).dot(near.normal) - tool.radius_mm;
+          pass.side_deviation_mm.min_mm =
+              std::min(pass.side_deviation_mm.min_mm, gap);
+          pass.side_deviation_mm.max_mm =
+              std::max(pass.side_deviation_mm.max_mm, gap);
+        }
+      }
+      result.passes.push_back(std::move(pass));
+    }
+  }
+  result.ok = true;
+  if (request.nc_program)
+    result.nc_program = FormatSplitBevelNcProgram(request, result);
+  return result;
+}
+
+}  // namespace gearloop
