@@ -1,11 +1,15 @@
-// correction_benchmark: the three correction solvers on the same generated cases (issue 3).
-// Each case: a gear, a target modification and hidden machine errors; the part ground with the
-// nominal settings is measured with probe noise 0.3 um, corrected once by each solver, and the
-// next part is ground with the corrected settings plus the same hidden errors. Reported per
-// case and solver: the time of one correction (the benchmark's own timing), the true rms error
-// of the next part against the target (true_rms_um), the correction size (size: rms axis motion
-// over the roll range in um, MODEL.md §6), and the best the model could reach (best_um).
-// Run: build/bench/correction_benchmark (see BENCHMARKS.md, "## Correction").
+// correction_benchmark: the three correction solvers on the same generated
+// cases (issue 3). Each case: a gear, a target modification and hidden machine
+// errors; the part ground with the nominal settings is measured with probe
+// noise 0.3 um, corrected once by each solver, and the next part is ground with
+// the corrected settings plus the same hidden errors. Reported per case and
+// solver: the time of one correction (the benchmark's own timing), the true rms
+// error of the next part against the target (true_rms_um), the correction size
+// (size: rms axis motion over the roll range in um, MODEL.md §6), and the best
+// the model could reach (best_um). Run: build/bench/correction_benchmark (see
+// BENCHMARKS.md, "## Correction").
+#include <benchmark/benchmark.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -13,13 +17,11 @@
 #include <string>
 #include <vector>
 
-#include <benchmark/benchmark.h>
-
 #include "bench/bench_gears.h"
 #include "engine/correction/correction.h"
 #include "engine/grinder/flat_wheel_grinder.h"
-#include "engine/simulation/measurement_simulator.h"
 #include "engine/grinder/target_modification.h"
+#include "engine/simulation/measurement_simulator.h"
 
 namespace {
 
@@ -37,11 +39,13 @@ std::vector<Case> Cases() {
   const GrindingSetup right_hand = bench::RightHandLeftFlank();
   const GrindingSetup helical = bench::Helical();
   const std::vector<TargetModification> slopes = bench::SlopesAndCrowning();
-  const std::vector<TargetModification> relief = {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic},
-                                                  {ModificationKind::kFlankTwist, 4.0}};
+  const std::vector<TargetModification> relief = {
+      {ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic},
+      {ModificationKind::kFlankTwist, 4.0}};
   const TargetModification diagonal = bench::DiagonalEndRelief();
-  const std::vector<TargetModification> crowned = {{ModificationKind::kProfileCrowning, 3.0},
-                                                   {ModificationKind::kLeadCrowning, 3.0}};
+  const std::vector<TargetModification> crowned = {
+      {ModificationKind::kProfileCrowning, 3.0},
+      {ModificationKind::kLeadCrowning, 3.0}};
   return {
       {"cutter/slopes", cutter, slopes, 42},
       {"cutter/diagonal", cutter, {diagonal}, 43},
@@ -61,13 +65,20 @@ Prepared Prepare(const Case& c) {
   Prepared p;
   p.grinder = std::make_unique<FlatWheelGrinder>(c.setup);
   p.nominal = p.grinder->nominal().ToVector();
-  p.hidden = RandomHiddenErrors(*p.grinder, p.grinder->roll_min_rad(), p.grinder->roll_max_rad(), 2.0, 2, 0.4,
+  p.hidden = RandomHiddenErrors(*p.grinder,
+                                p.grinder->roll_min_rad(),
+                                p.grinder->roll_max_rad(),
+                                2.0,
+                                2,
+                                0.4,
                                 c.hidden_seed);
-  p.target = EvaluateTargetModifications(c.target, p.grinder->grid(), c.setup.gear, c.setup.flank);
+  p.target = EvaluateTargetModifications(
+      c.target, p.grinder->grid(), c.setup.gear, c.setup.flank);
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 0.3;
   cmm.seed = c.hidden_seed;
-  p.measured = SimulateMeasurement(*p.grinder, p.nominal, p.hidden, cmm).measured_um;
+  p.measured =
+      SimulateMeasurement(*p.grinder, p.nominal, p.hidden, cmm).measured_um;
   return p;
 }
 
@@ -101,20 +112,25 @@ void BM_Correction(benchmark::State& state) {
     result = ComputeCorrection(options, input);
     benchmark::DoNotOptimize(result.delta.data());
   }
-  // The next part, ground with the new settings on the machine with its hidden errors.
-  const SimulatedMeasurement next = SimulateMeasurement(*p.grinder, result.parameters, p.hidden, {});
+  // The next part, ground with the new settings on the machine with its hidden
+  // errors.
+  const SimulatedMeasurement next =
+      SimulateMeasurement(*p.grinder, result.parameters, p.hidden, {});
   const Eigen::VectorXd true_error = next.true_deviations_um - p.target;
   state.counters["true_rms_um"] = Rms(true_error);
-  state.counters["lost_points"] = static_cast<double>(next.missing_indices.size());
+  state.counters["lost_points"] =
+      static_cast<double>(next.missing_indices.size());
   state.counters["size"] = result.summary.correction_size;
   state.counters["best_um"] = result.summary.best_reachable_rms_um;
   state.counters["initial_rms_um"] = result.summary.initial_rms_um;
-  state.SetLabel(c.name + " " + CorrectionSolverName(solver) + " " + CorrectionStatusName(result.summary.status));
+  state.SetLabel(c.name + " " + CorrectionSolverName(solver) + " " +
+                 CorrectionStatusName(result.summary.status));
 }
 
-// The same cases run as a closed loop of three corrections (grind, measure with 0.3 um noise,
-// correct, repeat): the true rms error of the part after the third correction
-// (final_true_rms_um) and the largest single correction (max_size). Timing covers the whole loop.
+// The same cases run as a closed loop of three corrections (grind, measure with
+// 0.3 um noise, correct, repeat): the true rms error of the part after the
+// third correction (final_true_rms_um) and the largest single correction
+// (max_size). Timing covers the whole loop.
 void BM_ClosedLoop(benchmark::State& state) {
   const std::vector<Case> cases = Cases();
   const Case& c = cases[state.range(0)];
@@ -133,18 +149,22 @@ void BM_ClosedLoop(benchmark::State& state) {
   }
   double max_size = 0.0;
   for (const ClosedLoopIteration& it : run.iterations) {
-    if (it.corrected) max_size = std::max(max_size, it.correction.correction_size);
+    if (it.corrected)
+      max_size = std::max(max_size, it.correction.correction_size);
   }
   state.counters["final_true_rms_um"] =
-      run.completed ? run.iterations.back().true_rms_um : std::numeric_limits<double>::quiet_NaN();
+      run.completed ? run.iterations.back().true_rms_um
+                    : std::numeric_limits<double>::quiet_NaN();
   state.counters["max_size"] = max_size;
-  state.SetLabel(c.name + " " + CorrectionSolverName(solver) + (run.completed ? "" : " stopped: " + run.message));
+  state.SetLabel(c.name + " " + CorrectionSolverName(solver) +
+                 (run.completed ? "" : " stopped: " + run.message));
 }
 
 void Arguments(benchmark::internal::Benchmark* b) {
   const int num_cases = static_cast<int>(Cases().size());
   for (int c = 0; c < num_cases; ++c) {
-    for (int s : {static_cast<int>(CorrectionSolver::kRegularised), static_cast<int>(CorrectionSolver::kParticleSwarm),
+    for (int s : {static_cast<int>(CorrectionSolver::kRegularised),
+                  static_cast<int>(CorrectionSolver::kParticleSwarm),
                   static_cast<int>(CorrectionSolver::kPlainLeastSquares)}) {
       b->Args({c, s});
     }

@@ -1,12 +1,13 @@
-// engine_benchmark: one full 5 x 9 deviation evaluation and one full sensitivity matrix S on
-// the published cutter (issue 2 targets on the 2-core machine, single thread: deviations under
-// 0.1 ms, S under 0.5 ms). Run: build/bench/engine_benchmark (see BENCHMARKS.md).
-#include <cmath>
-
+// engine_benchmark: one full 5 x 9 deviation evaluation and one full
+// sensitivity matrix S on the published cutter (issue 2 targets on the 2-core
+// machine, single thread: deviations under 0.1 ms, S under 0.5 ms). Run:
+// build/bench/engine_benchmark (see BENCHMARKS.md).
 #include <benchmark/benchmark.h>
 
-#include "engine/grinder/flat_wheel_grinder.h"
+#include <cmath>
+
 #include "engine/core/units.h"
+#include "engine/grinder/flat_wheel_grinder.h"
 
 namespace {
 
@@ -23,7 +24,8 @@ gearloop::GrindingSetup Cutter() {
   return s;
 }
 
-// Settings a little off nominal, as after a correction, so Newton has work to do.
+// Settings a little off nominal, as after a correction, so Newton has work to
+// do.
 Eigen::VectorXd OffNominal(const gearloop::FlatWheelGrinder& grinder) {
   Eigen::VectorXd zeta = grinder.nominal().ToVector();
   zeta(gearloop::ParameterIndex(gearloop::Axis::kA, 1)) += 3e-5;

@@ -1,12 +1,16 @@
-// noise_floor_study: the closed loop of issue 3 on nine generated gears and targets, with the
-// solver options given on the command line. Per case: the best reachable residual r of the
-// first part's true error, the true rms error of each part of a noise-free loop of three
-// corrections, and, over --seeds noise seeds (probe noise 0.5 um, two corrections), how many
-// parts end within the least-squares noise floor sqrt(r^2 + sigma^2 chi^2_k(0.99) / N), with
-// the mean and the worst final error. Prints a Markdown table (BENCHMARKS.md, "Noise floor").
+// noise_floor_study: the closed loop of issue 3 on nine generated gears and
+// targets, with the solver options given on the command line. Per case: the
+// best reachable residual r of the first part's true error, the true rms error
+// of each part of a noise-free loop of three corrections, and, over --seeds
+// noise seeds (probe noise 0.5 um, two corrections), how many parts end within
+// the least-squares noise floor sqrt(r^2 + sigma^2 chi^2_k(0.99) / N), with the
+// mean and the worst final error. Prints a Markdown table (BENCHMARKS.md,
+// "Noise floor").
 //
-//   build/bench/noise_floor_study [--seeds 100] [--max-order 3] [--min-flank-effect 0.03]
-//                                 [--discrepancy-principle] [--at-commanded-settings]
+//   build/bench/noise_floor_study [--seeds 100] [--max-order 3]
+//   [--min-flank-effect 0.03]
+//                                 [--discrepancy-principle]
+//                                 [--at-commanded-settings]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,8 +22,8 @@
 #include "bench/bench_gears.h"
 #include "engine/correction/correction.h"
 #include "engine/grinder/flat_wheel_grinder.h"
-#include "engine/simulation/measurement_simulator.h"
 #include "engine/grinder/target_modification.h"
+#include "engine/simulation/measurement_simulator.h"
 
 namespace {
 
@@ -46,16 +50,35 @@ std::vector<Case> Cases() {
       {"cutter / slopes + crowning (hidden order 1)", cutter, slopes, 1001, 1},
       {"cutter / slopes + crowning", cutter, slopes, 42, 2},
       {"cutter / diagonal end relief", cutter, {diagonal}, 43, 2},
-      {"cutter / 5 um lead crowning", cutter, {{ModificationKind::kLeadCrowning, 5.0}}, 48, 2},
-      {"right-hand, left flank / tip relief + twist", right_hand,
-       {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic}, {ModificationKind::kFlankTwist, 4.0}}, 43, 2},
-      {"right-hand, left flank / 10 um root relief", right_hand,
-       {{ModificationKind::kRootRelief, 10.0, 0.3, ReliefShape::kParabolic}}, 49, 2},
-      {"helical / crownings", helical,
-       {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kLeadCrowning, 5.0}}, 45, 2},
+      {"cutter / 5 um lead crowning",
+       cutter,
+       {{ModificationKind::kLeadCrowning, 5.0}},
+       48,
+       2},
+      {"right-hand, left flank / tip relief + twist",
+       right_hand,
+       {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic},
+        {ModificationKind::kFlankTwist, 4.0}},
+       43,
+       2},
+      {"right-hand, left flank / 10 um root relief",
+       right_hand,
+       {{ModificationKind::kRootRelief, 10.0, 0.3, ReliefShape::kParabolic}},
+       49,
+       2},
+      {"helical / crownings",
+       helical,
+       {{ModificationKind::kProfileCrowning, 3.0},
+        {ModificationKind::kLeadCrowning, 5.0}},
+       45,
+       2},
       {"helical / slopes + crowning", helical, slopes, 46, 2},
-      {"spur / crownings", spur,
-       {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kLeadCrowning, 3.0}}, 50, 2},
+      {"spur / crownings",
+       spur,
+       {{ModificationKind::kProfileCrowning, 3.0},
+        {ModificationKind::kLeadCrowning, 3.0}},
+       50,
+       2},
   };
 }
 
@@ -91,29 +114,46 @@ int main(int argc, char** argv) {
       options.estimate_machine_state = false;
     } else {
       std::fprintf(stderr,
-                   "usage: noise_floor_study [--seeds N] [--max-order K] [--min-flank-effect UM] "
+                   "usage: noise_floor_study [--seeds N] [--max-order K] "
+                   "[--min-flank-effect UM] "
                    "[--discrepancy-principle] [--at-commanded-settings]\n");
       return 2;
     }
   }
   std::string error;
   if (seeds < 0 || !options.IsValid(&error)) {
-    std::fprintf(stderr, "noise_floor_study: %s\n", seeds < 0 ? "--seeds must be >= 0" : error.c_str());
+    std::fprintf(stderr,
+                 "noise_floor_study: %s\n",
+                 seeds < 0 ? "--seeds must be >= 0" : error.c_str());
     return 2;
   }
-  std::printf("options: max order %d, min flank effect %.3g um, %s, %s; %d seeds of %.1f um probe noise\n\n",
-              options.default_max_order, options.min_flank_effect_um,
-              options.use_discrepancy_principle ? "discrepancy principle" : "unbiased predictive risk",
-              options.estimate_machine_state ? "at the estimated machine state" : "at the commanded settings", seeds,
-              kSigmaUm);
-  std::printf("| case | initial | r | noise-free loop: parts 1, 2, 3 | within the floor | floor | mean | worst |\n");
+  std::printf(
+      "options: max order %d, min flank effect %.3g um, %s, %s; %d seeds of "
+      "%.1f um probe noise\n\n",
+      options.default_max_order,
+      options.min_flank_effect_um,
+      options.use_discrepancy_principle ? "discrepancy principle"
+                                        : "unbiased predictive risk",
+      options.estimate_machine_state ? "at the estimated machine state"
+                                     : "at the commanded settings",
+      seeds,
+      kSigmaUm);
+  std::printf(
+      "| case | initial | r | noise-free loop: parts 1, 2, 3 | within the "
+      "floor | floor | mean | worst |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : Cases()) {
     const FlatWheelGrinder grinder(c.setup);
     const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-    const Eigen::VectorXd hidden = RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0,
-                                                      c.hidden_order, 0.4, c.hidden_seed);
-    const Eigen::VectorXd target = EvaluateTargetModifications(c.target, grinder.grid(), c.setup.gear, c.setup.flank);
+    const Eigen::VectorXd hidden = RandomHiddenErrors(grinder,
+                                                      grinder.roll_min_rad(),
+                                                      grinder.roll_max_rad(),
+                                                      2.0,
+                                                      c.hidden_order,
+                                                      0.4,
+                                                      c.hidden_seed);
+    const Eigen::VectorXd target = EvaluateTargetModifications(
+        c.target, grinder.grid(), c.setup.gear, c.setup.flank);
     const int n = grinder.grid().NumPoints();
 
     CorrectionOptions exact = options;
@@ -121,7 +161,8 @@ int main(int argc, char** argv) {
     CorrectionInput input;
     input.model = &grinder;
     input.current_parameters = nominal;
-    input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+    input.measured_um =
+        SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
     input.target_um = target;
     const CorrectionResult first = ComputeCorrection(exact, input);
     const double r = first.summary.best_reachable_rms_um;
@@ -129,13 +170,16 @@ int main(int argc, char** argv) {
     ClosedLoopOptions noise_free;
     noise_free.corrections = 3;
     noise_free.correction = exact;
-    const ClosedLoopResult run = SimulateClosedLoop(grinder, nominal, hidden, target, noise_free);
+    const ClosedLoopResult run =
+        SimulateClosedLoop(grinder, nominal, hidden, target, noise_free);
     std::string parts;
     for (size_t k = 1; k < 4; ++k) {
       if (!parts.empty()) parts += ", ";
-      parts += k < run.iterations.size() ? Figure(run.iterations[k].true_rms_um) : "stopped";
+      parts += k < run.iterations.size() ? Figure(run.iterations[k].true_rms_um)
+                                         : "stopped";
       if (k - 1 < run.iterations.size() && run.iterations[k - 1].corrected &&
-          run.iterations[k - 1].correction.status != CorrectionStatus::kConverged) {
+          run.iterations[k - 1].correction.status !=
+              CorrectionStatus::kConverged) {
         parts += "*";
       }
     }
@@ -149,8 +193,10 @@ int main(int argc, char** argv) {
       loop.measurement.seed = 1000 + 2 * seed;
       loop.correction = options;
       loop.correction.probe_noise_um = kSigmaUm;
-      const ClosedLoopResult noisy = SimulateClosedLoop(grinder, nominal, hidden, target, loop);
-      if (!noisy.completed || !std::isfinite(noisy.iterations.back().true_rms_um)) {
+      const ClosedLoopResult noisy =
+          SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+      if (!noisy.completed ||
+          !std::isfinite(noisy.iterations.back().true_rms_um)) {
         ++stopped;
         continue;
       }
@@ -162,10 +208,19 @@ int main(int argc, char** argv) {
       worst = std::max(worst, final_um);
     }
     const int finished = seeds - stopped;
-    std::printf("| %s | %s | %s | %s | %d of %d%s | %s | %s | %s |\n", c.name, Figure(first.summary.initial_rms_um).c_str(),
-                Figure(r).c_str(), parts.c_str(), within, seeds,
-                stopped > 0 ? (" (" + std::to_string(stopped) + " stopped)").c_str() : "", Figure(floor_um).c_str(),
-                Figure(finished > 0 ? sum / finished : NAN).c_str(), Figure(finished > 0 ? worst : NAN).c_str());
+    std::printf("| %s | %s | %s | %s | %d of %d%s | %s | %s | %s |\n",
+                c.name,
+                Figure(first.summary.initial_rms_um).c_str(),
+                Figure(r).c_str(),
+                parts.c_str(),
+                within,
+                seeds,
+                stopped > 0
+                    ? (" (" + std::to_string(stopped) + " stopped)").c_str()
+                    : "",
+                Figure(floor_um).c_str(),
+                Figure(finished > 0 ? sum / finished : NAN).c_str(),
+                Figure(finished > 0 ? worst : NAN).c_str());
     std::fflush(stdout);
   }
   return 0;

@@ -1,29 +1,32 @@
-// gearloop-load: a small load generator for a running gearloop-server. Posts corrections of
-// the API.md example gear from N concurrent clients (each on its own keep-alive connection) for
-// a fixed time, then reports latency percentiles and throughput, and checks that every job the
-// server acknowledged (201) is stored (GET each one).
+// gearloop-load: a small load generator for a running gearloop-server. Posts
+// corrections of the API.md example gear from N concurrent clients (each on its
+// own keep-alive connection) for a fixed time, then reports latency percentiles
+// and throughput, and checks that every job the server acknowledged (201) is
+// stored (GET each one).
 //
-//   gearloop-load [--host 127.0.0.1] [--port 8080] [--clients 1] [--seconds 10] [--token T]
+//   gearloop-load [--host 127.0.0.1] [--port 8080] [--clients 1] [--seconds 10]
+//   [--token T]
 //                 [--rate R]
 //
-// --rate R paces each client to R requests per second (0 = as fast as answers come), for a soak
-// at a steady load; the latency figures are then printed every 10 s as well.
+// --rate R paces each client to R requests per second (0 = as fast as answers
+// come), for a soak at a steady load; the latency figures are then printed
+// every 10 s as well.
 //
-// The measurement is simulated once by the server (/api/v1/simulations/measurement) so every
-// request is a realistic solve, not a trivial one.
+// The measurement is simulated once by the server
+// (/api/v1/simulations/measurement) so every request is a realistic solve, not
+// a trivial one.
+#include <httplib.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <nlohmann/json.hpp>
-
-#include <httplib.h>
 
 namespace {
 
@@ -38,7 +41,8 @@ nlohmann::json DefaultSetup() {
 double Percentile(std::vector<double> values, double p) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());
-  const size_t index = std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
+  const size_t index = std::min(
+      values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5));
   return values[index];
 }
 
@@ -76,15 +80,21 @@ int main(int argc, char** argv) {
   httplib::Client setup_client(host, port);
   setup_client.set_read_timeout(60, 0);
   nlohmann::json simulation = DefaultSetup();
-  simulation["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+  simulation["random_hidden_errors"] = {
+      {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
   simulation["noise_um"] = 0.3;
-  auto simulated = setup_client.Post("/api/v1/simulations/measurement", headers, simulation.dump(), "application/json");
+  auto simulated = setup_client.Post("/api/v1/simulations/measurement",
+                                     headers,
+                                     simulation.dump(),
+                                     "application/json");
   if (!simulated || simulated->status != 200) {
-    std::fprintf(stderr, "cannot simulate a measurement on %s:%d\n", host.c_str(), port);
+    std::fprintf(
+        stderr, "cannot simulate a measurement on %s:%d\n", host.c_str(), port);
     return 1;
   }
   nlohmann::json request = DefaultSetup();
-  request["measurement"] = nlohmann::json::parse(simulated->body)["measurement"];
+  request["measurement"] =
+      nlohmann::json::parse(simulated->body)["measurement"];
   request["options"] = {{"probe_noise_um", 0.3}};
   const std::string body = request.dump();
 
@@ -106,24 +116,37 @@ int main(int argc, char** argv) {
       auto next = std::chrono::steady_clock::now();
       while (std::chrono::steady_clock::now() < end) {
         if (rate > 0.0) {
-          next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate));
+          next +=
+              std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                  std::chrono::duration<double>(1.0 / rate));
           std::this_thread::sleep_until(next);
         }
         const auto t0 = std::chrono::steady_clock::now();
-        auto result = client.Post("/api/v1/corrections", headers, body, "application/json");
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        auto result = client.Post(
+            "/api/v1/corrections", headers, body, "application/json");
+        const double ms = std::chrono::duration<double, std::milli>(
+                              std::chrono::steady_clock::now() - t0)
+                              .count();
         if (!result || result->status != 201) {
           ++errors;
           continue;
         }
         local.push_back(ms);
-        local_ids.push_back(nlohmann::json::parse(result->body)["id"].get<long long>());
-        if (rate > 0.0 && local.size() % static_cast<size_t>(std::max(1.0, 10.0 * rate)) == 0) {
-          const std::vector<double> window(local.end() - static_cast<long>(std::max(1.0, 10.0 * rate)), local.end());
+        local_ids.push_back(
+            nlohmann::json::parse(result->body)["id"].get<long long>());
+        if (rate > 0.0 &&
+            local.size() % static_cast<size_t>(std::max(1.0, 10.0 * rate)) ==
+                0) {
+          const std::vector<double> window(
+              local.end() - static_cast<long>(std::max(1.0, 10.0 * rate)),
+              local.end());
           std::lock_guard<std::mutex> lock(mutex);
           std::printf("  t = %5.0f s: last 10 s p50 %.2f ms, p99 %.2f ms\n",
-                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                      Percentile(window, 0.5), Percentile(window, 0.99));
+                      std::chrono::duration<double>(
+                          std::chrono::steady_clock::now() - start)
+                          .count(),
+                      Percentile(window, 0.5),
+                      Percentile(window, 0.99));
           std::fflush(stdout);
         }
       }
@@ -133,17 +156,29 @@ int main(int argc, char** argv) {
     });
   }
   for (std::thread& thread : threads) thread.join();
-  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
 
   long long missing = 0;
   for (long long id : ids) {
-    auto result = setup_client.Get(("/api/v1/corrections/" + std::to_string(id)).c_str(), headers);
+    auto result = setup_client.Get(
+        ("/api/v1/corrections/" + std::to_string(id)).c_str(), headers);
     if (!result || result->status != 200) ++missing;
   }
-  std::printf("clients %d, %.1f s: %zu corrections (%.1f/s), errors %lld\n", clients, elapsed, latencies_ms.size(),
-              latencies_ms.size() / elapsed, errors.load());
-  std::printf("latency ms: p50 %.2f  p90 %.2f  p99 %.2f  max %.2f\n", Percentile(latencies_ms, 0.5),
-              Percentile(latencies_ms, 0.9), Percentile(latencies_ms, 0.99), Percentile(latencies_ms, 1.0));
-  std::printf("acknowledged jobs stored: %lld of %zu\n", static_cast<long long>(ids.size()) - missing, ids.size());
+  std::printf("clients %d, %.1f s: %zu corrections (%.1f/s), errors %lld\n",
+              clients,
+              elapsed,
+              latencies_ms.size(),
+              latencies_ms.size() / elapsed,
+              errors.load());
+  std::printf("latency ms: p50 %.2f  p90 %.2f  p99 %.2f  max %.2f\n",
+              Percentile(latencies_ms, 0.5),
+              Percentile(latencies_ms, 0.9),
+              Percentile(latencies_ms, 0.99),
+              Percentile(latencies_ms, 1.0));
+  std::printf("acknowledged jobs stored: %lld of %zu\n",
+              static_cast<long long>(ids.size()) - missing,
+              ids.size());
   return missing == 0 && errors == 0 ? 0 : 1;
 }

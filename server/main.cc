@@ -1,14 +1,17 @@
 // gearloop-server: the HTTP server of gearloop (API.md).
 //
-//   gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1] [--threads N]
-//                   [--token-file F] [--batch-workers N] [--quiet] [--seed-demo]
+//   gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1]
+//   [--threads N]
+//                   [--token-file F] [--batch-workers N] [--quiet]
+//                   [--seed-demo]
 //
-// --seed-demo: once listening, an empty job history is seeded with a short closed-loop demo
-// (server/demo_seed.h) spoken over HTTP, and its summary printed; scripts/run uses it.
+// --seed-demo: once listening, an empty job history is seeded with a short
+// closed-loop demo (server/demo_seed.h) spoken over HTTP, and its summary
+// printed; scripts/run uses it.
 //
-// SIGTERM or SIGINT stops it gracefully: no new connections, requests in flight are answered,
-// batch workers finish the item in hand (waiting items stay pending in the database and resume
-// on the next start).
+// SIGTERM or SIGINT stops it gracefully: no new connections, requests in flight
+// are answered, batch workers finish the item in hand (waiting items stay
+// pending in the database and resume on the next start).
 #include <glog/logging.h>
 #include <pthread.h>
 #include <signal.h>
@@ -28,8 +31,10 @@
 namespace {
 
 void PrintUsage() {
-  std::cerr << "usage: gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1]\n"
-               "                       [--threads N] [--token-file F] [--batch-workers N] [--quiet]\n"
+  std::cerr << "usage: gearloop-server [--port 8080] [--db ./gearloop.sqlite] "
+               "[--host 127.0.0.1]\n"
+               "                       [--threads N] [--token-file F] "
+               "[--batch-workers N] [--quiet]\n"
                "                       [--seed-demo]\n";
 }
 
@@ -87,8 +92,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  // Block the stop signals in every thread (the HTTP pool inherits the mask); one thread waits
-  // for them with sigwait and stops the server from ordinary code, not from a signal handler.
+  // Block the stop signals in every thread (the HTTP pool inherits the mask);
+  // one thread waits for them with sigwait and stops the server from ordinary
+  // code, not from a signal handler.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGTERM);
@@ -109,35 +115,43 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (options.token_file.empty()) {
-    LOG(INFO) << "no token file: listening on loopback only, without access control";
+    LOG(INFO)
+        << "no token file: listening on loopback only, without access control";
   }
-  LOG(INFO) << "gearloop-server " << gearloop::ServerVersion() << " listening on http://" << options.host << ":"
-            << port << " (database " << options.database_path << ")";
+  LOG(INFO) << "gearloop-server " << gearloop::ServerVersion()
+            << " listening on http://" << options.host << ":" << port
+            << " (database " << options.database_path << ")";
 
   std::atomic<bool> signalled{false};
   std::thread signal_waiter([&server, &signalled, stop_signals] {
     int signal_number = 0;
     sigwait(&stop_signals, &signal_number);
     signalled = true;
-    LOG(INFO) << "received " << strsignal(signal_number) << ": finishing requests in flight";
+    LOG(INFO) << "received " << strsignal(signal_number)
+              << ": finishing requests in flight";
     server->Stop();
   });
 
   std::thread serving([&server] { server->Serve(); });
   if (seed_demo) {
-    while (!server->IsRunning()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    while (!server->IsRunning())
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     if (!options.token_file.empty()) {
-      std::cout << "Tokens are on: the demo is not seeded (it would need a write token).\n";
+      std::cout << "Tokens are on: the demo is not seeded (it would need a "
+                   "write token).\n";
     } else if (!gearloop::SeedDemo(options.host, port, "", std::cout)) {
-      std::cout << "The demo could not be seeded (see above); the server keeps running.\n";
+      std::cout << "The demo could not be seeded (see above); the server keeps "
+                   "running.\n";
     }
-    std::cout << "\ngearloop-server is running on http://" << options.host << ":" << port
-              << "  (dashboard: /, API: /api/v1, metrics: /metrics; Ctrl-C stops it)\n"
+    std::cout << "\ngearloop-server is running on http://" << options.host
+              << ":" << port
+              << "  (dashboard: /, API: /api/v1, metrics: /metrics; Ctrl-C "
+                 "stops it)\n"
               << std::flush;
   }
   serving.join();
-  // Serve() returned: normally because the waiter called Stop(). Wake the waiter otherwise, and
-  // let it leave Stop() before the server goes away.
+  // Serve() returned: normally because the waiter called Stop(). Wake the
+  // waiter otherwise, and let it leave Stop() before the server goes away.
   if (!signalled) kill(getpid(), SIGTERM);
   signal_waiter.join();
   server.reset();  // closes the database after the batch workers have stopped

@@ -1,6 +1,7 @@
-// clients/cli/api_client.cc: cpp-httplib underneath. A 5xx counts as a transport failure, not as
-// an API error: the contract promises 4xx for anything the request did wrong, so a 5xx says the
-// server is broken, and scripts retry those, not fix their input.
+// clients/cli/api_client.cc: cpp-httplib underneath. A 5xx counts as a
+// transport failure, not as an API error: the contract promises 4xx for
+// anything the request did wrong, so a 5xx says the server is broken, and
+// scripts retry those, not fix their input.
 #include "clients/cli/api_client.h"
 
 #include <httplib.h>
@@ -10,7 +11,8 @@ namespace gearloop {
 std::string ApiResponse::ErrorText() const {
   if (!transport_error.empty()) return transport_error;
   std::string text = std::to_string(status);
-  const nlohmann::json* error = body.is_object() && body.contains("error") ? &body["error"] : nullptr;
+  const nlohmann::json* error =
+      body.is_object() && body.contains("error") ? &body["error"] : nullptr;
   if (error != nullptr && error->is_object()) {
     const std::string code = error->value("code", "");
     const std::string message = error->value("message", "");
@@ -24,16 +26,20 @@ std::string ApiResponse::ErrorText() const {
   return text;
 }
 
-ApiClient::ApiClient(const std::string& server, const std::string& token, int timeout_seconds)
+ApiClient::ApiClient(const std::string& server,
+                     const std::string& token,
+                     int timeout_seconds)
     : server_(server), token_(token) {
   while (!server_.empty() && server_.back() == '/') server_.pop_back();
   if (server_.rfind("http://", 0) != 0 && server_.rfind("https://", 0) != 0) {
-    url_error_ = "--server must start with http:// or https:// (got \"" + server + "\")";
+    url_error_ =
+        "--server must start with http:// or https:// (got \"" + server + "\")";
     return;
   }
   const size_t path_start = server_.find('/', server_.find("//") + 2);
   if (path_start != std::string::npos) {
-    url_error_ = "--server takes scheme, host and port only (got \"" + server + "\")";
+    url_error_ =
+        "--server takes scheme, host and port only (got \"" + server + "\")";
     return;
   }
   http_ = std::make_unique<httplib::Client>(server_);
@@ -56,39 +62,55 @@ bool ApiClient::IsValid(std::string* error) const {
   return false;
 }
 
-ApiResponse ApiClient::Finish(int status, const std::string& body, const std::string& transport_error) const {
+ApiResponse ApiClient::Finish(int status,
+                              const std::string& body,
+                              const std::string& transport_error) const {
   ApiResponse response;
   response.status = status;
   response.text = body;
   response.transport_error = transport_error;
   if (!transport_error.empty()) return response;
-  response.body = nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
+  response.body =
+      nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
   if (response.body.is_discarded()) response.body = nullptr;
   if (status >= 500) {
     std::string message;
-    if (response.body.is_object() && response.body.contains("error") && response.body["error"].is_object()) {
+    if (response.body.is_object() && response.body.contains("error") &&
+        response.body["error"].is_object()) {
       message = response.body["error"].value("message", "");
     }
-    response.transport_error = "server error " + std::to_string(status) + (message.empty() ? "" : ": " + message);
+    response.transport_error = "server error " + std::to_string(status) +
+                               (message.empty() ? "" : ": " + message);
   }
   return response;
 }
 
 ApiResponse ApiClient::Get(const std::string& path) {
   if (!url_error_.empty()) return Finish(0, "", url_error_);
-  httplib::Result result = http_->Get(path.c_str(), httplib::Headers{{"Accept", "application/json"}});
+  httplib::Result result = http_->Get(
+      path.c_str(), httplib::Headers{{"Accept", "application/json"}});
   if (!result) {
-    return Finish(0, "", "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
+    return Finish(
+        0,
+        "",
+        "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
   }
   return Finish(result->status, result->body, "");
 }
 
-ApiResponse ApiClient::Post(const std::string& path, const nlohmann::json& body) {
+ApiResponse ApiClient::Post(const std::string& path,
+                            const nlohmann::json& body) {
   if (!url_error_.empty()) return Finish(0, "", url_error_);
-  httplib::Result result = http_->Post(path.c_str(), httplib::Headers{{"Accept", "application/json"}},
-                                       body.dump(), "application/json");
+  httplib::Result result =
+      http_->Post(path.c_str(),
+                  httplib::Headers{{"Accept", "application/json"}},
+                  body.dump(),
+                  "application/json");
   if (!result) {
-    return Finish(0, "", "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
+    return Finish(
+        0,
+        "",
+        "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
   }
   return Finish(result->status, result->body, "");
 }

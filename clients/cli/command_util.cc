@@ -1,5 +1,5 @@
-// clients/cli/command_util.cc: the helpers of command_util.h. Diagnostics go to stderr,
-// results to stdout.
+// clients/cli/command_util.cc: the helpers of command_util.h. Diagnostics go to
+// stderr, results to stdout.
 #include "clients/cli/command_util.h"
 
 #include <algorithm>
@@ -18,27 +18,35 @@ namespace {
 
 using nlohmann::json;
 
-// The result's axis_motion as a small table: the change of each axis position at the 9 roll
-// angles of the result's range (um for linear axes, urad for rotary ones), its rms and largest
-// magnitude over the range, then the wheel-parameter changes. Nothing for a job stored without it.
+// The result's axis_motion as a small table: the change of each axis position
+// at the 9 roll angles of the result's range (um for linear axes, urad for
+// rotary ones), its rms and largest magnitude over the range, then the
+// wheel-parameter changes. Nothing for a job stored without it.
 void PrintAxisMotion(const json& result) {
-  if (!result.contains("axis_motion") || !result["axis_motion"].is_object()) return;
+  if (!result.contains("axis_motion") || !result["axis_motion"].is_object())
+    return;
   const json& motion = result["axis_motion"];
   const json roll = motion.value("roll_rad", json::array());
   const json axes = motion.value("axes", json::object());
   if (!roll.is_array() || roll.empty() || !axes.is_object()) return;
   constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
-  std::cout << "axis motion of the correction over the roll range (change of the axis position)\n";
+  std::cout << "axis motion of the correction over the roll range (change of "
+               "the axis position)\n";
   std::cout << std::left << std::setw(11) << "roll [deg]" << std::right;
-  for (const json& r : roll) std::cout << std::setw(9) << (r.is_number() ? Fixed(r.get<double>() * kDegPerRad, 2) : "-");
-  std::cout << std::setw(10) << "rms" << std::setw(10) << "max |.|" << "\n";
-  // Linear axes first, as the machine lists them; then any other axis the model has.
+  for (const json& r : roll)
+    std::cout << std::setw(9)
+              << (r.is_number() ? Fixed(r.get<double>() * kDegPerRad, 2) : "-");
+  std::cout << std::setw(10) << "rms" << std::setw(10) << "max |.|"
+            << "\n";
+  // Linear axes first, as the machine lists them; then any other axis the model
+  // has.
   std::vector<std::string> names;
   for (const char* name : {"X", "Y", "Z", "A", "B", "C"}) {
     if (axes.contains(name)) names.push_back(name);
   }
   for (const auto& item : axes.items()) {
-    if (std::find(names.begin(), names.end(), item.key()) == names.end()) names.push_back(item.key());
+    if (std::find(names.begin(), names.end(), item.key()) == names.end())
+      names.push_back(item.key());
   }
   for (const std::string& name : names) {
     const json& axis = axes[name];
@@ -49,9 +57,12 @@ void PrintAxisMotion(const json& result) {
       if (axis.contains(std::string("change_") + u)) unit = u;
     }
     if (unit.empty()) continue;
-    std::cout << std::left << std::setw(11) << (name + " [" + unit + "]") << std::right;
-    for (const json& v : axis["change_" + unit]) std::cout << std::setw(9) << Fixed(v, 2);
-    std::cout << std::setw(10) << Fixed(axis.value("rms_" + unit, json()), 2) << std::setw(10)
+    std::cout << std::left << std::setw(11) << (name + " [" + unit + "]")
+              << std::right;
+    for (const json& v : axis["change_" + unit])
+      std::cout << std::setw(9) << Fixed(v, 2);
+    std::cout << std::setw(10) << Fixed(axis.value("rms_" + unit, json()), 2)
+              << std::setw(10)
               << Fixed(axis.value("max_abs_" + unit, json()), 2) << "\n";
   }
   const json wheel = motion.value("wheel", json::object());
@@ -72,9 +83,13 @@ void PrintAxisMotion(const json& result) {
 
 }  // namespace
 
-// --- Arguments -----------------------------------------------------------------------------------
+// --- Arguments
+// -----------------------------------------------------------------------------------
 
-bool ParseCount(const std::string& text, long long min, long long max, long long* value) {
+bool ParseCount(const std::string& text,
+                long long min,
+                long long max,
+                long long* value) {
   if (text.empty()) return false;
   char* end = nullptr;
   const long long v = std::strtoll(text.c_str(), &end, 10);
@@ -92,9 +107,12 @@ bool ParseNumber(const std::string& text, double* value) {
   return true;
 }
 
-bool ParseJobId(const std::string& text, long long* id) { return ParseCount(text, 1, (1LL << 53), id); }
+bool ParseJobId(const std::string& text, long long* id) {
+  return ParseCount(text, 1, (1LL << 53), id);
+}
 
-// --- Output --------------------------------------------------------------------------------------
+// --- Output
+// --------------------------------------------------------------------------------------
 
 std::string Fixed(const json& value, int digits) {
   if (!value.is_number()) return "-";
@@ -119,7 +137,8 @@ void PrintGrid(const std::string& title, const json& grid) {
   if (!JsonToCsvGrid(grid, &g)) return;
   std::cout << title << " [um] (tip at top, lead from x < 0 to x > 0)\n";
   std::cout << std::setw(11) << "";
-  for (int c = 0; c < g.columns; ++c) std::cout << std::setw(8) << ("L" + std::to_string(c + 1));
+  for (int c = 0; c < g.columns; ++c)
+    std::cout << std::setw(8) << ("L" + std::to_string(c + 1));
   std::cout << "\n";
   for (int r = g.rows - 1; r >= 0; --r) {
     std::string label = "row " + std::to_string(r + 1);
@@ -131,7 +150,8 @@ void PrintGrid(const std::string& title, const json& grid) {
       std::ostringstream cell;
       if (v) {
         // No "-0.00": a value that rounds to zero prints as zero.
-        cell << std::fixed << std::setprecision(2) << (std::fabs(*v) < 0.005 ? 0.0 : *v);
+        cell << std::fixed << std::setprecision(2)
+             << (std::fabs(*v) < 0.005 ? 0.0 : *v);
       } else {
         cell << "-";
       }
@@ -149,11 +169,13 @@ int CheckAnswer(const ApiResponse& answer) {
     return kExitTransport;
   }
   if (answer.IsApiError()) {
-    std::cerr << "gearloop: server refused the request: " << answer.ErrorText() << "\n";
+    std::cerr << "gearloop: server refused the request: " << answer.ErrorText()
+              << "\n";
     return kExitApiError;
   }
   if (!answer.ok() || !answer.body.is_object()) {
-    std::cerr << "gearloop: unexpected answer " << answer.status << " from the server\n";
+    std::cerr << "gearloop: unexpected answer " << answer.status
+              << " from the server\n";
     return kExitTransport;
   }
   return -1;
@@ -164,52 +186,70 @@ int InputError(const std::string& message) {
   return kExitInput;
 }
 
-// --- Corrections ---------------------------------------------------------------------------------
+// --- Corrections
+// ---------------------------------------------------------------------------------
 
 void PrintCorrectionSummary(const json& answer) {
-  const json& result = answer.contains("result") ? answer["result"] : json::object();
-  std::cout << "job " << Member(answer, "id") << " (" << Member(answer, "kind") << ")  status "
-            << Member(result, "status");
-  if (result.contains("message") && result["message"].is_string() && !result["message"].get<std::string>().empty()) {
+  const json& result =
+      answer.contains("result") ? answer["result"] : json::object();
+  std::cout << "job " << Member(answer, "id") << " (" << Member(answer, "kind")
+            << ")  status " << Member(result, "status");
+  if (result.contains("message") && result["message"].is_string() &&
+      !result["message"].get<std::string>().empty()) {
     std::cout << " - " << result["message"].get<std::string>();
   }
   std::cout << "\n";
   if (answer.contains("parent_job_id") && !answer["parent_job_id"].is_null()) {
     std::cout << "  replay of job " << Text(answer["parent_job_id"]) << "\n";
   }
-  if (answer.contains("settings_source_job_id") && !answer["settings_source_job_id"].is_null()) {
-    std::cout << "  ground with the settings of job " << Text(answer["settings_source_job_id"]) << "\n";
+  if (answer.contains("settings_source_job_id") &&
+      !answer["settings_source_job_id"].is_null()) {
+    std::cout << "  ground with the settings of job "
+              << Text(answer["settings_source_job_id"]) << "\n";
   }
-  std::cout << "  deviation before     rms " << Fixed(result.value("initial_rms_um", json())) << " um, max "
+  std::cout << "  deviation before     rms "
+            << Fixed(result.value("initial_rms_um", json())) << " um, max "
             << Fixed(result.value("initial_max_um", json())) << " um\n"
-            << "  predicted residual   rms " << Fixed(result.value("residual_rms_um", json())) << " um, max "
+            << "  predicted residual   rms "
+            << Fixed(result.value("residual_rms_um", json())) << " um, max "
             << Fixed(result.value("residual_max_um", json())) << " um\n"
-            << "  best reachable       rms " << Fixed(result.value("best_reachable_rms_um", json())) << " um\n"
-            << "  solver " << Member(result, "solver") << ", mode " << Member(result, "mode") << ", rank "
-            << Member(result, "rank") << ", condition " << Fixed(result.value("condition_number", json()), 1)
-            << ", " << Member(result, "iterations") << " iterations, " << Fixed(result.value("elapsed_ms", json()), 1)
-            << " ms\n";
-  if (result.contains("regularisation") && result["regularisation"].is_object()) {
+            << "  best reachable       rms "
+            << Fixed(result.value("best_reachable_rms_um", json())) << " um\n"
+            << "  solver " << Member(result, "solver") << ", mode "
+            << Member(result, "mode") << ", rank " << Member(result, "rank")
+            << ", condition "
+            << Fixed(result.value("condition_number", json()), 1) << ", "
+            << Member(result, "iterations") << " iterations, "
+            << Fixed(result.value("elapsed_ms", json()), 1) << " ms\n";
+  if (result.contains("regularisation") &&
+      result["regularisation"].is_object()) {
     const json& reg = result["regularisation"];
-    std::cout << "  regularisation " << Member(reg, "rule") << ", level " << Fixed(reg.value("level", json()), 4)
-              << ", effective dof " << Fixed(reg.value("effective_dof", json()), 1) << "\n";
+    std::cout << "  regularisation " << Member(reg, "rule") << ", level "
+              << Fixed(reg.value("level", json()), 4) << ", effective dof "
+              << Fixed(reg.value("effective_dof", json()), 1) << "\n";
   }
   if (result.contains("machine_state") && result["machine_state"].is_object()) {
     const json& state = result["machine_state"];
     if (state.value("estimated", false)) {
-      std::cout << "  linearised at the estimated machine state (size " << Fixed(state.value("size", json()), 1)
-                << ", misfit rms " << Fixed(state.value("misfit_rms_um", json())) << " um)\n";
+      std::cout << "  linearised at the estimated machine state (size "
+                << Fixed(state.value("size", json()), 1) << ", misfit rms "
+                << Fixed(state.value("misfit_rms_um", json())) << " um)\n";
     } else {
       std::cout << "  linearised at the commanded settings\n";
     }
   }
-  if (result.contains("missing") && result["missing"].is_array() && !result["missing"].empty()) {
-    std::cout << "  " << result["missing"].size() << " missing points left out\n";
+  if (result.contains("missing") && result["missing"].is_array() &&
+      !result["missing"].empty()) {
+    std::cout << "  " << result["missing"].size()
+              << " missing points left out\n";
   }
-  if (result.contains("outliers") && result["outliers"].is_array() && !result["outliers"].empty()) {
-    std::cout << "  " << result["outliers"].size() << " points rejected as outliers\n";
+  if (result.contains("outliers") && result["outliers"].is_array() &&
+      !result["outliers"].empty()) {
+    std::cout << "  " << result["outliers"].size()
+              << " points rejected as outliers\n";
   }
-  if (result.contains("predicted_residual_um")) PrintGrid("predicted residual", result["predicted_residual_um"]);
+  if (result.contains("predicted_residual_um"))
+    PrintGrid("predicted residual", result["predicted_residual_um"]);
   PrintAxisMotion(result);
 }
 
@@ -219,23 +259,31 @@ int BuildCorrectionRequest(const std::string& request_path,
                            json* request) {
   std::string error;
   if (!ReadJsonFile(request_path, request, &error)) return InputError(error);
-  if (!request->is_object()) return InputError(request_path + ": the request must be a JSON object");
+  if (!request->is_object())
+    return InputError(request_path + ": the request must be a JSON object");
   int rows = 5;
   int columns = 9;
   GridShape(*request, &rows, &columns);
   json measurement;
-  if (!ReadMeasurementFile(measurement_path, rows, columns, &measurement, &error)) return InputError(error);
+  if (!ReadMeasurementFile(
+          measurement_path, rows, columns, &measurement, &error))
+    return InputError(error);
   (*request)["measurement"] = measurement;
   if (args.Has("--target")) {
     json target;
-    if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error)) return InputError(error);
+    if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error))
+      return InputError(error);
     (*request)["target"] = target;
   }
   if (args.Has("--options")) {
     json options;
-    if (!ReadJsonFile(args.Value("--options"), &options, &error)) return InputError(error);
-    if (!options.is_object()) return InputError(args.Value("--options") + ": options must be a JSON object");
-    if (!request->contains("options") || !(*request)["options"].is_object()) (*request)["options"] = json::object();
+    if (!ReadJsonFile(args.Value("--options"), &options, &error))
+      return InputError(error);
+    if (!options.is_object())
+      return InputError(args.Value("--options") +
+                        ": options must be a JSON object");
+    if (!request->contains("options") || !(*request)["options"].is_object())
+      (*request)["options"] = json::object();
     (*request)["options"].merge_patch(options);
   }
   if (args.Has("--settings-from")) {
@@ -250,7 +298,9 @@ int BuildCorrectionRequest(const std::string& request_path,
 }
 
 int FillSourceSettings(ApiClient* client, json* request, json* cache) {
-  if (!request->contains("settings_source_job_id") || request->contains("settings")) return -1;
+  if (!request->contains("settings_source_job_id") ||
+      request->contains("settings"))
+    return -1;
   if (cache->is_null()) {
     const std::string id = Text((*request)["settings_source_job_id"]);
     const ApiResponse source = client->Get("/api/v1/corrections/" + id);
@@ -267,13 +317,17 @@ int FillSourceSettings(ApiClient* client, json* request, json* cache) {
   return -1;
 }
 
-// --- Simulations ---------------------------------------------------------------------------------
+// --- Simulations
+// ---------------------------------------------------------------------------------
 
-int ApplySeedAndNoise(const CommandSpec& spec, const ParsedArgs& args, json* scenario) {
+int ApplySeedAndNoise(const CommandSpec& spec,
+                      const ParsedArgs& args,
+                      json* scenario) {
   if (args.Has("--seed")) {
     long long seed = 0;
     if (!ParseCount(args.Value("--seed"), 0, (1LL << 53), &seed)) {
-      std::cerr << "gearloop " << spec.name << ": --seed takes a non-negative integer\n";
+      std::cerr << "gearloop " << spec.name
+                << ": --seed takes a non-negative integer\n";
       return kExitUsage;
     }
     (*scenario)["seed"] = seed;
@@ -281,7 +335,8 @@ int ApplySeedAndNoise(const CommandSpec& spec, const ParsedArgs& args, json* sce
   if (args.Has("--noise")) {
     double noise = 0.0;
     if (!ParseNumber(args.Value("--noise"), &noise) || !(noise >= 0.0)) {
-      std::cerr << "gearloop " << spec.name << ": --noise takes a non-negative number of um\n";
+      std::cerr << "gearloop " << spec.name
+                << ": --noise takes a non-negative number of um\n";
       return kExitUsage;
     }
     (*scenario)["noise_um"] = noise;
@@ -289,11 +344,14 @@ int ApplySeedAndNoise(const CommandSpec& spec, const ParsedArgs& args, json* sce
   return -1;
 }
 
-int ApplyCorrectionsAndStore(const CommandSpec& spec, const ParsedArgs& args, json* scenario) {
+int ApplyCorrectionsAndStore(const CommandSpec& spec,
+                             const ParsedArgs& args,
+                             json* scenario) {
   if (args.Has("--corrections")) {
     long long n = 0;
     if (!ParseCount(args.Value("--corrections"), 1, 1000, &n)) {
-      std::cerr << "gearloop " << spec.name << ": --corrections takes a positive integer\n";
+      std::cerr << "gearloop " << spec.name
+                << ": --corrections takes a positive integer\n";
       return kExitUsage;
     }
     (*scenario)["corrections"] = n;
@@ -302,31 +360,40 @@ int ApplyCorrectionsAndStore(const CommandSpec& spec, const ParsedArgs& args, js
   return -1;
 }
 
-int SendClosedLoop(ApiClient* client, const json& scenario, const char* made, const GlobalOptions& global) {
-  const ApiResponse answer = client->Post("/api/v1/simulations/closed-loop", scenario);
+int SendClosedLoop(ApiClient* client,
+                   const json& scenario,
+                   const char* made,
+                   const GlobalOptions& global) {
+  const ApiResponse answer =
+      client->Post("/api/v1/simulations/closed-loop", scenario);
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   if (global.json) {
     PrintJson(answer.body);
   } else {
-    std::cout << std::setw(5) << "part" << std::setw(12) << "true rms" << std::setw(12) << "true max" << std::setw(14)
-              << "measured rms" << std::setw(15) << "correction" << std::setw(6) << "job" << "\n";
+    std::cout << std::setw(5) << "part" << std::setw(12) << "true rms"
+              << std::setw(12) << "true max" << std::setw(14) << "measured rms"
+              << std::setw(15) << "correction" << std::setw(6) << "job"
+              << "\n";
     for (const json& it : answer.body.value("iterations", json::array())) {
       std::string correction = "-";
       if (it.contains("correction") && it["correction"].is_object()) {
         correction = it["correction"].value("status", "yes");
       }
-      std::cout << std::setw(5) << Member(it, "part") << std::setw(12) << Fixed(it.value("true_rms_um", json()))
-                << std::setw(12) << Fixed(it.value("true_max_um", json())) << std::setw(14)
-                << Fixed(it.value("measured_rms_um", json())) << std::setw(15) << correction << std::setw(6)
-                << Member(it, "job_id") << "\n";
+      std::cout << std::setw(5) << Member(it, "part") << std::setw(12)
+                << Fixed(it.value("true_rms_um", json())) << std::setw(12)
+                << Fixed(it.value("true_max_um", json())) << std::setw(14)
+                << Fixed(it.value("measured_rms_um", json())) << std::setw(15)
+                << correction << std::setw(6) << Member(it, "job_id") << "\n";
     }
-    std::cout << "(deviations from the target in um; part 0 is " << made << " before any correction)\n";
+    std::cout << "(deviations from the target in um; part 0 is " << made
+              << " before any correction)\n";
     const std::string note = answer.body.value("message", "");
     if (!note.empty()) std::cout << note << "\n";
   }
   const json completed = answer.body.value("completed", json(true));
-  return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged : kExitOk;
+  return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged
+                                                          : kExitOk;
 }
 
 }  // namespace cli_internal

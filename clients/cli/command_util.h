@@ -1,21 +1,21 @@
-// clients/cli/command_util.h: what the subcommands of `gearloop` share (internal to the CLI):
-// the option spec and parsed arguments of a subcommand, number parsing, table output, the
-// mapping of an answer to an exit code, and the request and output steps that more than one
-// command file uses (a correction request from files, a correction summary, a closed loop).
+// clients/cli/command_util.h: what the subcommands of `gearloop` share
+// (internal to the CLI): the option spec and parsed arguments of a subcommand,
+// number parsing, table output, the mapping of an answer to an exit code, and
+// the request and output steps that more than one command file uses (a
+// correction request from files, a correction summary, a closed loop).
 //
-//   const ApiResponse answer = client->Get("/api/v1/corrections/" + std::to_string(id));
-//   const int failure = CheckAnswer(answer);   // -1 when the answer is fine
-//   if (failure >= 0) return failure;
+//   const ApiResponse answer = client->Get("/api/v1/corrections/" +
+//   std::to_string(id)); const int failure = CheckAnswer(answer);   // -1 when
+//   the answer is fine if (failure >= 0) return failure;
 //   PrintCorrectionSummary(answer.body);
 #ifndef GEARLOOP_CLIENTS_CLI_COMMAND_UTIL_H_
 #define GEARLOOP_CLIENTS_CLI_COMMAND_UTIL_H_
 
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "clients/cli/api_client.h"
 #include "clients/cli/commands.h"
@@ -23,7 +23,8 @@
 namespace gearloop {
 namespace cli_internal {
 
-// --- Arguments -----------------------------------------------------------------------------------
+// --- Arguments
+// -----------------------------------------------------------------------------------
 
 // The options one subcommand takes: names that take a value, and flags.
 struct CommandSpec {
@@ -40,15 +41,21 @@ struct ParsedArgs {
   std::map<std::string, std::vector<std::string>> values;
   std::set<std::string> flags;
 
-  bool Has(const std::string& name) const { return values.count(name) > 0 || flags.count(name) > 0; }
-  std::string Value(const std::string& name, const std::string& fallback = "") const {
+  bool Has(const std::string& name) const {
+    return values.count(name) > 0 || flags.count(name) > 0;
+  }
+  std::string Value(const std::string& name,
+                    const std::string& fallback = "") const {
     auto it = values.find(name);
     return it == values.end() ? fallback : it->second.back();
   }
 };
 
 // An integer in full within [min, max]; false for anything else.
-bool ParseCount(const std::string& text, long long min, long long max, long long* value);
+bool ParseCount(const std::string& text,
+                long long min,
+                long long max,
+                long long* value);
 
 // A number in full ("0.5", "-3e-3"); false for anything else.
 bool ParseNumber(const std::string& text, double* value);
@@ -56,7 +63,8 @@ bool ParseNumber(const std::string& text, double* value);
 // A job id: an integer in 1..2^53.
 bool ParseJobId(const std::string& text, long long* id);
 
-// --- Output --------------------------------------------------------------------------------------
+// --- Output
+// --------------------------------------------------------------------------------------
 
 // A number with `digits` decimals; "-" for anything else.
 std::string Fixed(const nlohmann::json& value, int digits = 3);
@@ -65,49 +73,67 @@ std::string Text(const nlohmann::json& value);
 // Text(object[key]); "-" when there is no such member.
 std::string Member(const nlohmann::json& object, const char* key);
 
-// A grid as a table with the tip at the top, the way the flank is drawn (and the dashboard
-// shows it): profile rows down the side, lead columns across.
+// A grid as a table with the tip at the top, the way the flank is drawn (and
+// the dashboard shows it): profile rows down the side, lead columns across.
 void PrintGrid(const std::string& title, const nlohmann::json& grid);
 
 void PrintJson(const nlohmann::json& value);
 
-// Maps an answer to an exit code and prints its error. Returns -1 when the answer is fine.
+// Maps an answer to an exit code and prints its error. Returns -1 when the
+// answer is fine.
 int CheckAnswer(const ApiResponse& answer);
 
 // Prints "gearloop: <message>" and returns kExitInput.
 int InputError(const std::string& message);
 
-// --- Corrections (submit, replay, batch, show) ---------------------------------------------------
+// --- Corrections (submit, replay, batch, show)
+// ---------------------------------------------------
 
-// The summary of a correction job (the answer of POST /api/v1/corrections or GET
-// /api/v1/corrections/{id}): status, deviation before and after, solver, regularisation,
-// machine state, the predicted residual grid and the axis motion.
+// The summary of a correction job (the answer of POST /api/v1/corrections or
+// GET /api/v1/corrections/{id}): status, deviation before and after, solver,
+// regularisation, machine state, the predicted residual grid and the axis
+// motion.
 void PrintCorrectionSummary(const nlohmann::json& answer);
 
-// Builds a correction request from the files; returns -1 when done, or an exit code.
+// Builds a correction request from the files; returns -1 when done, or an exit
+// code.
 int BuildCorrectionRequest(const std::string& request_path,
                            const std::string& measurement_path,
                            const ParsedArgs& args,
                            nlohmann::json* request);
 
-// With --settings-from ID and no "settings" in the request file, the part was ground with job
-// ID's corrected settings: fetch them (once; `cache` keeps them for the items of a batch) so the
-// server corrects from where the machine really was. Returns -1, or an exit code.
-int FillSourceSettings(ApiClient* client, nlohmann::json* request, nlohmann::json* cache);
+// With --settings-from ID and no "settings" in the request file, the part was
+// ground with job ID's corrected settings: fetch them (once; `cache` keeps them
+// for the items of a batch) so the server corrects from where the machine
+// really was. Returns -1, or an exit code.
+int FillSourceSettings(ApiClient* client,
+                       nlohmann::json* request,
+                       nlohmann::json* cache);
 
-// --- Simulations (simulate, closed-loop, bevel-closed-loop) --------------------------------------
+// --- Simulations (simulate, closed-loop, bevel-closed-loop)
+// --------------------------------------
 
-// --seed N and --noise UM of a simulation scenario (simulate, bevel-closed-loop). Returns -1, or
-// the usage exit code after printing the reason.
-int ApplySeedAndNoise(const CommandSpec& spec, const ParsedArgs& args, nlohmann::json* scenario);
+// --seed N and --noise UM of a simulation scenario (simulate,
+// bevel-closed-loop). Returns -1, or the usage exit code after printing the
+// reason.
+int ApplySeedAndNoise(const CommandSpec& spec,
+                      const ParsedArgs& args,
+                      nlohmann::json* scenario);
 
-// --corrections N and --store of a closed loop (closed-loop, bevel-closed-loop). Returns -1, or
-// the usage exit code after printing the reason.
-int ApplyCorrectionsAndStore(const CommandSpec& spec, const ParsedArgs& args, nlohmann::json* scenario);
+// --corrections N and --store of a closed loop (closed-loop,
+// bevel-closed-loop). Returns -1, or the usage exit code after printing the
+// reason.
+int ApplyCorrectionsAndStore(const CommandSpec& spec,
+                             const ParsedArgs& args,
+                             nlohmann::json* scenario);
 
-// Sends a closed-loop scenario and prints one line per part (or the JSON). `made` says how a
-// part comes about ("ground", "cut"). Exit 5 when the loop stopped early.
-int SendClosedLoop(ApiClient* client, const nlohmann::json& scenario, const char* made, const GlobalOptions& global);
+// Sends a closed-loop scenario and prints one line per part (or the JSON).
+// `made` says how a part comes about ("ground", "cut"). Exit 5 when the loop
+// stopped early.
+int SendClosedLoop(ApiClient* client,
+                   const nlohmann::json& scenario,
+                   const char* made,
+                   const GlobalOptions& global);
 
 }  // namespace cli_internal
 }  // namespace gearloop

@@ -1,7 +1,8 @@
-// clients/cli/commands.cc: the dispatcher of the `gearloop` subcommands: the command table (in
-// the order `gearloop --help` lists it), the main help text, and the parsing of a subcommand's
-// options against its spec. The subcommands live one file per resource in commands/
-// (subcommands.h); what they share is in command_util.h.
+// clients/cli/commands.cc: the dispatcher of the `gearloop` subcommands: the
+// command table (in the order `gearloop --help` lists it), the main help text,
+// and the parsing of a subcommand's options against its spec. The subcommands
+// live one file per resource in commands/ (subcommands.h); what they share is
+// in command_util.h.
 #include "clients/cli/commands.h"
 
 #include <iomanip>
@@ -23,8 +24,11 @@ bool UsageError(const CommandSpec& spec, const std::string& message) {
   return false;
 }
 
-// Accepts "--name value" and "--name=value". Returns false after printing a usage error.
-bool ParseArgs(const CommandSpec& spec, const std::vector<std::string>& args, ParsedArgs* parsed) {
+// Accepts "--name value" and "--name=value". Returns false after printing a
+// usage error.
+bool ParseArgs(const CommandSpec& spec,
+               const std::vector<std::string>& args,
+               ParsedArgs* parsed) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     if (arg.size() > 2 && arg.compare(0, 2, "--") == 0) {
@@ -54,7 +58,9 @@ bool ParseArgs(const CommandSpec& spec, const std::vector<std::string>& args, Pa
   }
   const int n = static_cast<int>(parsed->positional.size());
   if (n < spec.min_positional) return UsageError(spec, "missing argument");
-  if (n > spec.max_positional) return UsageError(spec, "unexpected argument '" + parsed->positional[n - 1] + "'");
+  if (n > spec.max_positional)
+    return UsageError(
+        spec, "unexpected argument '" + parsed->positional[n - 1] + "'");
   return true;
 }
 
@@ -66,18 +72,32 @@ struct Command {
 
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
-      {&kSubmit, RunSubmit, "compute and store a correction from a request and a measurement file"},
+      {&kSubmit,
+       RunSubmit,
+       "compute and store a correction from a request and a measurement file"},
       {&kList, RunList, "list stored jobs, newest first"},
       {&kShow, RunShow, "show one job, or export one of its grids as CSV"},
-      {&kReplay, RunReplay, "re-run a stored measurement with changed options or target"},
-      {&kBatch, RunBatch, "correct every measurement file of a folder as one batch"},
-      {&kSimulate, RunSimulate, "simulate a CMM measurement of a machine with hidden errors"},
+      {&kReplay,
+       RunReplay,
+       "re-run a stored measurement with changed options or target"},
+      {&kBatch,
+       RunBatch,
+       "correct every measurement file of a folder as one batch"},
+      {&kSimulate,
+       RunSimulate,
+       "simulate a CMM measurement of a machine with hidden errors"},
       {&kClosedLoop, RunClosedLoop, "simulate grind-measure-correct loops"},
-      {&kBevelConvert, RunBevelConvert, "convert a bevel pinion's cradle summary to free-form axis motions"},
-      {&kBevelClosedLoop, RunBevelClosedLoop, "simulate cut-measure-correct loops of a bevel pinion"},
+      {&kBevelConvert,
+       RunBevelConvert,
+       "convert a bevel pinion's cradle summary to free-form axis motions"},
+      {&kBevelClosedLoop,
+       RunBevelClosedLoop,
+       "simulate cut-measure-correct loops of a bevel pinion"},
       {&kReport, RunReport, "write a printable HTML report of a job"},
       {&kNominal, RunNominal, "print the nominal machine settings of a setup"},
-      {&kEvaluate, RunEvaluate, "print the flank that given settings grind, on the grid"},
+      {&kEvaluate,
+       RunEvaluate,
+       "print the flank that given settings grind, on the grid"},
       {&kHealth, RunHealth, "check that the server is up"},
   };
   return commands;
@@ -97,13 +117,19 @@ using cli_internal::ParsedArgs;
 
 std::string MainHelp() {
   std::ostringstream out;
-  out << "usage: gearloop [--server URL] [--token T] [--json] [--timeout S] COMMAND [ARGS]\n\n"
-         "Command-line client of the gearloop server: closed-loop correction of gear grinding.\n\n"
+  out << "usage: gearloop [--server URL] [--token T] [--json] [--timeout S] "
+         "COMMAND [ARGS]\n\n"
+         "Command-line client of the gearloop server: closed-loop correction "
+         "of gear grinding.\n\n"
          "commands:\n";
-  for (const Command& c : Commands()) out << "  " << std::left << std::setw(19) << c.spec->name << c.summary << "\n";
+  for (const Command& c : Commands())
+    out << "  " << std::left << std::setw(19) << c.spec->name << c.summary
+        << "\n";
   out << "\nglobal options (anywhere on the line):\n"
-         "  --server URL   server base URL (default $GEARLOOP_SERVER or http://127.0.0.1:8080)\n"
-         "  --token T      send \"Authorization: Bearer T\" (default $GEARLOOP_TOKEN)\n"
+         "  --server URL   server base URL (default $GEARLOOP_SERVER or "
+         "http://127.0.0.1:8080)\n"
+         "  --token T      send \"Authorization: Bearer T\" (default "
+         "$GEARLOOP_TOKEN)\n"
          "  --json         print the server's JSON instead of tables\n"
          "  --timeout S    seconds for connecting and each read (default 120)\n"
          "  --help         this text; `gearloop COMMAND --help` for a command\n"
@@ -112,14 +138,20 @@ std::string MainHelp() {
          "  0  done, and the outcome is good\n"
          "  1  wrong arguments or options\n"
          "  2  server not reachable, timed out, answered 5xx or not the API\n"
-         "  3  the server refused the request (4xx; the message names the field)\n"
-         "  4  a local file could not be read or is invalid (the message names line and column)\n"
-         "  5  done, but a correction did not converge or batch items failed\n\n"
-         "files: CSV grids and JSON measurement files are described in clients/FORMATS.md.\n";
+         "  3  the server refused the request (4xx; the message names the "
+         "field)\n"
+         "  4  a local file could not be read or is invalid (the message names "
+         "line and column)\n"
+         "  5  done, but a correction did not converge or batch items "
+         "failed\n\n"
+         "files: CSV grids and JSON measurement files are described in "
+         "clients/FORMATS.md.\n";
   return out.str();
 }
 
-int RunCommand(const std::string& name, const std::vector<std::string>& args, const GlobalOptions& global) {
+int RunCommand(const std::string& name,
+               const std::vector<std::string>& args,
+               const GlobalOptions& global) {
   for (const Command& command : Commands()) {
     if (name != command.spec->name) continue;
     // "-o" is the short form of --output (report).
@@ -141,7 +173,8 @@ int RunCommand(const std::string& name, const std::vector<std::string>& args, co
     }
     return command.run(parsed, &client, global);
   }
-  std::cerr << "gearloop: unknown command '" << name << "'\nTry 'gearloop --help'.\n";
+  std::cerr << "gearloop: unknown command '" << name
+            << "'\nTry 'gearloop --help'.\n";
   return kExitUsage;
 }
 

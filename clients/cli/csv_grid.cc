@@ -1,7 +1,8 @@
-// clients/cli/csv_grid.cc: the CSV grid reader and writer. Lenient where files from measuring
-// machines and spreadsheets differ harmlessly (line ends, a byte order mark, quotes, spaces, a
-// header line), strict about anything that would change a number: every refusal names the line
-// and the cell, because the person fixing the file opens it in an editor, not in a debugger.
+// clients/cli/csv_grid.cc: the CSV grid reader and writer. Lenient where files
+// from measuring machines and spreadsheets differ harmlessly (line ends, a byte
+// order mark, quotes, spaces, a header line), strict about anything that would
+// change a number: every refusal names the line and the cell, because the
+// person fixing the file opens it in an editor, not in a debugger.
 #include "clients/cli/csv_grid.h"
 
 #include <cctype>
@@ -23,19 +24,25 @@ struct Cell {
 std::string Trim(const std::string& s) {
   size_t begin = 0;
   size_t end = s.size();
-  while (begin < end && std::isspace(static_cast<unsigned char>(s[begin]))) ++begin;
-  while (end > begin && std::isspace(static_cast<unsigned char>(s[end - 1]))) --end;
+  while (begin < end && std::isspace(static_cast<unsigned char>(s[begin])))
+    ++begin;
+  while (end > begin && std::isspace(static_cast<unsigned char>(s[end - 1])))
+    --end;
   return s.substr(begin, end - begin);
 }
 
 std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (char& c : s)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
-// Splits one line into cells. A cell may be wrapped in double quotes ("" inside is a quote);
-// returns false with the 1-based cell number of an unterminated quote.
-bool SplitCells(const std::string& line, std::vector<Cell>* cells, int* bad_cell) {
+// Splits one line into cells. A cell may be wrapped in double quotes ("" inside
+// is a quote); returns false with the 1-based cell number of an unterminated
+// quote.
+bool SplitCells(const std::string& line,
+                std::vector<Cell>* cells,
+                int* bad_cell) {
   cells->clear();
   size_t i = 0;
   while (true) {
@@ -82,10 +89,12 @@ bool SplitCells(const std::string& line, std::vector<Cell>* cells, int* bad_cell
   return true;
 }
 
-bool IsMissing(const Cell& cell) { return cell.text.empty() || Lower(cell.text) == "null"; }
+bool IsMissing(const Cell& cell) {
+  return cell.text.empty() || Lower(cell.text) == "null";
+}
 
-// Parses the whole cell as a decimal number (strtod: accepts "1.5", "-2e-3", "+4").
-// *finite is false for "nan"/"inf" spellings, which strtod also takes.
+// Parses the whole cell as a decimal number (strtod: accepts "1.5", "-2e-3",
+// "+4"). *finite is false for "nan"/"inf" spellings, which strtod also takes.
 bool ParseNumber(const std::string& text, double* value, bool* finite) {
   if (text.empty()) return false;
   const char* begin = text.c_str();
@@ -110,7 +119,10 @@ bool LooksLikeHeader(const std::vector<Cell>& cells) {
   return any_text;
 }
 
-bool Fail(int line, int column, const std::string& message, CsvGridError* error) {
+bool Fail(int line,
+          int column,
+          const std::string& message,
+          CsvGridError* error) {
   error->line = line;
   error->column = column;
   error->message = message;
@@ -138,10 +150,17 @@ std::string CsvGridError::ToString() const {
   return out.str();
 }
 
-bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGrid* grid, CsvGridError* error) {
+bool ParseCsvGrid(const std::string& text,
+                  const CsvGridOptions& options,
+                  CsvGrid* grid,
+                  CsvGridError* error) {
   *error = CsvGridError{};
   if (options.rows <= 0 || options.columns <= 0) {
-    return Fail(0, 0, "the expected grid shape must have at least one row and one column", error);
+    return Fail(
+        0,
+        0,
+        "the expected grid shape must have at least one row and one column",
+        error);
   }
   CsvGrid result;
   result.rows = options.rows;
@@ -149,7 +168,8 @@ bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGri
   result.values.reserve(static_cast<size_t>(options.rows) * options.columns);
 
   std::string body = text;
-  if (body.compare(0, 3, "\xEF\xBB\xBF") == 0) body.erase(0, 3);  // UTF-8 byte order mark
+  if (body.compare(0, 3, "\xEF\xBB\xBF") == 0)
+    body.erase(0, 3);  // UTF-8 byte order mark
 
   std::istringstream in(body);
   std::string line;
@@ -165,12 +185,15 @@ bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGri
 
     int bad_cell = 0;
     if (!SplitCells(line, &cells, &bad_cell)) {
-      return Fail(line_number, bad_cell, "unterminated or misplaced double quote", error);
+      return Fail(line_number,
+                  bad_cell,
+                  "unterminated or misplaced double quote",
+                  error);
     }
-    // Some spreadsheets end every line with a separator: one trailing empty cell too many is
-    // harmless; any other count mismatch is not.
-    if (static_cast<int>(cells.size()) == options.columns + 1 && cells.back().text.empty() &&
-        !cells.back().quoted) {
+    // Some spreadsheets end every line with a separator: one trailing empty
+    // cell too many is harmless; any other count mismatch is not.
+    if (static_cast<int>(cells.size()) == options.columns + 1 &&
+        cells.back().text.empty() && !cells.back().quoted) {
       cells.pop_back();
     }
     const bool first = !seen_content;
@@ -178,14 +201,18 @@ bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGri
     if (first && LooksLikeHeader(cells)) continue;
 
     if (data_rows >= options.rows) {
-      return Fail(line_number, 0,
-                  "more than " + std::to_string(options.rows) + " data rows (a grid has " +
-                      std::to_string(options.rows) + " profile rows)",
+      return Fail(line_number,
+                  0,
+                  "more than " + std::to_string(options.rows) +
+                      " data rows (a grid has " + std::to_string(options.rows) +
+                      " profile rows)",
                   error);
     }
     if (static_cast<int>(cells.size()) != options.columns) {
-      return Fail(line_number, 0,
-                  std::to_string(cells.size()) + " cells, expected " + std::to_string(options.columns) +
+      return Fail(line_number,
+                  0,
+                  std::to_string(cells.size()) + " cells, expected " +
+                      std::to_string(options.columns) +
                       " (one per lead column)",
                   error);
     }
@@ -193,7 +220,10 @@ bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGri
       const Cell& cell = cells[c];
       if (IsMissing(cell)) {
         if (!options.allow_missing) {
-          return Fail(line_number, c + 1, "missing value (this grid must be complete)", error);
+          return Fail(line_number,
+                      c + 1,
+                      "missing value (this grid must be complete)",
+                      error);
         }
         result.values.emplace_back(std::nullopt);
         continue;
@@ -201,22 +231,29 @@ bool ParseCsvGrid(const std::string& text, const CsvGridOptions& options, CsvGri
       double v = 0.0;
       bool finite = false;
       if (!ParseNumber(cell.text, &v, &finite)) {
-        return Fail(line_number, c + 1,
-                    "'" + cell.text + "' is not a number (write a value in um, or leave the cell empty " +
+        return Fail(line_number,
+                    c + 1,
+                    "'" + cell.text +
+                        "' is not a number (write a value in um, or leave the "
+                        "cell empty " +
                         "or \"null\" for a missing point)",
                     error);
       }
       if (!finite) {
-        return Fail(line_number, c + 1, "'" + cell.text + "' is not a finite number", error);
+        return Fail(line_number,
+                    c + 1,
+                    "'" + cell.text + "' is not a finite number",
+                    error);
       }
       result.values.emplace_back(v);
     }
     ++data_rows;
   }
   if (data_rows != options.rows) {
-    return Fail(line_number + 1, 0,
-                "end of file after " + std::to_string(data_rows) + " data rows, expected " +
-                    std::to_string(options.rows),
+    return Fail(line_number + 1,
+                0,
+                "end of file after " + std::to_string(data_rows) +
+                    " data rows, expected " + std::to_string(options.rows),
                 error);
   }
   *grid = std::move(result);
@@ -238,11 +275,13 @@ std::string FormatCsvGrid(const CsvGrid& grid, bool header) {
       if (c > 0) out += ',';
       const size_t index = static_cast<size_t>(r) * grid.columns + c;
       if (index < grid.values.size() && grid.values[index]) {
-        const std::to_chars_result written = std::to_chars(buffer, buffer + sizeof(buffer), *grid.values[index]);
+        const std::to_chars_result written =
+            std::to_chars(buffer, buffer + sizeof(buffer), *grid.values[index]);
         if (written.ec == std::errc()) out.append(buffer, written.ptr);
       } else if (grid.columns == 1) {
-        // An empty cell alone would be a blank line, which the parser skips (found by
-        // tests/fuzz/csv_grid_fuzzer): a one-column grid spells its missing point "null".
+        // An empty cell alone would be a blank line, which the parser skips
+        // (found by tests/fuzz/csv_grid_fuzzer): a one-column grid spells its
+        // missing point "null".
         out += "null";
       }
     }

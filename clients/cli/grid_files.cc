@@ -1,6 +1,7 @@
-// clients/cli/grid_files.cc: reading measurement and target files and the grids of stored jobs.
-// JSON grids are checked here, before sending, so that a wrong file is reported with its own
-// name and the place in it (exit 4), not as the server's field path in a request (exit 3).
+// clients/cli/grid_files.cc: reading measurement and target files and the grids
+// of stored jobs. JSON grids are checked here, before sending, so that a wrong
+// file is reported with its own name and the place in it (exit 4), not as the
+// server's field path in a request (exit 3).
 #include "clients/cli/grid_files.h"
 
 #include <algorithm>
@@ -17,7 +18,9 @@ namespace gearloop {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-bool ReadTextFile(const std::string& path, std::string* text, std::string* error) {
+bool ReadTextFile(const std::string& path,
+                  std::string* text,
+                  std::string* error) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     *error = path + ": cannot open file";
@@ -44,7 +47,9 @@ bool ReadJsonFile(const std::string& path, json* value, std::string* error) {
 
 bool HasExtension(const std::string& path, const char* extension) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+    return std::tolower(c);
+  });
   return ext == extension;
 }
 
@@ -61,14 +66,16 @@ json CsvGridToJson(const CsvGrid& grid) {
   return rows;
 }
 
-// A JSON array of rows (numbers or null) into a CsvGrid; false when it is not one.
+// A JSON array of rows (numbers or null) into a CsvGrid; false when it is not
+// one.
 bool JsonToCsvGrid(const json& value, CsvGrid* grid) {
   if (!value.is_array() || value.empty() || !value[0].is_array()) return false;
   grid->rows = static_cast<int>(value.size());
   grid->columns = static_cast<int>(value[0].size());
   grid->values.clear();
   for (const json& row : value) {
-    if (!row.is_array() || static_cast<int>(row.size()) != grid->columns) return false;
+    if (!row.is_array() || static_cast<int>(row.size()) != grid->columns)
+      return false;
     for (const json& v : row) {
       if (v.is_number()) {
         grid->values.emplace_back(v.get<double>());
@@ -93,41 +100,51 @@ bool CheckJsonGrid(const json& value,
     return false;
   }
   if (static_cast<int>(value.size()) != rows) {
-    *error = path + " has " + std::to_string(value.size()) + " rows, expected " + std::to_string(rows);
+    *error = path + " has " + std::to_string(value.size()) +
+             " rows, expected " + std::to_string(rows);
     return false;
   }
   for (int r = 0; r < rows; ++r) {
     const std::string row_path = path + "[" + std::to_string(r) + "]";
     const json& row = value[r];
     if (!row.is_array()) {
-      *error = row_path + " must be an array of " + std::to_string(columns) + " values";
+      *error = row_path + " must be an array of " + std::to_string(columns) +
+               " values";
       return false;
     }
     if (static_cast<int>(row.size()) != columns) {
-      *error = row_path + " has " + std::to_string(row.size()) + " entries, expected " + std::to_string(columns);
+      *error = row_path + " has " + std::to_string(row.size()) +
+               " entries, expected " + std::to_string(columns);
       return false;
     }
     for (int c = 0; c < columns; ++c) {
       const json& v = row[c];
       if (v.is_number() || (allow_null && v.is_null())) continue;
-      *error = row_path + "[" + std::to_string(c) + "] is " + (v.is_null() ? "null" : v.dump()) +
-               (allow_null ? ", expected a number in um or null" : ", expected a number in um (this grid must be complete)");
+      *error = row_path + "[" + std::to_string(c) + "] is " +
+               (v.is_null() ? "null" : v.dump()) +
+               (allow_null
+                    ? ", expected a number in um or null"
+                    : ", expected a number in um (this grid must be complete)");
       return false;
     }
   }
   return true;
 }
 
-// The grid shape a request asks for (grid.profile_points x grid.lead_points, default 5 x 9).
+// The grid shape a request asks for (grid.profile_points x grid.lead_points,
+// default 5 x 9).
 void GridShape(const json& request, int* rows, int* columns) {
   *rows = 5;
   *columns = 9;
-  if (request.is_object() && request.contains("grid") && request["grid"].is_object()) {
+  if (request.is_object() && request.contains("grid") &&
+      request["grid"].is_object()) {
     const json& grid = request["grid"];
-    if (grid.contains("profile_points") && grid["profile_points"].is_number_integer()) {
+    if (grid.contains("profile_points") &&
+        grid["profile_points"].is_number_integer()) {
       *rows = grid["profile_points"].get<int>();
     }
-    if (grid.contains("lead_points") && grid["lead_points"].is_number_integer()) {
+    if (grid.contains("lead_points") &&
+        grid["lead_points"].is_number_integer()) {
       *columns = grid["lead_points"].get<int>();
     }
   }
@@ -135,9 +152,15 @@ void GridShape(const json& request, int* rows, int* columns) {
 
 namespace {
 
-// Reads a CSV grid file of rows x columns um values (clients/cli/csv_grid.h) into
-// {"deviations_um": grid}; allow_missing: empty cells become null instead of an error.
-bool ReadCsvGridFile(const std::string& path, int rows, int columns, bool allow_missing, json* out,
+// Reads a CSV grid file of rows x columns um values (clients/cli/csv_grid.h)
+// into
+// {"deviations_um": grid}; allow_missing: empty cells become null instead of an
+// error.
+bool ReadCsvGridFile(const std::string& path,
+                     int rows,
+                     int columns,
+                     bool allow_missing,
+                     json* out,
                      std::string* error) {
   std::string text;
   if (!ReadTextFile(path, &text, error)) return false;
@@ -159,24 +182,39 @@ bool ReadCsvGridFile(const std::string& path, int rows, int columns, bool allow_
 
 // Reads a measurement file into the API's measurement object.
 //   *.csv   one grid (clients/cli/csv_grid.h)
-//   *.json  {"deviations_um": grid} or {"teeth": [grid, ...]}, or either inside "measurement"
-//           (clients/FORMATS.md); other members (part, tooth, machine, ...) are ignored
-bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* measurement, std::string* error) {
+//   *.json  {"deviations_um": grid} or {"teeth": [grid, ...]}, or either inside
+//   "measurement"
+//           (clients/FORMATS.md); other members (part, tooth, machine, ...) are
+//           ignored
+bool ReadMeasurementFile(const std::string& path,
+                         int rows,
+                         int columns,
+                         json* measurement,
+                         std::string* error) {
   if (HasExtension(path, ".csv")) {
-    return ReadCsvGridFile(path, rows, columns, /*allow_missing=*/true, measurement, error);
+    return ReadCsvGridFile(
+        path, rows, columns, /*allow_missing=*/true, measurement, error);
   }
   json file;
   if (!ReadJsonFile(path, &file, error)) return false;
-  if (file.is_object() && file.contains("measurement")) file = file["measurement"];
+  if (file.is_object() && file.contains("measurement"))
+    file = file["measurement"];
   if (file.is_array()) file = {{"deviations_um", file}};
-  if (!file.is_object() || (!file.contains("deviations_um") && !file.contains("teeth"))) {
-    *error = path + ": a measurement file holds \"deviations_um\" (a grid of " + std::to_string(rows) + " rows x " +
-             std::to_string(columns) + " um values, null = missing) or \"teeth\" (a list of such grids)";
+  if (!file.is_object() ||
+      (!file.contains("deviations_um") && !file.contains("teeth"))) {
+    *error = path + ": a measurement file holds \"deviations_um\" (a grid of " +
+             std::to_string(rows) + " rows x " + std::to_string(columns) +
+             " um values, null = missing) or \"teeth\" (a list of such grids)";
     return false;
   }
   json out = json::object();
   if (file.contains("deviations_um")) {
-    if (!CheckJsonGrid(file["deviations_um"], path + ": deviations_um", rows, columns, /*allow_null=*/true, error)) {
+    if (!CheckJsonGrid(file["deviations_um"],
+                       path + ": deviations_um",
+                       rows,
+                       columns,
+                       /*allow_null=*/true,
+                       error)) {
       return false;
     }
     out["deviations_um"] = file["deviations_um"];
@@ -188,7 +226,12 @@ bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* m
       return false;
     }
     for (size_t i = 0; i < teeth.size(); ++i) {
-      if (!CheckJsonGrid(teeth[i], path + ": teeth[" + std::to_string(i) + "]", rows, columns, true, error)) {
+      if (!CheckJsonGrid(teeth[i],
+                         path + ": teeth[" + std::to_string(i) + "]",
+                         rows,
+                         columns,
+                         true,
+                         error)) {
         return false;
       }
     }
@@ -198,28 +241,43 @@ bool ReadMeasurementFile(const std::string& path, int rows, int columns, json* m
   return true;
 }
 
-// A target file: a complete grid (*.csv or JSON {"deviations_um"}) or JSON {"modifications"}.
-bool ReadTargetFile(const std::string& path, int rows, int columns, json* target, std::string* error) {
+// A target file: a complete grid (*.csv or JSON {"deviations_um"}) or JSON
+// {"modifications"}.
+bool ReadTargetFile(const std::string& path,
+                    int rows,
+                    int columns,
+                    json* target,
+                    std::string* error) {
   if (HasExtension(path, ".csv")) {
-    return ReadCsvGridFile(path, rows, columns, /*allow_missing=*/false, target, error);
+    return ReadCsvGridFile(
+        path, rows, columns, /*allow_missing=*/false, target, error);
   }
   json file;
   if (!ReadJsonFile(path, &file, error)) return false;
   if (file.is_object() && file.contains("target")) file = file["target"];
   if (file.is_array()) file = {{"modifications", file}};
-  if (!file.is_object() || (!file.contains("deviations_um") && !file.contains("modifications"))) {
-    *error = path + ": a target file holds \"deviations_um\" (a complete grid) or \"modifications\" (a list)";
+  if (!file.is_object() ||
+      (!file.contains("deviations_um") && !file.contains("modifications"))) {
+    *error = path +
+             ": a target file holds \"deviations_um\" (a complete grid) or "
+             "\"modifications\" (a list)";
     return false;
   }
-  if (file.contains("deviations_um") &&
-      !CheckJsonGrid(file["deviations_um"], path + ": deviations_um", rows, columns, /*allow_null=*/false, error)) {
+  if (file.contains("deviations_um") && !CheckJsonGrid(file["deviations_um"],
+                                                       path + ": deviations_um",
+                                                       rows,
+                                                       columns,
+                                                       /*allow_null=*/false,
+                                                       error)) {
     return false;
   }
   *target = file;
   return true;
 }
 
-bool WriteTextFile(const std::string& path, const std::string& text, std::string* error) {
+bool WriteTextFile(const std::string& path,
+                   const std::string& text,
+                   std::string* error) {
   std::ofstream out(path, std::ios::binary);
   out << text;
   if (!out) {
@@ -229,15 +287,18 @@ bool WriteTextFile(const std::string& path, const std::string& text, std::string
   return true;
 }
 
-// The measured grid of a stored job: the result's copy (what the solver used), else, for a job
-// stored before the server sent it, the request's grid or the point-by-point mean of its teeth.
+// The measured grid of a stored job: the result's copy (what the solver used),
+// else, for a job stored before the server sent it, the request's grid or the
+// point-by-point mean of its teeth.
 json MeasuredGrid(const json& job) {
   const json result = job.value("result", json::object());
   if (result.contains("measured_um")) return result["measured_um"];
   const json request = job.value("request", json::object());
   const json measurement = request.value("measurement", json::object());
-  if (measurement.contains("deviations_um")) return measurement["deviations_um"];
-  if (!measurement.contains("teeth") || !measurement["teeth"].is_array()) return json();
+  if (measurement.contains("deviations_um"))
+    return measurement["deviations_um"];
+  if (!measurement.contains("teeth") || !measurement["teeth"].is_array())
+    return json();
   CsvGrid sum;
   std::vector<int> count;
   for (const json& tooth : measurement["teeth"]) {
@@ -245,7 +306,8 @@ json MeasuredGrid(const json& job) {
     if (!JsonToCsvGrid(tooth, &grid)) return json();
     if (sum.values.empty()) {
       sum = grid;
-      for (auto& v : sum.values) v = v ? std::optional<double>(0.0) : std::nullopt;
+      for (auto& v : sum.values)
+        v = v ? std::optional<double>(0.0) : std::nullopt;
       count.assign(sum.values.size(), 0);
     }
     if (grid.values.size() != sum.values.size()) return json();
@@ -265,19 +327,22 @@ json MeasuredGrid(const json& job) {
   return CsvGridToJson(sum);
 }
 
-// The target grid: the result's copy, else (a job stored before the server sent it) the
-// request's own grid, or zeros when there was no target. A target given as modifications is
-// evaluated by the server only; an older job without target_um then has no target grid here.
+// The target grid: the result's copy, else (a job stored before the server sent
+// it) the request's own grid, or zeros when there was no target. A target given
+// as modifications is evaluated by the server only; an older job without
+// target_um then has no target grid here.
 json TargetGrid(const json& job) {
   const json result = job.value("result", json::object());
   if (result.contains("target_um")) return result["target_um"];
   const json request = job.value("request", json::object());
   const json target = request.value("target", json());
-  if (target.is_object() && target.contains("deviations_um")) return target["deviations_um"];
+  if (target.is_object() && target.contains("deviations_um"))
+    return target["deviations_um"];
   if (!target.is_null()) return json();
   CsvGrid measured;
   if (!JsonToCsvGrid(MeasuredGrid(job), &measured)) return json();
-  for (auto& v : measured.values) v = 0.0;  // no target: the designed flank is the exact involute
+  for (auto& v : measured.values)
+    v = 0.0;  // no target: the designed flank is the exact involute
   return CsvGridToJson(measured);
 }
 

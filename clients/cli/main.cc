@@ -1,11 +1,12 @@
-// clients/cli/main.cc: `gearloop`, the command-line client of the gearloop server.
+// clients/cli/main.cc: `gearloop`, the command-line client of the gearloop
+// server.
 //
 //   gearloop submit request.json part7.csv --target target.json
 //   gearloop list --limit 5
 //   gearloop --json show 12 | jq .result.residual_rms_um
 //
-// Global options may stand anywhere on the line; everything else goes to the subcommand
-// (commands.h). Exit codes are listed by `gearloop --help`.
+// Global options may stand anywhere on the line; everything else goes to the
+// subcommand (commands.h). Exit codes are listed by `gearloop --help`.
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -17,7 +18,10 @@ namespace {
 
 constexpr const char* kClientVersion = "0.1.0";
 
-bool TakeValue(const std::vector<std::string>& args, size_t* i, const std::string& name, std::string* value) {
+bool TakeValue(const std::vector<std::string>& args,
+               size_t* i,
+               const std::string& name,
+               std::string* value) {
   const std::string& arg = args[*i];
   if (arg.rfind(name + "=", 0) == 0) {
     *value = arg.substr(name.size() + 1);
@@ -37,10 +41,12 @@ bool TakeValue(const std::vector<std::string>& args, size_t* i, const std::strin
 int main(int argc, char** argv) {
   using gearloop::GlobalOptions;
   GlobalOptions global;
-  if (const char* server = std::getenv("GEARLOOP_SERVER"); server != nullptr && *server != '\0') {
+  if (const char* server = std::getenv("GEARLOOP_SERVER");
+      server != nullptr && *server != '\0') {
     global.server = server;
   }
-  if (const char* token = std::getenv("GEARLOOP_TOKEN"); token != nullptr) global.token = token;
+  if (const char* token = std::getenv("GEARLOOP_TOKEN"); token != nullptr)
+    global.token = token;
 
   const std::vector<std::string> args(argv + 1, argv + argc);
   std::string command;
@@ -65,7 +71,8 @@ int main(int argc, char** argv) {
     } else if (args[i] == "--version") {
       std::cout << "gearloop " << kClientVersion << "\n";
       return gearloop::kExitOk;
-    } else if (command.empty() && (args[i] == "--help" || args[i] == "-h" || args[i] == "help")) {
+    } else if (command.empty() &&
+               (args[i] == "--help" || args[i] == "-h" || args[i] == "help")) {
       help = true;
     } else if (command.empty() && !args[i].empty() && args[i][0] != '-') {
       command = args[i];

@@ -1,6 +1,7 @@
-// clients/cli/report.cc: the report page of the dashboard (/static/report.html) with its
-// stylesheet and scripts inlined and the job data put in front of them, so report.js draws
-// from window.GEARLOOP_REPORT instead of fetching from a server.
+// clients/cli/report.cc: the report page of the dashboard (/static/report.html)
+// with its stylesheet and scripts inlined and the job data put in front of
+// them, so report.js draws from window.GEARLOOP_REPORT instead of fetching from
+// a server.
 #include "clients/cli/report.h"
 
 #include "clients/web/web_assets.h"
@@ -15,7 +16,10 @@ bool Asset(const std::string& path, std::string* body, std::string* error) {
   return false;
 }
 
-bool ReplaceOnce(const std::string& from, const std::string& to, std::string* text, std::string* error) {
+bool ReplaceOnce(const std::string& from,
+                 const std::string& to,
+                 std::string* text,
+                 std::string* error) {
   const size_t at = text->find(from);
   if (at == std::string::npos) {
     *error = "the embedded report page lacks " + from;
@@ -25,8 +29,8 @@ bool ReplaceOnce(const std::string& from, const std::string& to, std::string* te
   return true;
 }
 
-// Text placed inside <script> must not close it: "</" becomes "<\/", the same string to JSON
-// and to JavaScript string literals.
+// Text placed inside <script> must not close it: "</" becomes "<\/", the same
+// string to JSON and to JavaScript string literals.
 std::string ScriptSafe(const std::string& text) {
   std::string out;
   out.reserve(text.size());
@@ -43,26 +47,39 @@ std::string ScriptSafe(const std::string& text) {
 
 }  // namespace
 
-bool RenderJobReport(const nlohmann::json& job, const nlohmann::json& lineage, std::string* html, std::string* error) {
+bool RenderJobReport(const nlohmann::json& job,
+                     const nlohmann::json& lineage,
+                     std::string* html,
+                     std::string* error) {
   std::string page;
   std::string style;
   std::string plots;
   std::string report;
-  if (!Asset("/static/report.html", &page, error) || !Asset("/static/style.css", &style, error) ||
-      !Asset("/static/plots.js", &plots, error) || !Asset("/static/report.js", &report, error)) {
+  if (!Asset("/static/report.html", &page, error) ||
+      !Asset("/static/style.css", &style, error) ||
+      !Asset("/static/plots.js", &plots, error) ||
+      !Asset("/static/report.js", &report, error)) {
     return false;
   }
   const nlohmann::json data = {{"job", job}, {"lineage", lineage}};
-  // dump() with error_handler replace: a stored string with broken UTF-8 must not stop a report.
-  const std::string data_text = data.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  if (!ReplaceOnce("<link rel=\"stylesheet\" href=\"/static/style.css\">", "<style>\n" + style + "</style>", &page,
+  // dump() with error_handler replace: a stored string with broken UTF-8 must
+  // not stop a report.
+  const std::string data_text =
+      data.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  if (!ReplaceOnce("<link rel=\"stylesheet\" href=\"/static/style.css\">",
+                   "<style>\n" + style + "</style>",
+                   &page,
                    error) ||
       !ReplaceOnce("<script src=\"/static/plots.js\"></script>",
-                   "<script>window.GEARLOOP_REPORT = " + ScriptSafe(data_text) + ";</script>\n<script>\n" +
-                       ScriptSafe(plots) + "</script>",
-                   &page, error) ||
-      !ReplaceOnce("<script src=\"/static/report.js\"></script>", "<script>\n" + ScriptSafe(report) + "</script>",
-                   &page, error)) {
+                   "<script>window.GEARLOOP_REPORT = " + ScriptSafe(data_text) +
+                       ";</script>\n<script>\n" + ScriptSafe(plots) +
+                       "</script>",
+                   &page,
+                   error) ||
+      !ReplaceOnce("<script src=\"/static/report.js\"></script>",
+                   "<script>\n" + ScriptSafe(report) + "</script>",
+                   &page,
+                   error)) {
     return false;
   }
   *html = std::move(page);

@@ -1,5 +1,6 @@
-// clients/web/web_assets.cc: request paths to embedded files. The dashboard's pages are few and
-// fixed, so the routing is a handful of comparisons, not a router.
+// clients/web/web_assets.cc: request paths to embedded files. The dashboard's
+// pages are few and fixed, so the routing is a handful of comparisons, not a
+// router.
 #include "clients/web/web_assets.h"
 
 #include <cctype>
@@ -27,7 +28,8 @@ bool IsReportPath(const std::string& path) {
   const std::string suffix = "/report";
   if (path.size() <= prefix.size() + suffix.size()) return false;
   if (path.compare(0, prefix.size(), prefix) != 0) return false;
-  if (path.compare(path.size() - suffix.size(), suffix.size(), suffix) != 0) return false;
+  if (path.compare(path.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
   for (size_t i = prefix.size(); i < path.size() - suffix.size(); ++i) {
     if (!std::isdigit(static_cast<unsigned char>(path[i]))) return false;
   }
@@ -36,7 +38,9 @@ bool IsReportPath(const std::string& path) {
 
 }  // namespace
 
-bool FindWebAsset(const std::string& path, std::string* body, std::string* content_type) {
+bool FindWebAsset(const std::string& path,
+                  std::string* body,
+                  std::string* content_type) {
   std::string file = path;
   if (path == "/" || path == "/index.html") {
     file = "/static/index.html";
@@ -45,7 +49,9 @@ bool FindWebAsset(const std::string& path, std::string* body, std::string* conte
   } else if (path.compare(0, 8, "/static/") != 0) {
     return false;
   }
-  for (const EmbeddedWebAsset* asset = kEmbeddedWebAssets; asset->path != nullptr; ++asset) {
+  for (const EmbeddedWebAsset* asset = kEmbeddedWebAssets;
+       asset->path != nullptr;
+       ++asset) {
     if (file == asset->path) {
       body->assign(reinterpret_cast<const char*>(asset->bytes), asset->size);
       *content_type = ContentType(file);

@@ -1,26 +1,32 @@
 #include "engine/core/axis_motion.h"
-#include "engine/core/units.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// sum_k c_k x^k by Horner. With phi1 of a few tenths of a radian the terms stay far below
-// 1/eps times the sum even for coefficients of thousands of mm, so plain double suffices.
+// sum_k c_k x^k by Horner. With phi1 of a few tenths of a radian the terms stay
+// far below 1/eps times the sum even for coefficients of thousands of mm, so
+// plain double suffices.
 double Polynomial(const Eigen::VectorXd& c, double x) {
   double value = 0.0;
-  for (int k = static_cast<int>(c.size()) - 1; k >= 0; --k) value = value * x + c(k);
+  for (int k = static_cast<int>(c.size()) - 1; k >= 0; --k)
+    value = value * x + c(k);
   return value;
 }
 
-// Gauss-Legendre nodes and weights on [-1, 1] (n points, exact for degree 2n - 1): the roots of
-// P_n by Newton from the usual cosine guesses, P_n by its three-term recurrence.
-void GaussLegendre(int n, std::vector<double>* nodes, std::vector<double>* weights) {
+// Gauss-Legendre nodes and weights on [-1, 1] (n points, exact for degree 2n -
+// 1): the roots of P_n by Newton from the usual cosine guesses, P_n by its
+// three-term recurrence.
+void GaussLegendre(int n,
+                   std::vector<double>* nodes,
+                   std::vector<double>* weights) {
   nodes->assign(n, 0.0);
   weights->assign(n, 0.0);
   for (int i = 0; i < n; ++i) {
@@ -44,9 +50,10 @@ void GaussLegendre(int n, std::vector<double>* nodes, std::vector<double>* weigh
   }
 }
 
-// max |p| over [a, b]: the largest of a fine sampling, then a golden-section search for the
-// maximum of |p| between the neighbours of that sample. A polynomial of degree d has at most
-// d - 1 extrema, so between two neighbours of the best of many samples |p| has a single peak.
+// max |p| over [a, b]: the largest of a fine sampling, then a golden-section
+// search for the maximum of |p| between the neighbours of that sample. A
+// polynomial of degree d has at most d - 1 extrema, so between two neighbours
+// of the best of many samples |p| has a single peak.
 double MaxAbsOverRange(const Eigen::VectorXd& c, double a, double b) {
   constexpr int kIntervals = 512;
   const double h = (b - a) / kIntervals;
@@ -65,7 +72,9 @@ double MaxAbsOverRange(const Eigen::VectorXd& c, double a, double b) {
   const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
   double x1 = hi - ratio * (hi - lo), x2 = lo + ratio * (hi - lo);
   double f1 = std::fabs(Polynomial(c, x1)), f2 = std::fabs(Polynomial(c, x2));
-  for (int iteration = 0; iteration < 80 && hi - lo > 1e-14 * (1.0 + std::fabs(lo)); ++iteration) {
+  for (int iteration = 0;
+       iteration < 80 && hi - lo > 1e-14 * (1.0 + std::fabs(lo));
+       ++iteration) {
     if (f1 > f2) {
       hi = x2;
       x2 = x1;
@@ -105,23 +114,30 @@ AxisMotion ComputeAxisMotion(const std::vector<ParameterBlock>& blocks,
                              int num_samples) {
   AxisMotion motion;
   const int n = std::max(2, num_samples);
-  const bool range_ok = std::isfinite(roll_min_rad) && std::isfinite(roll_max_rad) && roll_min_rad <= roll_max_rad;
+  const bool range_ok = std::isfinite(roll_min_rad) &&
+                        std::isfinite(roll_max_rad) &&
+                        roll_min_rad <= roll_max_rad;
   if (range_ok) {
     for (int i = 0; i < n; ++i) {
       // The last sample is the end itself, not a + (n - 1) h with its rounding.
-      motion.roll_rad.push_back(i == n - 1 ? roll_max_rad
-                                           : roll_min_rad + (roll_max_rad - roll_min_rad) * i / (n - 1.0));
+      motion.roll_rad.push_back(
+          i == n - 1
+              ? roll_max_rad
+              : roll_min_rad + (roll_max_rad - roll_min_rad) * i / (n - 1.0));
     }
   }
   for (const ParameterBlock& block : blocks) {
     BlockMotion b;
     b.name = block.name;
     b.is_polynomial = block.is_polynomial;
-    const bool inside = block.first_index >= 0 && block.num_coefficients >= 0 &&
-                        block.first_index + block.num_coefficients <= delta.size();
+    const bool inside =
+        block.first_index >= 0 && block.num_coefficients >= 0 &&
+        block.first_index + block.num_coefficients <= delta.size();
     if (!block.is_polynomial) {
       b.unit = block.unit;
-      const double value = inside && block.num_coefficients > 0 ? delta(block.first_index) : kNaN;
+      const double value = inside && block.num_coefficients > 0
+                               ? delta(block.first_index)
+                               : kNaN;
       b.change = {value};
       b.rms = b.max_abs = std::fabs(value);
       motion.blocks.push_back(b);
@@ -134,10 +150,12 @@ AxisMotion ComputeAxisMotion(const std::vector<ParameterBlock>& blocks,
       motion.blocks.push_back(b);
       continue;
     }
-    const Eigen::VectorXd c = delta.segment(block.first_index, block.num_coefficients) * factor;
+    const Eigen::VectorXd c =
+        delta.segment(block.first_index, block.num_coefficients) * factor;
     for (double roll : motion.roll_rad) b.change.push_back(Polynomial(c, roll));
-    // mean of dC^2 over the range: dC^2 has degree 2(m - 1) for m coefficients, integrated
-    // exactly by m Gauss-Legendre points; the weights sum to 2, hence the half.
+    // mean of dC^2 over the range: dC^2 has degree 2(m - 1) for m coefficients,
+    // integrated exactly by m Gauss-Legendre points; the weights sum to 2,
+    // hence the half.
     const double centre = 0.5 * (roll_min_rad + roll_max_rad);
     const double half_width = 0.5 * (roll_max_rad - roll_min_rad);
     std::vector<double> nodes, weights;

@@ -1,17 +1,19 @@
-// engine/core/damped_newton.h: the damped Newton iteration shared by the contact solvers of the
-// flat-wheel grinder (engine/grinder/flat_wheel_grinder.cc, 4 x 4), the cradle bevel generator
+// engine/core/damped_newton.h: the damped Newton iteration shared by the
+// contact solvers of the flat-wheel grinder
+// (engine/grinder/flat_wheel_grinder.cc, 4 x 4), the cradle bevel generator
 // (engine/bevel/cradle_machine.cc, 3 x 3) and the free-form bevel generator
 // (engine/bevel/freeform_generator.cc, 4 x 4).
 //
-// INTERNAL to the engine: it includes Eigen only (no Ceres), so each solver keeps its own way of
-// evaluating the system (closed-form derivatives or ceres::Jet) in its .cc file.
+// INTERNAL to the engine: it includes Eigen only (no Ceres), so each solver
+// keeps its own way of evaluating the system (closed-form derivatives or
+// ceres::Jet) in its .cc file.
 //
 //   Eigen::Vector4d x = first_guess;
 //   const DampedNewtonSummary summary = DampedNewton<4>(
-//       DampedNewtonOptions{options_.max_iterations, options_.step_tolerance_mm, options_.max_step_mm},
-//       step_scale,
-//       [&](const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d* jacobian) { ... },
-//       &x);
+//       DampedNewtonOptions{options_.max_iterations,
+//       options_.step_tolerance_mm, options_.max_step_mm}, step_scale,
+//       [&](const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d*
+//       jacobian) { ... }, &x);
 //   if (!summary.converged || !x.allFinite()) ...
 #ifndef GEARLOOP_ENGINE_CORE_DAMPED_NEWTON_H_
 #define GEARLOOP_ENGINE_CORE_DAMPED_NEWTON_H_
@@ -25,29 +27,34 @@ namespace engine_internal {
 struct DampedNewtonOptions {
   // Newton iterations allowed; each evaluates the system and its Jacobian once.
   int max_iterations = 40;
-  // Converged when a full step moves every unknown by less than this [mm], each unknown
-  // counted in mm through its entry of `step_scale` (an angle as an arc on some radius).
+  // Converged when a full step moves every unknown by less than this [mm], each
+  // unknown counted in mm through its entry of `step_scale` (an angle as an arc
+  // on some radius).
   double step_tolerance_mm = 1e-11;
-  // A step whose scaled size max_i |dx_i * step_scale_i| exceeds this [mm] is shortened to it,
-  // direction kept: keeps Newton on the branch of its first guess.
+  // A step whose scaled size max_i |dx_i * step_scale_i| exceeds this [mm] is
+  // shortened to it, direction kept: keeps Newton on the branch of its first
+  // guess.
   double max_step_mm = 20.0;
 };
 
 struct DampedNewtonSummary {
-  // True once a full (unshortened) step was below step_tolerance_mm; that step is applied.
+  // True once a full (unshortened) step was below step_tolerance_mm; that step
+  // is applied.
   bool converged = false;
-  // Steps taken, the converging one included; a step that failed to solve is not counted.
+  // Steps taken, the converging one included; a step that failed to solve is
+  // not counted.
   int num_iterations = 0;
 };
 
-// Solves g(x) = 0 for N unknowns by Newton's method from *x, leaving the last iterate in *x.
-// Each iteration calls `system(x, &g, &jacobian)` to fill g(x) and dg/dx at x, solves
-// jacobian * dx = -g by LU with partial pivoting, and stops without moving when dx is not
-// finite (a singular Jacobian). The step is shortened to max_step_mm when its scaled size
-// max_i |dx_i * step_scale_i| exceeds that. Newton converges quadratically: once a full step is
-// below step_tolerance_mm, the error left after it is far below the tolerance, so it stops
-// there. The caller checks the result for branch jumps and finiteness (*x may hold a
-// non-finite value only if the system produced one).
+// Solves g(x) = 0 for N unknowns by Newton's method from *x, leaving the last
+// iterate in *x. Each iteration calls `system(x, &g, &jacobian)` to fill g(x)
+// and dg/dx at x, solves jacobian * dx = -g by LU with partial pivoting, and
+// stops without moving when dx is not finite (a singular Jacobian). The step is
+// shortened to max_step_mm when its scaled size max_i |dx_i * step_scale_i|
+// exceeds that. Newton converges quadratically: once a full step is below
+// step_tolerance_mm, the error left after it is far below the tolerance, so it
+// stops there. The caller checks the result for branch jumps and finiteness (*x
+// may hold a non-finite value only if the system produced one).
 template <int N, typename System>
 DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
                                  const Eigen::Matrix<double, N, 1>& step_scale,
@@ -62,7 +69,8 @@ DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
     const Eigen::Matrix<double, N, 1> dx = jacobian.partialPivLu().solve(-g);
     if (!dx.allFinite()) break;
     const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
-    const double shrink = step_mm > options.max_step_mm ? options.max_step_mm / step_mm : 1.0;
+    const double shrink =
+        step_mm > options.max_step_mm ? options.max_step_mm / step_mm : 1.0;
     *x += shrink * dx;
     if (step_mm < options.step_tolerance_mm) {
       summary.converged = true;

@@ -1,6 +1,7 @@
-// engine/core/machine_model.h: the abstract machine model the correction solver works against:
-// a parameter vector in, the normal deviations on the measurement grid and their Jacobian out.
-// The flat-wheel grinder (engine/grinder/flat_wheel_grinder.h) is one implementation; a free-form
+// engine/core/machine_model.h: the abstract machine model the correction solver
+// works against: a parameter vector in, the normal deviations on the
+// measurement grid and their Jacobian out. The flat-wheel grinder
+// (engine/grinder/flat_wheel_grinder.h) is one implementation; a free-form
 // spiral-bevel generator will be another.
 //
 //   const MachineModel& model = grinder;
@@ -10,47 +11,53 @@
 #ifndef GEARLOOP_ENGINE_CORE_MACHINE_MODEL_H_
 #define GEARLOOP_ENGINE_CORE_MACHINE_MODEL_H_
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace gearloop {
 
 enum class PointStatus {
   kOk,            // the envelope was found; the deviation is a number
-  kNotReached,    // the contact lies outside the real wheel (the rim does not reach it)
-  kNotConverged,  // no trustworthy envelope point (Newton failed, or landed on another branch
-                  // far from the nominal contact); no number is reported
+  kNotReached,    // the contact lies outside the real wheel (the rim does not
+                  // reach it)
+  kNotConverged,  // no trustworthy envelope point (Newton failed, or landed on
+                  // another branch far from the nominal contact); no number is
+                  // reported
 };
 
 const char* PointStatusName(PointStatus status);
 
 struct ModelEvaluation {
-  // Normal deviation at each grid point (row-major) [um], positive = material left on.
-  // 0 where status is not kOk (never use those entries as numbers).
+  // Normal deviation at each grid point (row-major) [um], positive = material
+  // left on. 0 where status is not kOk (never use those entries as numbers).
   Eigen::VectorXd deviations_um;
   std::vector<PointStatus> status;
-  // d deviation_i / d parameter_j [um per parameter unit]; zero rows where status is not kOk.
-  // Filled only when requested.
+  // d deviation_i / d parameter_j [um per parameter unit]; zero rows where
+  // status is not kOk. Filled only when requested.
   Eigen::MatrixXd jacobian_um;
-  // The roll angle phi1 of each point's contact [rad] (NaN where status is not kOk).
+  // The roll angle phi1 of each point's contact [rad] (NaN where status is not
+  // kOk).
   std::vector<double> contact_roll_rad;
 
   int NumReached() const;
   bool AllReached() const;
 };
 
-// A group of parameters with one meaning. Axis motions are polynomial blocks: coefficient k
-// multiplies phi1^k, and the size of a change is the axis motion it causes over the roll
-// range actually used (MODEL.md §6). Other blocks are single scalars.
+// A group of parameters with one meaning. Axis motions are polynomial blocks:
+// coefficient k multiplies phi1^k, and the size of a change is the axis motion
+// it causes over the roll range actually used (MODEL.md §6). Other blocks are
+// single scalars.
 struct ParameterBlock {
-  std::string name;       // "X", "C", "cone_angle", ...
-  std::string unit;       // unit of the value (of the axis motion for a polynomial): "mm", "rad", "1/mm"
-  int first_index = 0;    // index of the first coefficient in the parameter vector
+  std::string name;  // "X", "C", "cone_angle", ...
+  std::string unit;  // unit of the value (of the axis motion for a polynomial):
+                     // "mm", "rad", "1/mm"
+  int first_index =
+      0;  // index of the first coefficient in the parameter vector
   int num_coefficients = 1;
   bool is_polynomial = false;
-  // The change that counts as one unit of correction size (MODEL.md §6), in `unit`.
+  // The change that counts as one unit of correction size (MODEL.md §6), in
+  // `unit`.
   double default_scale = 1.0;
 };
 
@@ -68,8 +75,8 @@ class MachineModel {
   // The parameter blocks in order; together they cover every parameter once.
   virtual std::vector<ParameterBlock> ParameterBlocks() const = 0;
 
-  // Deviations of the flank produced by `parameters` from the theoretical flank on the grid.
-  // `parameters` must have NumParameters() entries.
+  // Deviations of the flank produced by `parameters` from the theoretical flank
+  // on the grid. `parameters` must have NumParameters() entries.
   virtual void Evaluate(const Eigen::VectorXd& parameters,
                         bool with_jacobian,
                         ModelEvaluation* evaluation) const = 0;

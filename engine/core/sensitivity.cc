@@ -1,30 +1,35 @@
 #include "engine/core/sensitivity.h"
 
-#include <limits>
-
 #include <Eigen/SVD>
+#include <limits>
 
 namespace gearloop {
 
-SensitivitySummary AnalyzeSensitivity(const Eigen::MatrixXd& matrix, const Eigen::VectorXd& column_scales,
+SensitivitySummary AnalyzeSensitivity(const Eigen::MatrixXd& matrix,
+                                      const Eigen::VectorXd& column_scales,
                                       const SensitivityOptions& options) {
   SensitivitySummary summary;
   Eigen::MatrixXd scaled = matrix;
-  if (column_scales.size() == matrix.cols()) scaled = matrix * column_scales.asDiagonal();
+  if (column_scales.size() == matrix.cols())
+    scaled = matrix * column_scales.asDiagonal();
   if (scaled.size() == 0) return summary;
-  // Singular values only; a 45 x 45 matrix is small enough for the one-sided Jacobi SVD.
+  // Singular values only; a 45 x 45 matrix is small enough for the one-sided
+  // Jacobi SVD.
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
   summary.singular_values = svd.singularValues();
-  const double largest = summary.singular_values.size() > 0 ? summary.singular_values(0) : 0.0;
+  const double largest =
+      summary.singular_values.size() > 0 ? summary.singular_values(0) : 0.0;
   if (!(largest > 0.0)) {
     summary.rank = 0;
     summary.condition_number = std::numeric_limits<double>::infinity();
     return summary;
   }
   for (int i = 0; i < summary.singular_values.size(); ++i) {
-    if (summary.singular_values(i) > options.relative_rank_tolerance * largest) summary.rank = i + 1;
+    if (summary.singular_values(i) > options.relative_rank_tolerance * largest)
+      summary.rank = i + 1;
   }
-  summary.condition_number = largest / summary.singular_values(summary.rank - 1);
+  summary.condition_number =
+      largest / summary.singular_values(summary.rank - 1);
   return summary;
 }
 

@@ -1,12 +1,12 @@
-// The comparison solvers of the correction (baseline_solvers.h), kept as published.
+// The comparison solvers of the correction (baseline_solvers.h), kept as
+// published.
 #include "engine/correction/baseline_solvers.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
-
-#include <Eigen/SVD>
 
 #include "engine/core/units.h"
 
@@ -14,9 +14,11 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// The search box of each free coefficient: +-pso_box in the published units (mm and rad, except
-// the wheel's cone angle in degrees), within the bounds.
-void SwarmBox(const CorrectionOptions& options, const CorrectionProblem& problem, Eigen::VectorXd* box_lo,
+// The search box of each free coefficient: +-pso_box in the published units (mm
+// and rad, except the wheel's cone angle in degrees), within the bounds.
+void SwarmBox(const CorrectionOptions& options,
+              const CorrectionProblem& problem,
+              Eigen::VectorXd* box_lo,
               Eigen::VectorXd* box_hi) {
   const int nf = problem.NumFree();
   box_lo->resize(nf);
@@ -25,7 +27,9 @@ void SwarmBox(const CorrectionOptions& options, const CorrectionProblem& problem
     const int j = problem.free[c];
     bool is_cone = false;
     for (const ParameterBlock& b : problem.blocks) {
-      if (b.name == "cone_angle" && j >= b.first_index && j < b.first_index + b.num_coefficients) is_cone = true;
+      if (b.name == "cone_angle" && j >= b.first_index &&
+          j < b.first_index + b.num_coefficients)
+        is_cone = true;
     }
     const double half = options.pso_box * (is_cone ? kPi / 180.0 : 1.0);
     (*box_lo)(c) = std::max(-half, problem.lower(j));
@@ -43,7 +47,8 @@ class StockLimitedObjective {
     wanted_.resize(used.size());
     sw_.resize(used.size());
     for (size_t r = 0; r < used.size(); ++r) {
-      for (int c = 0; c < nf; ++c) s_used_(r, c) = problem.jacobian_um(used[r], problem.free[c]);
+      for (int c = 0; c < nf; ++c)
+        s_used_(r, c) = problem.jacobian_um(used[r], problem.free[c]);
       wanted_(r) = -problem.error_um(used[r]);  // delta_i = t - m
       sw_(r) = problem.weights(used[r]);
     }
@@ -73,10 +78,12 @@ Eigen::VectorXd SolvePlainLeastSquares(const CorrectionProblem& problem) {
   Eigen::VectorXd b(used.size());
   for (size_t r = 0; r < used.size(); ++r) {
     const double sw = std::sqrt(problem.weights(used[r]));
-    for (int c = 0; c < nf; ++c) a(r, c) = sw * problem.jacobian_um(used[r], problem.free[c]);
+    for (int c = 0; c < nf; ++c)
+      a(r, c) = sw * problem.jacobian_um(used[r], problem.free[c]);
     b(r) = -sw * problem.error_um(used[r]);
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(
+      a, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const Eigen::VectorXd x = svd.solve(b);
   Eigen::VectorXd delta = Eigen::VectorXd::Zero(problem.num_parameters);
   for (int c = 0; c < nf; ++c) {
@@ -86,10 +93,12 @@ Eigen::VectorXd SolvePlainLeastSquares(const CorrectionProblem& problem) {
   return delta;
 }
 
-// The published parameters fix the swarm size, generations, inertia and c1, c2; the rest is the
-// textbook global-best swarm: positions uniform in the box, velocities uniform in +-(box width),
-// velocities clamped to the box width and positions to the box.
-Eigen::VectorXd SolveParticleSwarm(const CorrectionOptions& options, const CorrectionProblem& problem) {
+// The published parameters fix the swarm size, generations, inertia and c1, c2;
+// the rest is the textbook global-best swarm: positions uniform in the box,
+// velocities uniform in +-(box width), velocities clamped to the box width and
+// positions to the box.
+Eigen::VectorXd SolveParticleSwarm(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem) {
   const int nf = problem.NumFree();
   Eigen::VectorXd box_lo, box_hi;
   SwarmBox(options, problem, &box_lo, &box_hi);
@@ -119,8 +128,10 @@ Eigen::VectorXd SolveParticleSwarm(const CorrectionOptions& options, const Corre
   for (int gen = 0; gen < options.pso_generations; ++gen) {
     for (int k = 0; k < np_swarm; ++k) {
       for (int c = 0; c < nf; ++c) {
-        vel[k](c) = options.pso_inertia * vel[k](c) + options.pso_cognitive * unit(rng) * (best_x[k](c) - x[k](c)) +
-                    options.pso_social * unit(rng) * (global_x(c) - x[k](c));
+        vel[k](c) =
+            options.pso_inertia * vel[k](c) +
+            options.pso_cognitive * unit(rng) * (best_x[k](c) - x[k](c)) +
+            options.pso_social * unit(rng) * (global_x(c) - x[k](c));
         vel[k](c) = std::clamp(vel[k](c), -width(c), width(c));
         x[k](c) = std::clamp(x[k](c) + vel[k](c), box_lo(c), box_hi(c));
       }

@@ -1,11 +1,14 @@
-// The correction pipeline of correction.h, in the shape of Ceres' TrustRegionMinimizer: a short
-// driver over named stages, each in its own file.
+// The correction pipeline of correction.h, in the shape of Ceres'
+// TrustRegionMinimizer: a short driver over named stages, each in its own file.
 //
-//   Validate (problem.cc) -> Prepare: roll range, used and reached points, free set, T (problem.cc)
-//   -> [EstimateMachineState: step 0 (machine_state.cc), then Prepare again at the state]
-//   -> Solve: outliers (outliers.cc), the regularised linear solve (regularisation.cc), then
-//      the refinement (refinement.cc) or the rework passes (rework_qp.cc), or pso / lsq-plain
-//      (baseline_solvers.cc)
+//   Validate (problem.cc) -> Prepare: roll range, used and reached points, free
+//   set, T (problem.cc)
+//   -> [EstimateMachineState: step 0 (machine_state.cc), then Prepare again at
+//   the state]
+//   -> Solve: outliers (outliers.cc), the regularised linear solve
+//   (regularisation.cc), then
+//      the refinement (refinement.cc) or the rework passes (rework_qp.cc), or
+//      pso / lsq-plain (baseline_solvers.cc)
 //   -> PredictExactly: the exact model at the new parameters.
 #include "engine/correction/correction.h"
 
@@ -28,31 +31,41 @@ namespace {
 
 using namespace correction_internal;
 
-// The rms over the used points of the error the linear model predicts after delta, e + S delta.
-double LinearPredictionRms(const CorrectionProblem& problem, const Eigen::VectorXd& delta) {
+// The rms over the used points of the error the linear model predicts after
+// delta, e + S delta.
+double LinearPredictionRms(const CorrectionProblem& problem,
+                           const Eigen::VectorXd& delta) {
   const Eigen::VectorXd r = problem.error_um + problem.jacobian_um * delta;
   return Rms(r, problem.used);
 }
 
-// Rank, spectrum, best reachable and initial error of the linear solve on the final rows (every
-// solver reports them).
-void ReportLinearSolve(const CorrectionProblem& problem, const LinearSolve& ls, CorrectionSummary* summary) {
+// Rank, spectrum, best reachable and initial error of the linear solve on the
+// final rows (every solver reports them).
+void ReportLinearSolve(const CorrectionProblem& problem,
+                       const LinearSolve& ls,
+                       CorrectionSummary* summary) {
   summary->singular_values = ls.svd.sigma;
   summary->rank = ls.svd.rank;
-  summary->condition_number = ls.svd.rank > 0 ? ls.svd.sigma(0) / ls.svd.sigma(ls.svd.rank - 1) : kInf;
+  summary->condition_number =
+      ls.svd.rank > 0 ? ls.svd.sigma(0) / ls.svd.sigma(ls.svd.rank - 1) : kInf;
   Eigen::VectorXd best_um = Eigen::VectorXd::Zero(problem.num_points);
   for (size_t r = 0; r < problem.used.size(); ++r) {
-    best_um(problem.used[r]) = ls.best(r) / std::sqrt(problem.weights(problem.used[r]));
+    best_um(problem.used[r]) =
+        ls.best(r) / std::sqrt(problem.weights(problem.used[r]));
   }
   summary->best_reachable_rms_um = Rms(best_um, problem.used);
   summary->initial_rms_um = Rms(problem.error_um, problem.used);
   summary->initial_max_um = MaxAbs(problem.error_um, problem.used);
 }
 
-// Steps 3-4 of the regularised solver in the kept subspace of `ls`: the Tikhonov answer (through
-// the QP with bounds or in rework mode), then the rework passes or the exact-model refinement.
-Eigen::VectorXd SolveRegularised(const CorrectionOptions& options, const CorrectionProblem& problem,
-                                 const LinearSolve& ls, CorrectionSummary* summary, std::string* not_converged) {
+// Steps 3-4 of the regularised solver in the kept subspace of `ls`: the
+// Tikhonov answer (through the QP with bounds or in rework mode), then the
+// rework passes or the exact-model refinement.
+Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
+                                 const CorrectionProblem& problem,
+                                 const LinearSolve& ls,
+                                 CorrectionSummary* summary,
+                                 std::string* not_converged) {
   summary->rule = problem.rule;
   summary->regularisation_level = ls.lambda;
   summary->effective_dof = ls.dof;
@@ -62,8 +75,12 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options, const Correct
   Eigen::VectorXd z = subspace.z;
   if (subspace.k > 0 && (rework || problem.has_bounds)) {
     Eigen::VectorXd z_new;
-    if (SolveLinearisedQp(problem, subspace, problem.jacobian_um, Eigen::VectorXd::Zero(problem.num_points),
-                          Eigen::VectorXd::Zero(subspace.k), &z_new)) {
+    if (SolveLinearisedQp(problem,
+                          subspace,
+                          problem.jacobian_um,
+                          Eigen::VectorXd::Zero(problem.num_points),
+                          Eigen::VectorXd::Zero(subspace.k),
+                          &z_new)) {
       z = z_new;
     } else {
       *not_converged = "the constrained linear problem failed";
@@ -74,17 +91,22 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options, const Correct
   if (subspace.k == 0) {
     // Nothing above the noise: no change.
   } else if (rework) {
-    summary->iterations = RunReworkPasses(options, problem, subspace, &z, &delta, not_converged);
+    summary->iterations =
+        RunReworkPasses(options, problem, subspace, &z, &delta, not_converged);
   } else if (options.max_num_iterations > 0) {
-    RefineOnExactModel(options, problem, subspace, z, &delta, summary, not_converged);
+    RefineOnExactModel(
+        options, problem, subspace, z, &delta, summary, not_converged);
   }
   return delta;
 }
 
-// The exact prediction at the new parameters: change and residual per point, their rms and max
-// over the used points, the correction size, and the status.
-void PredictExactly(const CorrectionOptions& options, const CorrectionProblem& problem, const Eigen::VectorXd& delta,
-                    std::string not_converged, CorrectionResult* result) {
+// The exact prediction at the new parameters: change and residual per point,
+// their rms and max over the used points, the correction size, and the status.
+void PredictExactly(const CorrectionOptions& options,
+                    const CorrectionProblem& problem,
+                    const Eigen::VectorXd& delta,
+                    std::string not_converged,
+                    CorrectionResult* result) {
   CorrectionSummary& summary = result->summary;
   const int n = problem.num_points;
   result->delta = delta;
@@ -102,36 +124,51 @@ void PredictExactly(const CorrectionOptions& options, const CorrectionProblem& p
       continue;
     }
     result->predicted_change_um(i) = eval1.deviations_um(i) - problem.d0()(i);
-    summary.max_added_material_um = std::max(summary.max_added_material_um, result->predicted_change_um(i));
+    summary.max_added_material_um =
+        std::max(summary.max_added_material_um, result->predicted_change_um(i));
     if (std::isfinite(problem.error_um(i))) {
-      result->predicted_residual_um(i) = problem.error_um(i) + result->predicted_change_um(i);
+      result->predicted_residual_um(i) =
+          problem.error_um(i) + result->predicted_change_um(i);
     }
   }
   std::vector<int> predicted_used;
-  for (int i : problem.used) if (std::isfinite(result->predicted_residual_um(i))) predicted_used.push_back(i);
+  for (int i : problem.used)
+    if (std::isfinite(result->predicted_residual_um(i)))
+      predicted_used.push_back(i);
   summary.residual_rms_um = Rms(result->predicted_residual_um, predicted_used);
-  summary.residual_max_um = MaxAbs(result->predicted_residual_um, predicted_used);
-  summary.correction_size = CorrectionSize(problem.blocks, delta, problem.roll_min_rad, problem.roll_max_rad,
-                                           options.block_scales, &summary.block_sizes);
+  summary.residual_max_um =
+      MaxAbs(result->predicted_residual_um, predicted_used);
+  summary.correction_size = CorrectionSize(problem.blocks,
+                                           delta,
+                                           problem.roll_min_rad,
+                                           problem.roll_max_rad,
+                                           options.block_scales,
+                                           &summary.block_sizes);
   if (lost > 0 && not_converged.empty()) {
-    not_converged = std::to_string(lost) + " grid point(s) are not reached by the corrected settings";
+    not_converged = std::to_string(lost) +
+                    " grid point(s) are not reached by the corrected settings";
   }
-  if (problem.mode == CorrectionMode::kRework && options.solver == CorrectionSolver::kRegularised &&
-      summary.max_added_material_um > options.rework_tolerance_um && not_converged.empty()) {
+  if (problem.mode == CorrectionMode::kRework &&
+      options.solver == CorrectionSolver::kRegularised &&
+      summary.max_added_material_um > options.rework_tolerance_um &&
+      not_converged.empty()) {
     not_converged = "rework: the correction still adds material at some point";
   }
-  summary.status = not_converged.empty() ? CorrectionStatus::kConverged : CorrectionStatus::kNotConverged;
+  summary.status = not_converged.empty() ? CorrectionStatus::kConverged
+                                         : CorrectionStatus::kNotConverged;
   summary.message = not_converged;
 }
 
 // Solve and PredictExactly for one prepared problem.
-CorrectionResult SolveProblem(const CorrectionOptions& options, CorrectionProblem problem) {
+CorrectionResult SolveProblem(const CorrectionOptions& options,
+                              CorrectionProblem problem) {
   CorrectionResult result;
   CorrectionSummary& summary = result.summary;
   summary.solver = options.solver;
   summary.mode = problem.mode;
   ReportProblem(problem, &summary);
-  if (options.outlier_threshold > 0.0 && options.solver == CorrectionSolver::kRegularised) {
+  if (options.outlier_threshold > 0.0 &&
+      options.solver == CorrectionSolver::kRegularised) {
     RemoveGrossOutliers(options, &problem, &summary);
   }
   const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
@@ -156,9 +193,11 @@ CorrectionResult SolveProblem(const CorrectionOptions& options, CorrectionProble
   return result;
 }
 
-// Step 0 and the correction at the estimated state; false when the state is not used (then the
-// correction is computed at the commanded parameters).
-bool SolveAtMachineState(const CorrectionOptions& options, const CorrectionProblem& problem, CorrectionResult* result) {
+// Step 0 and the correction at the estimated state; false when the state is not
+// used (then the correction is computed at the commanded parameters).
+bool SolveAtMachineState(const CorrectionOptions& options,
+                         const CorrectionProblem& problem,
+                         CorrectionResult* result) {
   CorrectionProblem state_problem;
   if (!MachineStateProblem(problem, &state_problem)) return false;
   const CorrectionResult state = SolveProblem(options, state_problem);
@@ -171,16 +210,20 @@ bool SolveAtMachineState(const CorrectionOptions& options, const CorrectionProbl
   return true;
 }
 
-CorrectionResult Correct(const CorrectionOptions& options, const CorrectionInput& input) {
+CorrectionResult Correct(const CorrectionOptions& options,
+                         const CorrectionInput& input) {
   CorrectionResult invalid;
   invalid.summary.solver = options.solver;
   invalid.summary.mode = options.mode;
   invalid.summary.message = ValidateCorrectionInput(options, input);
   if (!invalid.summary.message.empty()) return invalid;
   CorrectionProblem problem;
-  if (!PrepareCorrectionProblem(options, input, &problem, &invalid.summary, &invalid.summary.message)) return invalid;
+  if (!PrepareCorrectionProblem(
+          options, input, &problem, &invalid.summary, &invalid.summary.message))
+    return invalid;
   CorrectionResult result;
-  if (options.estimate_machine_state && options.solver == CorrectionSolver::kRegularised &&
+  if (options.estimate_machine_state &&
+      options.solver == CorrectionSolver::kRegularised &&
       SolveAtMachineState(options, problem, &result)) {
     return result;
   }
@@ -189,10 +232,13 @@ CorrectionResult Correct(const CorrectionOptions& options, const CorrectionInput
 
 }  // namespace
 
-CorrectionResult ComputeCorrection(const CorrectionOptions& options, const CorrectionInput& input) {
+CorrectionResult ComputeCorrection(const CorrectionOptions& options,
+                                   const CorrectionInput& input) {
   const auto start = std::chrono::steady_clock::now();
   CorrectionResult result = Correct(options, input);
-  result.summary.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.summary.elapsed_ms = std::chrono::duration<double, std::milli>(
+                                  std::chrono::steady_clock::now() - start)
+                                  .count();
   return result;
 }
 

@@ -1,127 +1,153 @@
-// engine/correction/correction.h: the closed-loop correction of MODEL.md §6: from a measured flank, the
-// wanted target and the current machine parameters, the change of the parameters that makes the
-// next part (or the reground part) match the target.
+// engine/correction/correction.h: the closed-loop correction of MODEL.md §6:
+// from a measured flank, the wanted target and the current machine parameters,
+// the change of the parameters that makes the next part (or the reground part)
+// match the target.
 //
 //   FlatWheelGrinder grinder(setup);
 //   CorrectionInput input;
 //   input.model = &grinder;
 //   input.current_parameters = NominalSettings(setup).ToVector();
-//   input.measured_um = measured;          // NaN = point not delivered by the measuring machine
-//   input.target_um = EvaluateTargetModifications(target, grinder.grid(), setup.gear, setup.flank);
-//   CorrectionOptions options;             // default solver "regularised", mode next part
-//   CorrectionResult result = ComputeCorrection(options, input);
-//   if (result.summary.IsSolutionUsable()) { use result.parameters; }
+//   input.measured_um = measured;          // NaN = point not delivered by the
+//   measuring machine input.target_um = EvaluateTargetModifications(target,
+//   grinder.grid(), setup.gear, setup.flank); CorrectionOptions options; //
+//   default solver "regularised", mode next part CorrectionResult result =
+//   ComputeCorrection(options, input); if (result.summary.IsSolutionUsable()) {
+//   use result.parameters; }
 //
-// The solver works against the abstract MachineModel only (engine/core/machine_model.h): any model
-// that reports polynomial axis blocks and scalar blocks plugs in.
+// The solver works against the abstract MachineModel only
+// (engine/core/machine_model.h): any model that reports polynomial axis blocks
+// and scalar blocks plugs in.
 //
-// Notation: m the measured deviations, t the target, e = m - t the flank error (um, per grid
-// point), S the model's Jacobian d deviation / d parameter at the current parameters. A change
-// dzeta is predicted to leave the error e + S dzeta (linear) or, exactly,
-// e + d(zeta + dzeta) - d(zeta) with d the model's deviations.
+// Notation: m the measured deviations, t the target, e = m - t the flank error
+// (um, per grid point), S the model's Jacobian d deviation / d parameter at the
+// current parameters. A change dzeta is predicted to leave the error e + S
+// dzeta (linear) or, exactly, e + d(zeta + dzeta) - d(zeta) with d the model's
+// deviations.
 //
-// Correction size (MODEL.md §6): for a polynomial block (an axis C(phi1) = sum_k a_k phi1^k) the
-// mean over the roll range [roll_min, roll_max] of (dC(phi1) / s)^2, for a scalar block
-// (dp / s)^2; the size is the square root of the sum over blocks. s is the block's scale
-// (ParameterBlock::default_scale unless overridden; MODEL.md §6 defaults: 1 um for X, Y, Z,
-// 1 um / r_j for A, B, C, 1 um / R_w for theta_w, 1e-5 /mm for a_w, 1 mm for d_w).
+// Correction size (MODEL.md §6): for a polynomial block (an axis C(phi1) =
+// sum_k a_k phi1^k) the mean over the roll range [roll_min, roll_max] of
+// (dC(phi1) / s)^2, for a scalar block (dp / s)^2; the size is the square root
+// of the sum over blocks. s is the block's scale (ParameterBlock::default_scale
+// unless overridden; MODEL.md §6 defaults: 1 um for X, Y, Z, 1 um / r_j for A,
+// B, C, 1 um / R_w for theta_w, 1e-5 /mm for a_w, 1 mm for d_w).
 //
 // Default solver "regularised" (what the product uses):
-//  0. (estimate_machine_state) The machine really runs commanded + unknown errors h. Steps 1-4
-//     are first run with the model's own flank d(commanded) as the "measurement" and the
-//     measured flank as the "target" (same freedom, no bounds, next-part mode): their change is
-//     an estimate h^ of h within the reachable directions. Steps 1-4 then run for the real problem at commanded + h^ (S, the roll range
-//     kept from the commanded point, the exact change d(commanded + h^ + delta) -
-//     d(commanded + h^)); the answer is commanded + delta. If the estimate is unusable or loses
-//     a used grid point, the commanded point is used, as without the option.
-//  1. Each free polynomial block is written in orthonormal Legendre coordinates over the roll
-//     range: dC(phi1) = s sum_k y_k sqrt(2k+1) P_k((phi1 - c) / h), c and h the centre and half
-//     width of the range, so that the correction size is exactly |y| (Euclidean). Scalar blocks:
-//     dp = s y. dzeta = T y.
-//  2. With W the point weights, A = W^1/2 S T over the usable points and b = -W^1/2 e, the
-//     thin SVD A = U Sigma V' is taken. A direction counts toward the numerical rank when one
-//     unit of correction size moves the flank by at least min_flank_effect_um rms
-//     (sigma_i >= min_flank_effect_um sqrt(sum w)); the rest is the null space (MODEL.md §5) and
-//     never enters a correction. "Best reachable" is b projected off U over that rank.
-//  3. Tikhonov regularisation inside those directions: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i
-//     with f_i = sigma_i^2 / (sigma_i^2 + lambda^2), i.e. min |A y - b|^2 + lambda^2 |y|^2 over
-//     y in span(v_0..v_rank-1). lambda by a stated rule, reported with lambda and dof:
-//     - probe noise sigma known, > 0: the unbiased predictive risk estimator (UPRE, Mallows'
-//       C_L; Vogel, Computational Methods for Inverse Problems, 2002, ch. 7): minimise
-//       sum_i (1 - f_i)^2 (u_i'b)^2 + 2 sigma^2 dof(lambda) over a logarithmic grid, dof = sum
-//       f_i (with point weights or averaged teeth, sigma^2 is the mean noise variance of the
-//       reachable directions). This minimises the expected error left in the reachable
-//       directions after the correction, i.e. the true residual of the next part. On request
-//       (use_discrepancy_principle) the discrepancy principle instead: the in-range residual
-//       equals the noise expected there, sigma^2 sum_{i<rank} sum_r w_r U_ri^2;
-//     - sigma = 0, exact data: lambda = min_relative_regularisation * sigma_1 (reported as the
+//  0. (estimate_machine_state) The machine really runs commanded + unknown
+//  errors h. Steps 1-4
+//     are first run with the model's own flank d(commanded) as the
+//     "measurement" and the measured flank as the "target" (same freedom, no
+//     bounds, next-part mode): their change is an estimate h^ of h within the
+//     reachable directions. Steps 1-4 then run for the real problem at
+//     commanded + h^ (S, the roll range kept from the commanded point, the
+//     exact change d(commanded + h^ + delta) - d(commanded + h^)); the answer
+//     is commanded + delta. If the estimate is unusable or loses a used grid
+//     point, the commanded point is used, as without the option.
+//  1. Each free polynomial block is written in orthonormal Legendre coordinates
+//  over the roll
+//     range: dC(phi1) = s sum_k y_k sqrt(2k+1) P_k((phi1 - c) / h), c and h the
+//     centre and half width of the range, so that the correction size is
+//     exactly |y| (Euclidean). Scalar blocks: dp = s y. dzeta = T y.
+//  2. With W the point weights, A = W^1/2 S T over the usable points and b =
+//  -W^1/2 e, the
+//     thin SVD A = U Sigma V' is taken. A direction counts toward the numerical
+//     rank when one unit of correction size moves the flank by at least
+//     min_flank_effect_um rms (sigma_i >= min_flank_effect_um sqrt(sum w)); the
+//     rest is the null space (MODEL.md §5) and never enters a correction. "Best
+//     reachable" is b projected off U over that rank.
+//  3. Tikhonov regularisation inside those directions: y = sum_{i<rank} f_i
+//  (u_i'b / sigma_i) v_i
+//     with f_i = sigma_i^2 / (sigma_i^2 + lambda^2), i.e. min |A y - b|^2 +
+//     lambda^2 |y|^2 over y in span(v_0..v_rank-1). lambda by a stated rule,
+//     reported with lambda and dof:
+//     - probe noise sigma known, > 0: the unbiased predictive risk estimator
+//     (UPRE, Mallows'
+//       C_L; Vogel, Computational Methods for Inverse Problems, 2002, ch. 7):
+//       minimise sum_i (1 - f_i)^2 (u_i'b)^2 + 2 sigma^2 dof(lambda) over a
+//       logarithmic grid, dof = sum f_i (with point weights or averaged teeth,
+//       sigma^2 is the mean noise variance of the reachable directions). This
+//       minimises the expected error left in the reachable directions after the
+//       correction, i.e. the true residual of the next part. On request
+//       (use_discrepancy_principle) the discrepancy principle instead: the
+//       in-range residual equals the noise expected there, sigma^2 sum_{i<rank}
+//       sum_r w_r U_ri^2;
+//     - sigma = 0, exact data: lambda = min_relative_regularisation * sigma_1
+//     (reported as the
 //       discrepancy principle with no noise), the floor that GCV also respects;
 //     - sigma unknown (negative): generalised cross-validation (minimum of
-//       |A y - b|^2 / (m - dof)^2, m the points used). GCV reads a systematic misfit (a target
-//       the model cannot reach) as noise and then corrects less; with exact data give sigma = 0.
-//  4. The change delta = T V_rank z is refined by Ceres (Levenberg-Marquardt) on the exact
-//     nonlinear model in the same subspace with the same lambda^2 |z|^2 term, starting from the
-//     linear answer (or from no change if the exact model loses a point there; and once more
-//     from no change when the first run does not converge, keeping the lower cost), within the
-//     per-coefficient bounds (then over the free monomials, with a penalty sigma_1 for leaving
-//     the subspace), and reported as the machine's monomial coefficients.
-//  Rework mode (material can only be removed): the exact predicted change d(zeta + dzeta) -
-//  d(zeta) must be <= 0 at every reached point. Steps 3-4 become a sequence of convex quadratic
-//  programs in z (same objective, the linearised change <= 0 and the bounds as constraints,
-//  solved through their dual with the active-set method of Lawson and Hanson), each
-//  re-linearised on the exact model.
+//       |A y - b|^2 / (m - dof)^2, m the points used). GCV reads a systematic
+//       misfit (a target the model cannot reach) as noise and then corrects
+//       less; with exact data give sigma = 0.
+//  4. The change delta = T V_rank z is refined by Ceres (Levenberg-Marquardt)
+//  on the exact
+//     nonlinear model in the same subspace with the same lambda^2 |z|^2 term,
+//     starting from the linear answer (or from no change if the exact model
+//     loses a point there; and once more from no change when the first run does
+//     not converge, keeping the lower cost), within the per-coefficient bounds
+//     (then over the free monomials, with a penalty sigma_1 for leaving the
+//     subspace), and reported as the machine's monomial coefficients.
+//  Rework mode (material can only be removed): the exact predicted change
+//  d(zeta + dzeta) - d(zeta) must be <= 0 at every reached point. Steps 3-4
+//  become a sequence of convex quadratic programs in z (same objective, the
+//  linearised change <= 0 and the bounds as constraints, solved through their
+//  dual with the active-set method of Lawson and Hanson), each re-linearised on
+//  the exact model.
 //
-// Solver "pso" (the published method, Jiang 2015 / MODEL.md §6, kept for comparison): particle
-// swarm over the free coefficients, each within +-0.02 of the current value (mm, rad, and for the
-// cone angle the published degrees), 40 particles, 200 generations, inertia 0.7, c1 = c2 = 1.5,
-// a fixed seed; the stock-limited objective sum_i w_i f_i^2 with delta = t - m and
-// f_i = S_i dzeta - delta_i where S_i dzeta < 0, f_i = -delta_i elsewhere.
+// Solver "pso" (the published method, Jiang 2015 / MODEL.md §6, kept for
+// comparison): particle swarm over the free coefficients, each within +-0.02 of
+// the current value (mm, rad, and for the cone angle the published degrees), 40
+// particles, 200 generations, inertia 0.7, c1 = c2 = 1.5, a fixed seed; the
+// stock-limited objective sum_i w_i f_i^2 with delta = t - m and f_i = S_i
+// dzeta - delta_i where S_i dzeta < 0, f_i = -delta_i elsewhere.
 //
-// Solver "lsq-plain" (for comparison): the minimum-norm unregularised least-squares solution in
-// the raw parameter units, dzeta = pinv(W^1/2 S) (-W^1/2 e), no refinement.
+// Solver "lsq-plain" (for comparison): the minimum-norm unregularised
+// least-squares solution in the raw parameter units, dzeta = pinv(W^1/2 S)
+// (-W^1/2 e), no refinement.
 //
-// Outliers (default solver): after a regularised linear fit, each point's standardised residual
-// r_i / sqrt(1 - h_ii) (h the hat matrix of the fit) is compared with the median over all
-// points and with its grid neighbours along each line through it (row, column, both diagonals:
-// the mean of the neighbours on the line); the point standing out most from all of them is a
-// gross outlier when that smallest distance exceeds
-// max(outlier_threshold * max(1.4826 * MAD, sigma), outlier_min_um). A misfit shared by its
-// neighbours (a relief the model cannot follow) is not an outlier. It is dropped, the fit
-// repeated (at most max_outlier_fraction of the points), and the dropped indices reported in
+// Outliers (default solver): after a regularised linear fit, each point's
+// standardised residual r_i / sqrt(1 - h_ii) (h the hat matrix of the fit) is
+// compared with the median over all points and with its grid neighbours along
+// each line through it (row, column, both diagonals: the mean of the neighbours
+// on the line); the point standing out most from all of them is a gross outlier
+// when that smallest distance exceeds max(outlier_threshold * max(1.4826 * MAD,
+// sigma), outlier_min_um). A misfit shared by its neighbours (a relief the
+// model cannot follow) is not an outlier. It is dropped, the fit repeated (at
+// most max_outlier_fraction of the points), and the dropped indices reported in
 // the summary; they never take part in the final solve.
 #ifndef GEARLOOP_ENGINE_CORRECTION_CORRECTION_H_
 #define GEARLOOP_ENGINE_CORRECTION_CORRECTION_H_
 
+#include <Eigen/Core>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "engine/core/machine_model.h"
 
 namespace gearloop {
 
 enum class CorrectionSolver {
-  kRegularised,         // "regularised" (default)
-  kParticleSwarm,       // "pso"
-  kPlainLeastSquares,   // "lsq-plain"
+  kRegularised,        // "regularised" (default)
+  kParticleSwarm,      // "pso"
+  kPlainLeastSquares,  // "lsq-plain"
 };
 const char* CorrectionSolverName(CorrectionSolver solver);
 bool ParseCorrectionSolver(const std::string& name, CorrectionSolver* solver);
 
 enum class CorrectionMode {
-  kNextPart,  // "next-part": the next part is ground with the new settings (default)
-  kRework,    // "rework": the same part is reground, material can only be removed
+  kNextPart,  // "next-part": the next part is ground with the new settings
+              // (default)
+  kRework,  // "rework": the same part is reground, material can only be removed
 };
 const char* CorrectionModeName(CorrectionMode mode);
 bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode);
 
 enum class RegularisationRule {
-  kUnbiasedPredictiveRisk,        // "upre" (probe noise sigma known, > 0; the default there)
-  kDiscrepancyPrinciple,          // "discrepancy-principle" (sigma known, on request; sigma = 0: exact data)
-  kGeneralisedCrossValidation,    // "gcv" (sigma unknown)
-  kNone,                          // "none" (pso, lsq-plain)
+  kUnbiasedPredictiveRisk,  // "upre" (probe noise sigma known, > 0; the default
+                            // there)
+  kDiscrepancyPrinciple,    // "discrepancy-principle" (sigma known, on request;
+                            // sigma = 0: exact data)
+  kGeneralisedCrossValidation,  // "gcv" (sigma unknown)
+  kNone,                        // "none" (pso, lsq-plain)
 };
 const char* RegularisationRuleName(RegularisationRule rule);
 
@@ -129,75 +155,91 @@ struct CorrectionOptions {
   CorrectionSolver solver = CorrectionSolver::kRegularised;
   CorrectionMode mode = CorrectionMode::kNextPart;
 
-  // Which parameters may change. For a polynomial block: the highest order that may change
-  // (0..num_coefficients-1), or -1 = fixed. For a scalar block: 0 = free, -1 = fixed.
-  // `default_max_order` applies to every polynomial block not named in `max_order` (clamped to
-  // the block's own degree); scalar blocks not named are free. Block names are the model's
-  // (ParameterBlock::name: "X".."C", "cone_angle", ...). Example, the published cutter case:
+  // Which parameters may change. For a polynomial block: the highest order that
+  // may change (0..num_coefficients-1), or -1 = fixed. For a scalar block: 0 =
+  // free, -1 = fixed. `default_max_order` applies to every polynomial block not
+  // named in `max_order` (clamped to the block's own degree); scalar blocks not
+  // named are free. Block names are the model's (ParameterBlock::name:
+  // "X".."C", "cone_angle", ...). Example, the published cutter case:
   // default_max_order = 0, max_order = {{"C", 6}}.
   //
-  // The default 3 (each axis up to its cubic term): a Legendre term of order k moves the axis by
-  // its amplitude inside the roll range but accelerates it by ~k^4 / h^2 times that at the ends
-  // of the range (210 / h^2 for k = 6, h the half width). Orders 4-6 of a few um already make
-  // the envelope contacts of the root row singular on the spur gear (Newton finds no contact at
-  // 0.35 um of correction size), and the linear model does not predict them. With 3 every
-  // generated case converged monotonically, the spur gear included (15.8 -> 1.10 um in one
-  // correction; with 6 it did not converge). Raise it where a target needs the higher orders.
+  // The default 3 (each axis up to its cubic term): a Legendre term of order k
+  // moves the axis by its amplitude inside the roll range but accelerates it by
+  // ~k^4 / h^2 times that at the ends of the range (210 / h^2 for k = 6, h the
+  // half width). Orders 4-6 of a few um already make the envelope contacts of
+  // the root row singular on the spur gear (Newton finds no contact at 0.35 um
+  // of correction size), and the linear model does not predict them. With 3
+  // every generated case converged monotonically, the spur gear included (15.8
+  // -> 1.10 um in one correction; with 6 it did not converge). Raise it where a
+  // target needs the higher orders.
   int default_max_order = 3;
   std::map<std::string, int> max_order;
 
-  // Per-point weights (row-major, >= 0; empty = all 1). A zero weight ignores the point.
+  // Per-point weights (row-major, >= 0; empty = all 1). A zero weight ignores
+  // the point.
   Eigen::VectorXd point_weights;
 
-  // Bounds on the change of each parameter [parameter units] (empty = unbounded; use +-inf for
-  // single unbounded entries). lower <= 0 <= upper is required.
+  // Bounds on the change of each parameter [parameter units] (empty =
+  // unbounded; use +-inf for single unbounded entries). lower <= 0 <= upper is
+  // required.
   Eigen::VectorXd lower_delta;
   Eigen::VectorXd upper_delta;
 
-  // Standard deviation of the probe noise [um]. Known (> 0): the unbiased predictive risk
-  // estimator chooses lambda (or the discrepancy principle, see below); 0 = exact measurements
-  // (lambda at its floor, every reachable direction is fitted). Unknown (negative, the
-  // default): generalised cross-validation chooses it.
+  // Standard deviation of the probe noise [um]. Known (> 0): the unbiased
+  // predictive risk estimator chooses lambda (or the discrepancy principle, see
+  // below); 0 = exact measurements (lambda at its floor, every reachable
+  // direction is fitted). Unknown (negative, the default): generalised
+  // cross-validation chooses it.
   double probe_noise_um = -1.0;
-  // With a known noise > 0: the discrepancy principle instead of the unbiased predictive risk
-  // estimator. It leaves as much misfit in the reachable directions as the noise there, which
-  // under-corrects: after two corrections the error sits above the least-squares noise floor
-  // on about 1 seed in 5 (BENCHMARKS.md).
+  // With a known noise > 0: the discrepancy principle instead of the unbiased
+  // predictive risk estimator. It leaves as much misfit in the reachable
+  // directions as the noise there, which under-corrects: after two corrections
+  // the error sits above the least-squares noise floor on about 1 seed in 5
+  // (BENCHMARKS.md).
   bool use_discrepancy_principle = false;
 
-  // Regularised solver: first estimate the machine's real state from the measurement (the
-  // parameter change, in the same reachable directions and with the same rule, that makes the
-  // model reproduce the measured flank), then linearise and refine the correction there rather
-  // than at the commanded parameters. The commanded parameters differ from what the machine
-  // really runs by its unknown errors; S and the exact change depend on that state, and a
-  // correction computed at the commanded point is off by (S(real) - S(commanded)) * delta.
+  // Regularised solver: first estimate the machine's real state from the
+  // measurement (the parameter change, in the same reachable directions and
+  // with the same rule, that makes the model reproduce the measured flank),
+  // then linearise and refine the correction there rather than at the commanded
+  // parameters. The commanded parameters differ from what the machine really
+  // runs by its unknown errors; S and the exact change depend on that state,
+  // and a correction computed at the commanded point is off by (S(real) -
+  // S(commanded)) * delta.
   bool estimate_machine_state = true;
 
-  // Correction-size scales per block name, overriding ParameterBlock::default_scale (> 0).
+  // Correction-size scales per block name, overriding
+  // ParameterBlock::default_scale (> 0).
   std::map<std::string, double> block_scales;
 
-  // A direction of the scaled S counts toward its numerical rank (and may be corrected) when one
-  // unit of correction size (1 um of axis motion with the default scales) moves the flank by at
-  // least this much, rms over the points [um]. 0.03 refuses corrections that need more than
-  // ~33 um of axis motion per um of flank. Weaker directions are the first-order null space
-  // (whose singular values leave zero as soon as the settings leave nominal) and directions so
-  // nonlinear that a correction along them is not predicted by S (rate terms of A, the vertex
-  // d_w while a_w is small): fitting them makes the closed loop diverge. With 0.01 such
-  // directions open up after the first correction (the rank grows from 14 to 15) and a second
-  // correction of 44 um predicted 0.78 um and ground 3.8 um (BENCHMARKS.md, "Correction").
+  // A direction of the scaled S counts toward its numerical rank (and may be
+  // corrected) when one unit of correction size (1 um of axis motion with the
+  // default scales) moves the flank by at least this much, rms over the points
+  // [um]. 0.03 refuses corrections that need more than ~33 um of axis motion
+  // per um of flank. Weaker directions are the first-order null space (whose
+  // singular values leave zero as soon as the settings leave nominal) and
+  // directions so nonlinear that a correction along them is not predicted by S
+  // (rate terms of A, the vertex d_w while a_w is small): fitting them makes
+  // the closed loop diverge. With 0.01 such directions open up after the first
+  // correction (the rank grows from 14 to 15) and a second correction of 44 um
+  // predicted 0.78 um and ground 3.8 um (BENCHMARKS.md, "Correction").
   double min_flank_effect_um = 0.03;
 
-  // Floor of the Tikhonov level lambda, relative to the largest singular value of the scaled S
-  // (0 = none), for exact data (probe_noise_um = 0) and GCV: there lambda >=
-  // min_relative_regularisation * sigma_1. With a known noise > 0 the rule alone decides
-  // (unbiased predictive risk, or the discrepancy principle on request).
+  // Floor of the Tikhonov level lambda, relative to the largest singular value
+  // of the scaled S (0 = none), for exact data (probe_noise_um = 0) and GCV:
+  // there lambda >= min_relative_regularisation * sigma_1. With a known noise >
+  // 0 the rule alone decides (unbiased predictive risk, or the discrepancy
+  // principle on request).
   double min_relative_regularisation = 1e-3;
 
-  // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0 = no refinement).
+  // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0
+  // = no refinement).
   int max_num_iterations = 20;
-  // Rework mode: re-linearisations of the constrained problem on the exact model.
+  // Rework mode: re-linearisations of the constrained problem on the exact
+  // model.
   int max_rework_passes = 4;
-  // Rework mode: predicted added material above this [um] counts as a violation.
+  // Rework mode: predicted added material above this [um] counts as a
+  // violation.
   double rework_tolerance_um = 1e-6;
 
   // Outlier test (see the file comment). 0 disables it.
@@ -224,26 +266,30 @@ struct CorrectionInput {
   Eigen::VectorXd current_parameters;
   // The measured deviations [um], row-major, NaN = missing.
   Eigen::VectorXd measured_um;
-  // Alternatively several measured teeth of the flank (each row-major, NaN = missing): when not
-  // empty, measured_um is ignored and the point-wise mean of the delivered values is used
-  // (AverageTeeth), with the probe noise of a point divided by sqrt(number of teeth averaged)
-  // in the discrepancy principle.
+  // Alternatively several measured teeth of the flank (each row-major, NaN =
+  // missing): when not empty, measured_um is ignored and the point-wise mean of
+  // the delivered values is used (AverageTeeth), with the probe noise of a
+  // point divided by sqrt(number of teeth averaged) in the discrepancy
+  // principle.
   std::vector<Eigen::VectorXd> measured_teeth_um;
   // The target modification [um], row-major (e.g. EvaluateTargetModifications).
   Eigen::VectorXd target_um;
-  // The roll range used [rad]. When roll_min_rad >= roll_max_rad (the default) it is taken
-  // from the model's contact roll angles at current_parameters over the reached points.
+  // The roll range used [rad]. When roll_min_rad >= roll_max_rad (the default)
+  // it is taken from the model's contact roll angles at current_parameters over
+  // the reached points.
   double roll_min_rad = 0.0;
   double roll_max_rad = 0.0;
-  // Optional: the model's Jacobian at current_parameters [um per unit], when the caller has it
-  // (e.g. the same machine state corrected many times); otherwise evaluated here.
+  // Optional: the model's Jacobian at current_parameters [um per unit], when
+  // the caller has it (e.g. the same machine state corrected many times);
+  // otherwise evaluated here.
   Eigen::MatrixXd jacobian_um;
 };
 
 enum class CorrectionStatus {
-  kConverged,      // "converged"
-  kNotConverged,   // "not_converged": the message says why; the result may still be usable
-  kInvalidInput,   // the options or input were rejected; nothing was computed
+  kConverged,     // "converged"
+  kNotConverged,  // "not_converged": the message says why; the result may still
+                  // be usable
+  kInvalidInput,  // the options or input were rejected; nothing was computed
 };
 const char* CorrectionStatusName(CorrectionStatus status);
 
@@ -259,65 +305,79 @@ struct CorrectionSummary {
   CorrectionMode mode = CorrectionMode::kNextPart;
 
   RegularisationRule rule = RegularisationRule::kNone;
-  double regularisation_level = 0.0;  // lambda, in units of the scaled S (um per unit size)
-  double effective_dof = 0.0;         // sum of the Tikhonov filter factors (<= rank)
-  int truncation_rank = 0;            // directions the regularised solve may use (= rank; 0 for pso, lsq-plain)
+  double regularisation_level =
+      0.0;  // lambda, in units of the scaled S (um per unit size)
+  double effective_dof = 0.0;  // sum of the Tikhonov filter factors (<= rank)
+  int truncation_rank = 0;  // directions the regularised solve may use (= rank;
+                            // 0 for pso, lsq-plain)
 
   int num_points_used = 0;
   int num_free_parameters = 0;
-  int rank = 0;                       // numerical rank of the scaled, weighted S (free columns)
-  double condition_number = 0.0;      // over that rank
-  Eigen::VectorXd singular_values;    // of the scaled, weighted S, descending
+  int rank = 0;  // numerical rank of the scaled, weighted S (free columns)
+  double condition_number = 0.0;    // over that rank
+  Eigen::VectorXd singular_values;  // of the scaled, weighted S, descending
 
   double roll_min_rad = 0.0;
   double roll_max_rad = 0.0;
 
-  double initial_rms_um = 0.0;        // of e over the points used
+  double initial_rms_um = 0.0;  // of e over the points used
   double initial_max_um = 0.0;
-  double residual_rms_um = 0.0;       // predicted (exact model) over the points used
+  double residual_rms_um = 0.0;  // predicted (exact model) over the points used
   double residual_max_um = 0.0;
-  double best_reachable_rms_um = 0.0; // |e projected off the range of the weighted S| (rms), S where
-                                      // linearised (see machine_state_estimated), over the rank
-  double linear_residual_rms_um = 0.0;// predicted by the linear model before refinement
-  double max_added_material_um = 0.0; // largest predicted change > 0 (rework: must be <= tol)
+  double best_reachable_rms_um =
+      0.0;  // |e projected off the range of the weighted S| (rms), S where
+            // linearised (see machine_state_estimated), over the rank
+  double linear_residual_rms_um =
+      0.0;  // predicted by the linear model before refinement
+  double max_added_material_um =
+      0.0;  // largest predicted change > 0 (rework: must be <= tol)
 
   double correction_size = 0.0;
   std::vector<BlockCorrectionSize> block_sizes;
 
-  std::vector<int> outlier_indices;   // grid points dropped as gross outliers
-  std::vector<int> missing_indices;   // grid points without a usable measurement or contact
+  std::vector<int> outlier_indices;  // grid points dropped as gross outliers
+  std::vector<int>
+      missing_indices;  // grid points without a usable measurement or contact
 
-  // Ceres cost 1/2 |residuals|^2 of the exact-model refinement before and after (0 if none).
+  // Ceres cost 1/2 |residuals|^2 of the exact-model refinement before and after
+  // (0 if none).
   double refinement_initial_cost = 0.0;
   double refinement_final_cost = 0.0;
 
-  // The estimated machine state (estimate_machine_state): whether it was used, its correction
-  // size relative to the commanded parameters, and the rms flank misfit it leaves (um).
+  // The estimated machine state (estimate_machine_state): whether it was used,
+  // its correction size relative to the commanded parameters, and the rms flank
+  // misfit it leaves (um).
   bool machine_state_estimated = false;
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;
 
-  int iterations = 0;                 // Ceres iterations, rework passes or PSO generations
+  int iterations = 0;  // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;
 
   bool IsSolutionUsable() const {
-    return status == CorrectionStatus::kConverged || status == CorrectionStatus::kNotConverged;
+    return status == CorrectionStatus::kConverged ||
+           status == CorrectionStatus::kNotConverged;
   }
   std::string BriefReport() const;
 };
 
 struct CorrectionResult {
-  Eigen::VectorXd parameters;             // new parameters (monomial, as the machine takes them)
+  Eigen::VectorXd
+      parameters;  // new parameters (monomial, as the machine takes them)
   Eigen::VectorXd delta;                  // parameters - current
-  Eigen::VectorXd predicted_residual_um;  // e + exact change, NaN where no measurement/contact
-  Eigen::VectorXd predicted_change_um;    // exact d(new) - d(current), NaN where not reached
+  Eigen::VectorXd predicted_residual_um;  // e + exact change, NaN where no
+                                          // measurement/contact
+  Eigen::VectorXd
+      predicted_change_um;  // exact d(new) - d(current), NaN where not reached
   CorrectionSummary summary;
 };
 
-CorrectionResult ComputeCorrection(const CorrectionOptions& options, const CorrectionInput& input);
+CorrectionResult ComputeCorrection(const CorrectionOptions& options,
+                                   const CorrectionInput& input);
 
-// The correction size of `delta` (see the file comment) over the roll range, overall; per-block
-// sizes go to `block_sizes` if non-null. `block_scales` as in CorrectionOptions.
+// The correction size of `delta` (see the file comment) over the roll range,
+// overall; per-block sizes go to `block_sizes` if non-null. `block_scales` as
+// in CorrectionOptions.
 double CorrectionSize(const std::vector<ParameterBlock>& blocks,
                       const Eigen::VectorXd& delta,
                       double roll_min_rad,
@@ -325,24 +385,29 @@ double CorrectionSize(const std::vector<ParameterBlock>& blocks,
                       const std::map<std::string, double>& block_scales = {},
                       std::vector<BlockCorrectionSize>* block_sizes = nullptr);
 
-// The change of parameters, block by block, whose orthonormal Legendre coordinates over the
-// roll range (scaled as in the file comment) are `coordinates`, one entry per coefficient of each
-// block; the inverse of CorrectionCoordinates. CorrectionSize(delta) == |coordinates|.
-Eigen::VectorXd DeltaFromCorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
-                                               const Eigen::VectorXd& coordinates,
-                                               double roll_min_rad,
-                                               double roll_max_rad,
-                                               const std::map<std::string, double>& block_scales = {});
-Eigen::VectorXd CorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
-                                      const Eigen::VectorXd& delta,
-                                      double roll_min_rad,
-                                      double roll_max_rad,
-                                      const std::map<std::string, double>& block_scales = {});
+// The change of parameters, block by block, whose orthonormal Legendre
+// coordinates over the roll range (scaled as in the file comment) are
+// `coordinates`, one entry per coefficient of each block; the inverse of
+// CorrectionCoordinates. CorrectionSize(delta) == |coordinates|.
+Eigen::VectorXd DeltaFromCorrectionCoordinates(
+    const std::vector<ParameterBlock>& blocks,
+    const Eigen::VectorXd& coordinates,
+    double roll_min_rad,
+    double roll_max_rad,
+    const std::map<std::string, double>& block_scales = {});
+Eigen::VectorXd CorrectionCoordinates(
+    const std::vector<ParameterBlock>& blocks,
+    const Eigen::VectorXd& delta,
+    double roll_min_rad,
+    double roll_max_rad,
+    const std::map<std::string, double>& block_scales = {});
 
-// Several measured teeth of one flank combined point by point: the mean of the finite values at
-// each point, NaN where no tooth delivered the point. All grids must have the same size;
-// `counts` (optional) receives how many teeth each point averaged.
-Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen::VectorXi* counts = nullptr);
+// Several measured teeth of one flank combined point by point: the mean of the
+// finite values at each point, NaN where no tooth delivered the point. All
+// grids must have the same size; `counts` (optional) receives how many teeth
+// each point averaged.
+Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um,
+                             Eigen::VectorXi* counts = nullptr);
 
 }  // namespace gearloop
 

@@ -1,24 +1,29 @@
-// The plain parts of correction.h: solver, mode, rule and status names, CorrectionOptions::IsValid
-// and CorrectionSummary::BriefReport. The solver itself is correction.cc and its stages.
-#include "engine/correction/correction.h"
-
+// The plain parts of correction.h: solver, mode, rule and status names,
+// CorrectionOptions::IsValid and CorrectionSummary::BriefReport. The solver
+// itself is correction.cc and its stages.
 #include <cmath>
 #include <sstream>
 #include <string>
+
+#include "engine/correction/correction.h"
 
 namespace gearloop {
 
 const char* CorrectionSolverName(CorrectionSolver solver) {
   switch (solver) {
-    case CorrectionSolver::kRegularised: return "regularised";
-    case CorrectionSolver::kParticleSwarm: return "pso";
-    case CorrectionSolver::kPlainLeastSquares: return "lsq-plain";
+    case CorrectionSolver::kRegularised:
+      return "regularised";
+    case CorrectionSolver::kParticleSwarm:
+      return "pso";
+    case CorrectionSolver::kPlainLeastSquares:
+      return "lsq-plain";
   }
   return "unknown";
 }
 
 bool ParseCorrectionSolver(const std::string& name, CorrectionSolver* solver) {
-  for (CorrectionSolver s : {CorrectionSolver::kRegularised, CorrectionSolver::kParticleSwarm,
+  for (CorrectionSolver s : {CorrectionSolver::kRegularised,
+                             CorrectionSolver::kParticleSwarm,
                              CorrectionSolver::kPlainLeastSquares}) {
     if (name == CorrectionSolverName(s)) {
       *solver = s;
@@ -46,19 +51,26 @@ bool ParseCorrectionMode(const std::string& name, CorrectionMode* mode) {
 
 const char* RegularisationRuleName(RegularisationRule rule) {
   switch (rule) {
-    case RegularisationRule::kUnbiasedPredictiveRisk: return "upre";
-    case RegularisationRule::kDiscrepancyPrinciple: return "discrepancy-principle";
-    case RegularisationRule::kGeneralisedCrossValidation: return "gcv";
-    case RegularisationRule::kNone: return "none";
+    case RegularisationRule::kUnbiasedPredictiveRisk:
+      return "upre";
+    case RegularisationRule::kDiscrepancyPrinciple:
+      return "discrepancy-principle";
+    case RegularisationRule::kGeneralisedCrossValidation:
+      return "gcv";
+    case RegularisationRule::kNone:
+      return "none";
   }
   return "unknown";
 }
 
 const char* CorrectionStatusName(CorrectionStatus status) {
   switch (status) {
-    case CorrectionStatus::kConverged: return "converged";
-    case CorrectionStatus::kNotConverged: return "not_converged";
-    case CorrectionStatus::kInvalidInput: return "invalid_input";
+    case CorrectionStatus::kConverged:
+      return "converged";
+    case CorrectionStatus::kNotConverged:
+      return "not_converged";
+    case CorrectionStatus::kInvalidInput:
+      return "invalid_input";
   }
   return "unknown";
 }
@@ -68,24 +80,34 @@ bool CorrectionOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (default_max_order < -1) return fail("default_max_order must be -1 (fixed) or an order >= 0");
+  if (default_max_order < -1)
+    return fail("default_max_order must be -1 (fixed) or an order >= 0");
   for (const auto& [name, order] : max_order) {
-    if (order < -1) return fail("max_order[" + name + "] must be -1 (fixed) or an order >= 0");
+    if (order < -1)
+      return fail("max_order[" + name +
+                  "] must be -1 (fixed) or an order >= 0");
   }
-  if (point_weights.size() > 0 && !((point_weights.array() >= 0.0).all() && point_weights.allFinite())) {
+  if (point_weights.size() > 0 &&
+      !((point_weights.array() >= 0.0).all() && point_weights.allFinite())) {
     return fail("point_weights must be finite and >= 0");
   }
-  if (lower_delta.size() != upper_delta.size()) return fail("lower_delta and upper_delta must have the same size");
+  if (lower_delta.size() != upper_delta.size())
+    return fail("lower_delta and upper_delta must have the same size");
   for (int j = 0; j < lower_delta.size(); ++j) {
-    if (std::isnan(lower_delta(j)) || std::isnan(upper_delta(j)) || lower_delta(j) > 0.0 || upper_delta(j) < 0.0) {
-      return fail("bounds on the change of parameter " + std::to_string(j) + " must satisfy lower <= 0 <= upper");
+    if (std::isnan(lower_delta(j)) || std::isnan(upper_delta(j)) ||
+        lower_delta(j) > 0.0 || upper_delta(j) < 0.0) {
+      return fail("bounds on the change of parameter " + std::to_string(j) +
+                  " must satisfy lower <= 0 <= upper");
     }
   }
-  if (!std::isfinite(probe_noise_um)) return fail("probe_noise_um must be finite (negative = unknown)");
+  if (!std::isfinite(probe_noise_um))
+    return fail("probe_noise_um must be finite (negative = unknown)");
   for (const auto& [name, scale] : block_scales) {
-    if (!(scale > 0.0) || !std::isfinite(scale)) return fail("block_scales[" + name + "] must be > 0");
+    if (!(scale > 0.0) || !std::isfinite(scale))
+      return fail("block_scales[" + name + "] must be > 0");
   }
-  if (!(min_relative_regularisation >= 0.0 && min_relative_regularisation < 1.0)) {
+  if (!(min_relative_regularisation >= 0.0 &&
+        min_relative_regularisation < 1.0)) {
     return fail("min_relative_regularisation must lie in [0, 1)");
   }
   if (!(min_flank_effect_um > 0.0) || !std::isfinite(min_flank_effect_um)) {
@@ -93,11 +115,16 @@ bool CorrectionOptions::IsValid(std::string* error) const {
   }
   if (max_num_iterations < 0) return fail("max_num_iterations must be >= 0");
   if (max_rework_passes < 1) return fail("max_rework_passes must be >= 1");
-  if (!(rework_tolerance_um >= 0.0)) return fail("rework_tolerance_um must be >= 0");
-  if (!(outlier_threshold >= 0.0) || !(outlier_min_um >= 0.0)) return fail("outlier settings must be >= 0");
-  if (!(max_outlier_fraction >= 0.0 && max_outlier_fraction < 1.0)) return fail("max_outlier_fraction must lie in [0, 1)");
-  if (pso_particles < 1 || pso_generations < 1) return fail("pso_particles and pso_generations must be >= 1");
-  if (!(pso_box > 0.0) || !(pso_inertia >= 0.0) || !(pso_cognitive >= 0.0) || !(pso_social >= 0.0)) {
+  if (!(rework_tolerance_um >= 0.0))
+    return fail("rework_tolerance_um must be >= 0");
+  if (!(outlier_threshold >= 0.0) || !(outlier_min_um >= 0.0))
+    return fail("outlier settings must be >= 0");
+  if (!(max_outlier_fraction >= 0.0 && max_outlier_fraction < 1.0))
+    return fail("max_outlier_fraction must lie in [0, 1)");
+  if (pso_particles < 1 || pso_generations < 1)
+    return fail("pso_particles and pso_generations must be >= 1");
+  if (!(pso_box > 0.0) || !(pso_inertia >= 0.0) || !(pso_cognitive >= 0.0) ||
+      !(pso_social >= 0.0)) {
     return fail("pso_box must be > 0 and the swarm coefficients >= 0");
   }
   return true;
@@ -105,16 +132,19 @@ bool CorrectionOptions::IsValid(std::string* error) const {
 
 std::string CorrectionSummary::BriefReport() const {
   std::ostringstream out;
-  out << "correction " << CorrectionSolverName(solver) << " (" << CorrectionModeName(mode)
-      << "): " << CorrectionStatusName(status);
+  out << "correction " << CorrectionSolverName(solver) << " ("
+      << CorrectionModeName(mode) << "): " << CorrectionStatusName(status);
   if (!message.empty()) out << " (" << message << ")";
   if (IsSolutionUsable()) {
-    out << ", rms " << initial_rms_um << " -> " << residual_rms_um << " um (best reachable "
-        << best_reachable_rms_um << "), max " << residual_max_um << " um, size " << correction_size
-        << ", rank " << rank << ", cond " << condition_number << ", " << RegularisationRuleName(rule)
-        << " lambda " << regularisation_level << " dof " << effective_dof << ", " << iterations
-        << " iterations, " << elapsed_ms << " ms";
-    if (!outlier_indices.empty()) out << ", " << outlier_indices.size() << " outlier(s)";
+    out << ", rms " << initial_rms_um << " -> " << residual_rms_um
+        << " um (best reachable " << best_reachable_rms_um << "), max "
+        << residual_max_um << " um, size " << correction_size << ", rank "
+        << rank << ", cond " << condition_number << ", "
+        << RegularisationRuleName(rule) << " lambda " << regularisation_level
+        << " dof " << effective_dof << ", " << iterations << " iterations, "
+        << elapsed_ms << " ms";
+    if (!outlier_indices.empty())
+      out << ", " << outlier_indices.size() << " outlier(s)";
   }
   return out.str();
 }

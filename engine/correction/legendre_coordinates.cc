@@ -1,24 +1,26 @@
-// Step 1 of the correction (correction.h): orthonormal Legendre coordinates per parameter block,
-// and the public correction size built on them.
+// Step 1 of the correction (correction.h): orthonormal Legendre coordinates per
+// parameter block, and the public correction size built on them.
 #include "engine/correction/legendre_coordinates.h"
 
-#include <cmath>
-
 #include <Eigen/Core>
+#include <cmath>
 
 #include "engine/correction/correction.h"
 
 namespace gearloop {
 namespace correction_internal {
 
-Eigen::MatrixXd LegendreToMonomial(int n, double roll_min_rad, double roll_max_rad) {
+Eigen::MatrixXd LegendreToMonomial(int n,
+                                   double roll_min_rad,
+                                   double roll_max_rad) {
   double c = 0.5 * (roll_min_rad + roll_max_rad);
   double h = 0.5 * (roll_max_rad - roll_min_rad);
   if (!(h > 0.0)) {  // no roll range known: fall back to [-1, 1]
     c = 0.0;
     h = 1.0;
   }
-  // Legendre polynomials in s as monomial coefficients in s: p(k, j) multiplies s^j.
+  // Legendre polynomials in s as monomial coefficients in s: p(k, j) multiplies
+  // s^j.
   Eigen::MatrixXd p = Eigen::MatrixXd::Zero(n, n);
   p(0, 0) = 1.0;
   if (n > 1) p(1, 1) = 1.0;
@@ -30,7 +32,8 @@ Eigen::MatrixXd LegendreToMonomial(int n, double roll_min_rad, double roll_max_r
     }
   }
   // s^j = ((phi - c) / h)^j = sum_i binom(j, i) phi^i (-c)^(j-i) / h^j.
-  Eigen::MatrixXd s_to_phi = Eigen::MatrixXd::Zero(n, n);  // (i, j): coefficient of phi^i in s^j
+  Eigen::MatrixXd s_to_phi =
+      Eigen::MatrixXd::Zero(n, n);  // (i, j): coefficient of phi^i in s^j
   for (int j = 0; j < n; ++j) {
     double binom = 1.0;
     for (int i = 0; i <= j; ++i) {
@@ -45,12 +48,14 @@ Eigen::MatrixXd LegendreToMonomial(int n, double roll_min_rad, double roll_max_r
   return l;
 }
 
-double BlockScale(const ParameterBlock& block, const std::map<std::string, double>& scales) {
+double BlockScale(const ParameterBlock& block,
+                  const std::map<std::string, double>& scales) {
   const auto it = scales.find(block.name);
   return it != scales.end() ? it->second : block.default_scale;
 }
 
-// The linear map coordinates -> delta for all coefficients of all blocks (square, block diagonal).
+// The linear map coordinates -> delta for all coefficients of all blocks
+// (square, block diagonal).
 Eigen::MatrixXd CoordinateMap(const std::vector<ParameterBlock>& blocks,
                               int num_parameters,
                               double roll_min_rad,
@@ -60,10 +65,15 @@ Eigen::MatrixXd CoordinateMap(const std::vector<ParameterBlock>& blocks,
   for (const ParameterBlock& b : blocks) {
     const double s = BlockScale(b, scales);
     if (b.is_polynomial) {
-      t.block(b.first_index, b.first_index, b.num_coefficients, b.num_coefficients) =
-          s * LegendreToMonomial(b.num_coefficients, roll_min_rad, roll_max_rad);
+      t.block(b.first_index,
+              b.first_index,
+              b.num_coefficients,
+              b.num_coefficients) =
+          s *
+          LegendreToMonomial(b.num_coefficients, roll_min_rad, roll_max_rad);
     } else {
-      for (int k = 0; k < b.num_coefficients; ++k) t(b.first_index + k, b.first_index + k) = s;
+      for (int k = 0; k < b.num_coefficients; ++k)
+        t(b.first_index + k, b.first_index + k) = s;
     }
   }
   return t;
@@ -73,27 +83,39 @@ Eigen::MatrixXd CoordinateMap(const std::vector<ParameterBlock>& blocks,
 
 using correction_internal::CoordinateMap;
 
-Eigen::VectorXd DeltaFromCorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
-                                               const Eigen::VectorXd& coordinates,
-                                               double roll_min_rad,
-                                               double roll_max_rad,
-                                               const std::map<std::string, double>& block_scales) {
-  return CoordinateMap(blocks, static_cast<int>(coordinates.size()), roll_min_rad, roll_max_rad, block_scales) *
+Eigen::VectorXd DeltaFromCorrectionCoordinates(
+    const std::vector<ParameterBlock>& blocks,
+    const Eigen::VectorXd& coordinates,
+    double roll_min_rad,
+    double roll_max_rad,
+    const std::map<std::string, double>& block_scales) {
+  return CoordinateMap(blocks,
+                       static_cast<int>(coordinates.size()),
+                       roll_min_rad,
+                       roll_max_rad,
+                       block_scales) *
          coordinates;
 }
 
-Eigen::VectorXd CorrectionCoordinates(const std::vector<ParameterBlock>& blocks,
-                                      const Eigen::VectorXd& delta,
-                                      double roll_min_rad,
-                                      double roll_max_rad,
-                                      const std::map<std::string, double>& block_scales) {
-  const Eigen::MatrixXd t =
-      CoordinateMap(blocks, static_cast<int>(delta.size()), roll_min_rad, roll_max_rad, block_scales);
-  // Block diagonal and each block upper triangular: a triangular solve per block is exact.
+Eigen::VectorXd CorrectionCoordinates(
+    const std::vector<ParameterBlock>& blocks,
+    const Eigen::VectorXd& delta,
+    double roll_min_rad,
+    double roll_max_rad,
+    const std::map<std::string, double>& block_scales) {
+  const Eigen::MatrixXd t = CoordinateMap(blocks,
+                                          static_cast<int>(delta.size()),
+                                          roll_min_rad,
+                                          roll_max_rad,
+                                          block_scales);
+  // Block diagonal and each block upper triangular: a triangular solve per
+  // block is exact.
   Eigen::VectorXd y = Eigen::VectorXd::Zero(delta.size());
   for (const ParameterBlock& b : blocks) {
     const int f = b.first_index, n = b.num_coefficients;
-    y.segment(f, n) = t.block(f, f, n, n).triangularView<Eigen::Upper>().solve(delta.segment(f, n));
+    y.segment(f, n) = t.block(f, f, n, n)
+                          .triangularView<Eigen::Upper>()
+                          .solve(delta.segment(f, n));
   }
   return y;
 }
@@ -104,11 +126,13 @@ double CorrectionSize(const std::vector<ParameterBlock>& blocks,
                       double roll_max_rad,
                       const std::map<std::string, double>& block_scales,
                       std::vector<BlockCorrectionSize>* block_sizes) {
-  const Eigen::VectorXd y = CorrectionCoordinates(blocks, delta, roll_min_rad, roll_max_rad, block_scales);
+  const Eigen::VectorXd y = CorrectionCoordinates(
+      blocks, delta, roll_min_rad, roll_max_rad, block_scales);
   if (block_sizes != nullptr) block_sizes->clear();
   double total2 = 0.0;
   for (const ParameterBlock& b : blocks) {
-    const double s2 = y.segment(b.first_index, b.num_coefficients).squaredNorm();
+    const double s2 =
+        y.segment(b.first_index, b.num_coefficients).squaredNorm();
     total2 += s2;
     if (block_sizes != nullptr) block_sizes->push_back({b.name, std::sqrt(s2)});
   }

@@ -1,4 +1,5 @@
-// Step 0 of the correction (machine_state.h): the machine's real state from the measurement.
+// Step 0 of the correction (machine_state.h): the machine's real state from the
+// measurement.
 #include "engine/correction/machine_state.h"
 
 #include <cmath>
@@ -6,21 +7,24 @@
 namespace gearloop {
 namespace correction_internal {
 
-bool MachineStateProblem(const CorrectionProblem& commanded, CorrectionProblem* state) {
+bool MachineStateProblem(const CorrectionProblem& commanded,
+                         CorrectionProblem* state) {
   *state = commanded;
   const int n = commanded.num_points;
-  // The "measurement" is the model's own flank (NaN where it has none), the "target" the
-  // measured flank.
+  // The "measurement" is the model's own flank (NaN where it has none), the
+  // "target" the measured flank.
   Eigen::VectorXd own_um = commanded.d0();
   for (int i = 0; i < n; ++i) {
     if (commanded.evaluation.status[i] != PointStatus::kOk) own_um(i) = kNaN;
   }
   state->measured_um = own_um;
   state->error_um = own_um - commanded.measured_um;
-  // Several teeth: the mean is as noisy as one grid with sigma / sqrt(mean count); the shares
-  // per point are not kept (mean_teeth_averaged is 1 for a single grid: no change).
+  // Several teeth: the mean is as noisy as one grid with sigma / sqrt(mean
+  // count); the shares per point are not kept (mean_teeth_averaged is 1 for a
+  // single grid: no change).
   state->noise_share = Eigen::VectorXd::Ones(n);
-  if (state->probe_noise_um > 0.0) state->probe_noise_um /= std::sqrt(commanded.mean_teeth_averaged);
+  if (state->probe_noise_um > 0.0)
+    state->probe_noise_um /= std::sqrt(commanded.mean_teeth_averaged);
   state->mean_teeth_averaged = 1.0;
   // The bounds restrict the correction, not the machine's errors.
   state->mode = CorrectionMode::kNextPart;
@@ -31,9 +35,11 @@ bool MachineStateProblem(const CorrectionProblem& commanded, CorrectionProblem* 
   return !state->used.empty();
 }
 
-bool AcceptMachineState(const CorrectionProblem& commanded, const CorrectionResult& state,
+bool AcceptMachineState(const CorrectionProblem& commanded,
+                        const CorrectionResult& state,
                         Eigen::VectorXd* state_parameters) {
-  if (!state.summary.IsSolutionUsable() || state.delta.size() != commanded.parameters.size() ||
+  if (!state.summary.IsSolutionUsable() ||
+      state.delta.size() != commanded.parameters.size() ||
       !state.delta.allFinite()) {
     return false;
   }
@@ -41,12 +47,15 @@ bool AcceptMachineState(const CorrectionProblem& commanded, const CorrectionResu
   ModelEvaluation at_state;
   commanded.model->Evaluate(*state_parameters, false, &at_state);
   for (int i = 0; i < commanded.num_points; ++i) {
-    if (commanded.evaluation.status[i] == PointStatus::kOk && at_state.status[i] != PointStatus::kOk) return false;
+    if (commanded.evaluation.status[i] == PointStatus::kOk &&
+        at_state.status[i] != PointStatus::kOk)
+      return false;
   }
   return true;
 }
 
-void ReportMachineState(const CorrectionResult& state, CorrectionSummary* summary) {
+void ReportMachineState(const CorrectionResult& state,
+                        CorrectionSummary* summary) {
   summary->machine_state_estimated = true;
   summary->machine_state_size = state.summary.correction_size;
   summary->machine_state_misfit_rms_um = state.summary.residual_rms_um;

@@ -22,7 +22,8 @@ double Median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<double> StandardisedResiduals(const LinearSolve& ls, const Eigen::VectorXd& weights,
+std::vector<double> StandardisedResiduals(const LinearSolve& ls,
+                                          const Eigen::VectorXd& weights,
                                           const std::vector<int>& used) {
   std::vector<double> loo(used.size());
   for (size_t r = 0; r < used.size(); ++r) {
@@ -31,30 +32,39 @@ std::vector<double> StandardisedResiduals(const LinearSolve& ls, const Eigen::Ve
       const double s2 = ls.svd.sigma(i) * ls.svd.sigma(i);
       h += s2 / (s2 + ls.lambda * ls.lambda) * ls.svd.u(r, i) * ls.svd.u(r, i);
     }
-    loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) / std::sqrt(std::max(1.0 - h, 1e-6));
+    loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) /
+             std::sqrt(std::max(1.0 - h, 1e-6));
   }
   return loo;
 }
 
-int FindGrossOutlier(const std::vector<double>& loo, const std::vector<int>& used, int grid_rows,
-                     int grid_columns, const OutlierTest& test) {
+int FindGrossOutlier(const std::vector<double>& loo,
+                     const std::vector<int>& used,
+                     int grid_rows,
+                     int grid_columns,
+                     const OutlierTest& test) {
   if (loo.empty()) return -1;
   const double med = Median(loo);
   std::vector<double> dev(loo.size());
   for (size_t r = 0; r < loo.size(); ++r) dev[r] = std::abs(loo[r] - med);
   const double spread = 1.4826 * Median(dev);
-  const double limit = std::max(test.threshold * std::max(spread, std::max(test.probe_noise_um, 0.0)), test.min_um);
-  // A gross outlier is an isolated point: it must also stand out from its grid neighbours along
-  // every line through it (row, column and both diagonals; the mean of the one or two neighbours
-  // on the line). A target the model cannot follow (a tip, root or end relief, a diagonal band)
-  // leaves a misfit shared along some line, and that is not an outlier.
+  const double limit = std::max(
+      test.threshold * std::max(spread, std::max(test.probe_noise_um, 0.0)),
+      test.min_um);
+  // A gross outlier is an isolated point: it must also stand out from its grid
+  // neighbours along every line through it (row, column and both diagonals; the
+  // mean of the one or two neighbours on the line). A target the model cannot
+  // follow (a tip, root or end relief, a diagonal band) leaves a misfit shared
+  // along some line, and that is not an outlier.
   std::vector<int> position(static_cast<size_t>(grid_rows) * grid_columns, -1);
-  for (size_t r = 0; r < used.size(); ++r) position[used[r]] = static_cast<int>(r);
+  for (size_t r = 0; r < used.size(); ++r)
+    position[used[r]] = static_cast<int>(r);
   std::vector<double> isolation(loo.size(), 0.0);
   for (size_t r = 0; r < used.size(); ++r) {
     const int row = used[r] / grid_columns, col = used[r] % grid_columns;
     double least = dev[r];
-    for (const auto& [dr, dc] : {std::pair<int, int>{0, 1}, {1, 0}, {1, 1}, {1, -1}}) {
+    for (const auto& [dr, dc] :
+         {std::pair<int, int>{0, 1}, {1, 0}, {1, 1}, {1, -1}}) {
       double sum = 0.0;
       int count = 0;
       for (int sign : {-1, 1}) {
@@ -70,18 +80,28 @@ int FindGrossOutlier(const std::vector<double>& loo, const std::vector<int>& use
     }
     isolation[r] = least;
   }
-  const size_t worst = std::max_element(isolation.begin(), isolation.end()) - isolation.begin();
+  const size_t worst =
+      std::max_element(isolation.begin(), isolation.end()) - isolation.begin();
   return isolation[worst] <= limit ? -1 : static_cast<int>(worst);
 }
 
-void RemoveGrossOutliers(const CorrectionOptions& options, CorrectionProblem* problem, CorrectionSummary* summary) {
+void RemoveGrossOutliers(const CorrectionOptions& options,
+                         CorrectionProblem* problem,
+                         CorrectionSummary* summary) {
   std::vector<int>& used = problem->used;
-  const OutlierTest test{options.outlier_threshold, options.outlier_min_um, problem->probe_noise_um};
-  const int max_drop = static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
+  const OutlierTest test{options.outlier_threshold,
+                         options.outlier_min_um,
+                         problem->probe_noise_um};
+  const int max_drop =
+      static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
   for (int drop = 0; drop < max_drop; ++drop) {
     const LinearSolve ls = SolveRegularisedLinear(options, *problem, used);
-    const int worst = FindGrossOutlier(StandardisedResiduals(ls, problem->weights, used), used,
-                                       problem->model->GridRows(), problem->model->GridColumns(), test);
+    const int worst =
+        FindGrossOutlier(StandardisedResiduals(ls, problem->weights, used),
+                         used,
+                         problem->model->GridRows(),
+                         problem->model->GridColumns(),
+                         test);
     if (worst < 0) break;
     summary->outlier_indices.push_back(used[worst]);
     used.erase(used.begin() + worst);

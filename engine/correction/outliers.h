@@ -1,9 +1,11 @@
-// engine/correction/outliers.h (internal): the gross-outlier test of the correction
-// (correction.h, "Outliers"): standardised residuals of the regularised linear fit, compared with
-// their median and with their grid neighbours; the most isolated point beyond the limit is
-// dropped and the fit repeated.
+// engine/correction/outliers.h (internal): the gross-outlier test of the
+// correction (correction.h, "Outliers"): standardised residuals of the
+// regularised linear fit, compared with their median and with their grid
+// neighbours; the most isolated point beyond the limit is dropped and the fit
+// repeated.
 //
-//   RemoveGrossOutliers(options, &problem, &summary);  // problem.used loses the outliers
+//   RemoveGrossOutliers(options, &problem, &summary);  // problem.used loses
+//   the outliers
 #ifndef GEARLOOP_ENGINE_CORRECTION_OUTLIERS_H_
 #define GEARLOOP_ENGINE_CORRECTION_OUTLIERS_H_
 
@@ -16,30 +18,38 @@
 namespace gearloop {
 namespace correction_internal {
 
-// Per row of `ls` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii), h the hat matrix
-// U diag(f) U' of the Tikhonov fit, so that each has the spread of the probe noise [um].
-std::vector<double> StandardisedResiduals(const LinearSolve& ls, const Eigen::VectorXd& weights,
+// Per row of `ls` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii), h
+// the hat matrix U diag(f) U' of the Tikhonov fit, so that each has the spread
+// of the probe noise [um].
+std::vector<double> StandardisedResiduals(const LinearSolve& ls,
+                                          const Eigen::VectorXd& weights,
                                           const std::vector<int>& used);
 
-// The limits of the test (CorrectionOptions outlier_threshold, outlier_min_um; the probe noise,
-// < 0 unknown).
+// The limits of the test (CorrectionOptions outlier_threshold, outlier_min_um;
+// the probe noise, < 0 unknown).
 struct OutlierTest {
   double threshold = 5.0;
   double min_um = 2.0;
   double probe_noise_um = -1.0;
 };
 
-// The position in `used` of the gross outlier among `standardised` (one per used point of a
-// grid_rows x grid_columns row-major grid), or -1: the point whose smallest distance from the
-// median and from the mean of its neighbours along the row, the column and both diagonals is
-// largest, when that distance exceeds max(threshold max(1.4826 MAD, sigma), min_um).
-int FindGrossOutlier(const std::vector<double>& standardised, const std::vector<int>& used, int grid_rows,
-                     int grid_columns, const OutlierTest& test);
+// The position in `used` of the gross outlier among `standardised` (one per
+// used point of a grid_rows x grid_columns row-major grid), or -1: the point
+// whose smallest distance from the median and from the mean of its neighbours
+// along the row, the column and both diagonals is largest, when that distance
+// exceeds max(threshold max(1.4826 MAD, sigma), min_um).
+int FindGrossOutlier(const std::vector<double>& standardised,
+                     const std::vector<int>& used,
+                     int grid_rows,
+                     int grid_columns,
+                     const OutlierTest& test);
 
-// Drops gross outliers from problem->used one at a time (at most max_outlier_fraction of them),
-// refitting in between; reports them sorted in summary->outlier_indices and the points left in
-// summary->num_points_used.
-void RemoveGrossOutliers(const CorrectionOptions& options, CorrectionProblem* problem, CorrectionSummary* summary);
+// Drops gross outliers from problem->used one at a time (at most
+// max_outlier_fraction of them), refitting in between; reports them sorted in
+// summary->outlier_indices and the points left in summary->num_points_used.
+void RemoveGrossOutliers(const CorrectionOptions& options,
+                         CorrectionProblem* problem,
+                         CorrectionSummary* summary);
 
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -1,5 +1,6 @@
-// The correction problem of one request, built once (problem.h). The averaging of several teeth
-// lives here only: the machine-state estimate reads its mean count from the problem.
+// The correction problem of one request, built once (problem.h). The averaging
+// of several teeth lives here only: the machine-state estimate reads its mean
+// count from the problem.
 #include "engine/correction/problem.h"
 
 #include <algorithm>
@@ -12,9 +13,13 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// The roll range of the request, else the span of the contact roll angles of the reached points
+// The roll range of the request, else the span of the contact roll angles of
+// the reached points
 // ([-1, 1] when they span nothing).
-void ChooseRollRange(const CorrectionInput& input, const ModelEvaluation& evaluation, int n, double* roll_min,
+void ChooseRollRange(const CorrectionInput& input,
+                     const ModelEvaluation& evaluation,
+                     int n,
+                     double* roll_min,
                      double* roll_max) {
   *roll_min = input.roll_min_rad;
   *roll_max = input.roll_max_rad;
@@ -22,7 +27,8 @@ void ChooseRollRange(const CorrectionInput& input, const ModelEvaluation& evalua
   *roll_min = kInf;
   *roll_max = -kInf;
   for (int i = 0; i < n; ++i) {
-    if (evaluation.status[i] == PointStatus::kOk && std::isfinite(evaluation.contact_roll_rad[i])) {
+    if (evaluation.status[i] == PointStatus::kOk &&
+        std::isfinite(evaluation.contact_roll_rad[i])) {
       *roll_min = std::min(*roll_min, evaluation.contact_roll_rad[i]);
       *roll_max = std::max(*roll_max, evaluation.contact_roll_rad[i]);
     }
@@ -33,14 +39,20 @@ void ChooseRollRange(const CorrectionInput& input, const ModelEvaluation& evalua
   }
 }
 
-// The coefficients that may change: orders 0..max order of each block (max_order, else
-// default_max_order clamped to the block's degree; scalar blocks free unless named -1).
-bool SelectFreeParameters(const CorrectionOptions& options, const std::vector<ParameterBlock>& blocks,
-                          std::vector<int>* free, std::string* error) {
+// The coefficients that may change: orders 0..max order of each block
+// (max_order, else default_max_order clamped to the block's degree; scalar
+// blocks free unless named -1).
+bool SelectFreeParameters(const CorrectionOptions& options,
+                          const std::vector<ParameterBlock>& blocks,
+                          std::vector<int>* free,
+                          std::string* error) {
   for (const ParameterBlock& b : blocks) {
-    int order = b.is_polynomial ? std::min(options.default_max_order, b.num_coefficients - 1) : 0;
+    int order = b.is_polynomial ? std::min(options.default_max_order,
+                                           b.num_coefficients - 1)
+                                : 0;
     const auto it = options.max_order.find(b.name);
-    if (it != options.max_order.end()) order = std::min(it->second, b.num_coefficients - 1);
+    if (it != options.max_order.end())
+      order = std::min(it->second, b.num_coefficients - 1);
     for (int k = 0; k <= order; ++k) free->push_back(b.first_index + k);
   }
   for (const auto& [name, order] : options.max_order) {
@@ -55,16 +67,19 @@ bool SelectFreeParameters(const CorrectionOptions& options, const std::vector<Pa
   return true;
 }
 
-// T over the free coordinates and its rows `free`. Orders 0..K of a Legendre block touch only
-// monomials 0..K, so restricting columns and rows to `free` is exact.
+// T over the free coordinates and its rows `free`. Orders 0..K of a Legendre
+// block touch only monomials 0..K, so restricting columns and rows to `free` is
+// exact.
 void BuildCoordinates(const CorrectionOptions& options, CorrectionProblem* p) {
   const int np = p->num_parameters, nf = p->NumFree();
-  const Eigen::MatrixXd t_full = CoordinateMap(p->blocks, np, p->roll_min_rad, p->roll_max_rad, options.block_scales);
+  const Eigen::MatrixXd t_full = CoordinateMap(
+      p->blocks, np, p->roll_min_rad, p->roll_max_rad, options.block_scales);
   p->t_map = Eigen::MatrixXd::Zero(np, nf);
   p->t_free.resize(nf, nf);
   for (int c = 0; c < nf; ++c) {
     p->t_map.col(c) = t_full.col(p->free[c]);
-    for (int r = 0; r < nf; ++r) p->t_free(r, c) = t_full(p->free[r], p->free[c]);
+    for (int r = 0; r < nf; ++r)
+      p->t_free(r, c) = t_full(p->free[r], p->free[c]);
   }
 }
 
@@ -76,39 +91,49 @@ void SetBounds(const CorrectionOptions& options, CorrectionProblem* p) {
   if (options.lower_delta.size() == np) {
     p->lower = options.lower_delta;
     p->upper = options.upper_delta;
-    for (int j : p->free) p->has_bounds = p->has_bounds || std::isfinite(p->lower(j)) || std::isfinite(p->upper(j));
+    for (int j : p->free)
+      p->has_bounds = p->has_bounds || std::isfinite(p->lower(j)) ||
+                      std::isfinite(p->upper(j));
   }
 }
 
 }  // namespace
 
-std::string ValidateCorrectionInput(const CorrectionOptions& options, const CorrectionInput& input) {
+std::string ValidateCorrectionInput(const CorrectionOptions& options,
+                                    const CorrectionInput& input) {
   std::string error;
   if (!options.IsValid(&error)) return error;
   if (input.model == nullptr) return "no machine model";
   const int np = input.model->NumParameters();
   const int n = input.model->NumPoints();
-  if (input.current_parameters.size() != np || !input.current_parameters.allFinite()) {
-    return "current_parameters must hold " + std::to_string(np) + " finite values";
+  if (input.current_parameters.size() != np ||
+      !input.current_parameters.allFinite()) {
+    return "current_parameters must hold " + std::to_string(np) +
+           " finite values";
   }
   if (!input.measured_teeth_um.empty()) {
     for (size_t t = 0; t < input.measured_teeth_um.size(); ++t) {
       if (input.measured_teeth_um[t].size() != n) {
-        return "measured_teeth_um[" + std::to_string(t) + "] must hold " + std::to_string(n) + " values";
+        return "measured_teeth_um[" + std::to_string(t) + "] must hold " +
+               std::to_string(n) + " values";
       }
     }
   } else if (input.measured_um.size() != n) {
     return "measured_um must hold " + std::to_string(n) + " values";
   }
-  if (input.target_um.size() != n) return "target_um must hold " + std::to_string(n) + " values";
+  if (input.target_um.size() != n)
+    return "target_um must hold " + std::to_string(n) + " values";
   if (options.point_weights.size() != 0 && options.point_weights.size() != n) {
-    return "point_weights must be empty or hold " + std::to_string(n) + " values";
+    return "point_weights must be empty or hold " + std::to_string(n) +
+           " values";
   }
   if (options.lower_delta.size() != 0 && options.lower_delta.size() != np) {
     return "bounds must be empty or hold " + std::to_string(np) + " values";
   }
-  if (input.jacobian_um.size() != 0 && (input.jacobian_um.rows() != n || input.jacobian_um.cols() != np)) {
-    return "jacobian_um must be " + std::to_string(n) + " x " + std::to_string(np);
+  if (input.jacobian_um.size() != 0 &&
+      (input.jacobian_um.rows() != n || input.jacobian_um.cols() != np)) {
+    return "jacobian_um must be " + std::to_string(n) + " x " +
+           std::to_string(np);
   }
   return "";
 }
@@ -149,10 +174,13 @@ void SelectPoints(CorrectionProblem* p) {
   }
 }
 
-void LineariseAt(const Eigen::VectorXd& parameters, const Eigen::MatrixXd& given_jacobian, CorrectionProblem* p) {
+void LineariseAt(const Eigen::VectorXd& parameters,
+                 const Eigen::MatrixXd& given_jacobian,
+                 CorrectionProblem* p) {
   p->parameters = parameters;
   p->model->Evaluate(parameters, given_jacobian.size() == 0, &p->evaluation);
-  p->jacobian_um = given_jacobian.size() != 0 ? given_jacobian : p->evaluation.jacobian_um;
+  p->jacobian_um =
+      given_jacobian.size() != 0 ? given_jacobian : p->evaluation.jacobian_um;
   SelectPoints(p);
   if (p->t_map.size() != 0) p->st = p->jacobian_um * p->t_map;
 }
@@ -175,7 +203,8 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   p->error_um = flank.measured_um - input.target_um;  // NaN where missing
   p->noise_share = flank.noise_share;
   p->mean_teeth_averaged = flank.mean_teeth_averaged;
-  p->weights = options.point_weights.size() == n ? options.point_weights : Eigen::VectorXd::Ones(n);
+  p->weights = options.point_weights.size() == n ? options.point_weights
+                                                 : Eigen::VectorXd::Ones(n);
 
   LineariseAt(input.current_parameters, input.jacobian_um, p);
   ChooseRollRange(input, p->evaluation, n, &p->roll_min_rad, &p->roll_max_rad);
@@ -199,13 +228,15 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   return true;
 }
 
-CorrectionProblem RelinearisedAt(const CorrectionProblem& problem, const Eigen::VectorXd& parameters) {
+CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
+                                 const Eigen::VectorXd& parameters) {
   CorrectionProblem p = problem;
   LineariseAt(parameters, Eigen::MatrixXd(), &p);
   return p;
 }
 
-void ReportProblem(const CorrectionProblem& problem, CorrectionSummary* summary) {
+void ReportProblem(const CorrectionProblem& problem,
+                   CorrectionSummary* summary) {
   summary->roll_min_rad = problem.roll_min_rad;
   summary->roll_max_rad = problem.roll_max_rad;
   summary->missing_indices = problem.missing;
@@ -228,8 +259,10 @@ double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx) {
 
 }  // namespace correction_internal
 
-Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen::VectorXi* counts) {
-  const int n = teeth_um.empty() ? 0 : static_cast<int>(teeth_um.front().size());
+Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um,
+                             Eigen::VectorXi* counts) {
+  const int n =
+      teeth_um.empty() ? 0 : static_cast<int>(teeth_um.front().size());
   Eigen::VectorXd sum = Eigen::VectorXd::Zero(n);
   Eigen::VectorXi count = Eigen::VectorXi::Zero(n);
   for (const Eigen::VectorXd& tooth : teeth_um) {
@@ -241,7 +274,8 @@ Eigen::VectorXd AverageTeeth(const std::vector<Eigen::VectorXd>& teeth_um, Eigen
     }
   }
   Eigen::VectorXd mean(n);
-  for (int i = 0; i < n; ++i) mean(i) = count(i) > 0 ? sum(i) / count(i) : correction_internal::kNaN;
+  for (int i = 0; i < n; ++i)
+    mean(i) = count(i) > 0 ? sum(i) / count(i) : correction_internal::kNaN;
   if (counts != nullptr) *counts = count;
   return mean;
 }

@@ -1,21 +1,22 @@
-// engine/correction/problem.h (internal): the correction problem of one request, built once
-// (correction.h, "Notation"): the measured flank (several teeth averaged here and only here), the
-// error e = m - t, the point weights and noise shares, the free coefficients and their Legendre
-// coordinates T, the bounds, and the model linearised at a parameter point (d0, S, S T, the
+// engine/correction/problem.h (internal): the correction problem of one
+// request, built once (correction.h, "Notation"): the measured flank (several
+// teeth averaged here and only here), the error e = m - t, the point weights
+// and noise shares, the free coefficients and their Legendre coordinates T, the
+// bounds, and the model linearised at a parameter point (d0, S, S T, the
 // reached and the used grid points).
 //
 //   CorrectionProblem problem;
 //   std::string error;
-//   if (!PrepareCorrectionProblem(options, input, &problem, &summary, &error)) { /* invalid input */ }
-//   const CorrectionProblem at_state = RelinearisedAt(problem, commanded + h);  // step 0
+//   if (!PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+//   { /* invalid input */ } const CorrectionProblem at_state =
+//   RelinearisedAt(problem, commanded + h);  // step 0
 #ifndef GEARLOOP_ENGINE_CORRECTION_PROBLEM_H_
 #define GEARLOOP_ENGINE_CORRECTION_PROBLEM_H_
 
+#include <Eigen/Core>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "engine/core/machine_model.h"
 #include "engine/correction/correction.h"
@@ -27,11 +28,14 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // The measurement of a request: input.measured_um, or the point-wise mean of
-// input.measured_teeth_um (AverageTeeth) with each point's noise variance divided by its count.
+// input.measured_teeth_um (AverageTeeth) with each point's noise variance
+// divided by its count.
 struct MeasuredFlank {
-  Eigen::VectorXd measured_um;        // NaN = missing
-  Eigen::VectorXd noise_share;        // noise variance of a point / sigma^2 (1 / teeth averaged; 1 if none)
-  double mean_teeth_averaged = 1.0;   // mean count over the delivered points (1 for a single grid)
+  Eigen::VectorXd measured_um;  // NaN = missing
+  Eigen::VectorXd noise_share;  // noise variance of a point / sigma^2 (1 /
+                                // teeth averaged; 1 if none)
+  double mean_teeth_averaged =
+      1.0;  // mean count over the delivered points (1 for a single grid)
 };
 
 struct CorrectionProblem {
@@ -40,13 +44,15 @@ struct CorrectionProblem {
   int num_parameters = 0;
   int num_points = 0;
 
-  // What this solve is asked (the machine-state estimate of step 0 changes them).
+  // What this solve is asked (the machine-state estimate of step 0 changes
+  // them).
   CorrectionMode mode = CorrectionMode::kNextPart;
-  RegularisationRule rule = RegularisationRule::kNone;  // ChooseRegularisationRule(options)
-  double probe_noise_um = -1.0;                          // sigma [um] (< 0 unknown)
+  RegularisationRule rule =
+      RegularisationRule::kNone;  // ChooseRegularisationRule(options)
+  double probe_noise_um = -1.0;   // sigma [um] (< 0 unknown)
 
-  // The measurement: m (teeth averaged), e = m - t [um] (NaN where missing), weights w and noise
-  // shares per point.
+  // The measurement: m (teeth averaged), e = m - t [um] (NaN where missing),
+  // weights w and noise shares per point.
   Eigen::VectorXd measured_um;
   Eigen::VectorXd error_um;
   Eigen::VectorXd weights;
@@ -56,59 +62,73 @@ struct CorrectionProblem {
   // Step 1: the roll range, the free coefficients and their coordinates.
   double roll_min_rad = 0.0;
   double roll_max_rad = 0.0;
-  std::vector<int> free;        // parameter indices that may change
-  Eigen::MatrixXd t_map;        // T: free coordinates -> delta (np x nf)
-  Eigen::MatrixXd t_free;       // the rows `free` of T (nf x nf)
+  std::vector<int> free;   // parameter indices that may change
+  Eigen::MatrixXd t_map;   // T: free coordinates -> delta (np x nf)
+  Eigen::MatrixXd t_free;  // the rows `free` of T (nf x nf)
 
-  // Bounds on delta [parameter units] (+-inf = unbounded); has_bounds: a free one is finite.
+  // Bounds on delta [parameter units] (+-inf = unbounded); has_bounds: a free
+  // one is finite.
   bool has_bounds = false;
   Eigen::VectorXd lower;
   Eigen::VectorXd upper;
 
   // The linearisation at `parameters`.
   Eigen::VectorXd parameters;
-  ModelEvaluation evaluation;   // d0 = evaluation.deviations_um, statuses, contact roll angles
+  ModelEvaluation evaluation;   // d0 = evaluation.deviations_um, statuses,
+                                // contact roll angles
   Eigen::MatrixXd jacobian_um;  // S (n x np)
   Eigen::MatrixXd st;           // S T (n x nf)
   std::vector<int> reached;     // grid points with a contact
-  std::vector<int> used;        // reached, with a finite e and a weight > 0 (outliers removed later)
-  std::vector<int> missing;     // the others
+  std::vector<int> used;  // reached, with a finite e and a weight > 0 (outliers
+                          // removed later)
+  std::vector<int> missing;  // the others
 
   int NumFree() const { return static_cast<int>(free.size()); }
   const Eigen::VectorXd& d0() const { return evaluation.deviations_um; }
 };
 
-// The sizes and the options of a request; "" when valid, else what is wrong (the summary message).
-std::string ValidateCorrectionInput(const CorrectionOptions& options, const CorrectionInput& input);
+// The sizes and the options of a request; "" when valid, else what is wrong
+// (the summary message).
+std::string ValidateCorrectionInput(const CorrectionOptions& options,
+                                    const CorrectionInput& input);
 
 // The measured flank of a (validated) input, averaging several teeth.
 MeasuredFlank AverageMeasurement(const CorrectionInput& input);
 
-// The problem of a validated input at input.current_parameters: the model evaluated there (S
-// from input.jacobian_um if given), the roll range (input's, else the span of the contacts), the
-// used points, the free set, T, S T and the bounds. Fills roll range, missing points, free
-// parameters and points used in `summary` as it goes; false with `error` when no point is
-// usable, max_order names an unknown block or no parameter is free.
+// The problem of a validated input at input.current_parameters: the model
+// evaluated there (S from input.jacobian_um if given), the roll range (input's,
+// else the span of the contacts), the used points, the free set, T, S T and the
+// bounds. Fills roll range, missing points, free parameters and points used in
+// `summary` as it goes; false with `error` when no point is usable, max_order
+// names an unknown block or no parameter is free.
 bool PrepareCorrectionProblem(const CorrectionOptions& options,
                               const CorrectionInput& input,
                               CorrectionProblem* problem,
                               CorrectionSummary* summary,
                               std::string* error);
 
-// The same problem linearised at `parameters` (S evaluated there; roll range and T kept).
-CorrectionProblem RelinearisedAt(const CorrectionProblem& problem, const Eigen::VectorXd& parameters);
+// The same problem linearised at `parameters` (S evaluated there; roll range
+// and T kept).
+CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
+                                 const Eigen::VectorXd& parameters);
 
-// Evaluates the model at `parameters` (with S unless `given_jacobian` is non-empty), and
-// recomputes S T and the reached, used and missing points.
-void LineariseAt(const Eigen::VectorXd& parameters, const Eigen::MatrixXd& given_jacobian, CorrectionProblem* problem);
+// Evaluates the model at `parameters` (with S unless `given_jacobian` is
+// non-empty), and recomputes S T and the reached, used and missing points.
+void LineariseAt(const Eigen::VectorXd& parameters,
+                 const Eigen::MatrixXd& given_jacobian,
+                 CorrectionProblem* problem);
 
-// Re-selects the reached, used and missing points from the evaluation, e and the weights.
+// Re-selects the reached, used and missing points from the evaluation, e and
+// the weights.
 void SelectPoints(CorrectionProblem* problem);
 
-// Roll range, missing points, free parameters and points used of `problem` into `summary`.
-void ReportProblem(const CorrectionProblem& problem, CorrectionSummary* summary);
+// Roll range, missing points, free parameters and points used of `problem` into
+// `summary`.
+void ReportProblem(const CorrectionProblem& problem,
+                   CorrectionSummary* summary);
 
-// Root mean square and largest magnitude of r over the indices idx (0 when empty).
+// Root mean square and largest magnitude of r over the indices idx (0 when
+// empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
 

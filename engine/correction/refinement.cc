@@ -1,13 +1,14 @@
-// Step 4 of the correction (refinement.h): Ceres on the exact model. The cost functor lives here,
-// in the .cc, so that no header of the engine names a Ceres type.
+// Step 4 of the correction (refinement.h): Ceres on the exact model. The cost
+// functor lives here, in the .cc, so that no header of the engine names a Ceres
+// type.
 #include "engine/correction/refinement.h"
 
+#include <ceres/ceres.h>
+
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include <Eigen/LU>
-#include <ceres/ceres.h>
 
 namespace gearloop {
 namespace correction_internal {
@@ -26,13 +27,21 @@ class ExactModelCost : public ceres::CostFunction {
                  const std::vector<int>& used,
                  const Eigen::MatrixXd& p,
                  const Eigen::MatrixXd& regulariser)
-      : model_(model), current_(current), d0_(d0), error_(error), weights_(weights), used_(used), p_(p),
+      : model_(model),
+        current_(current),
+        d0_(d0),
+        error_(error),
+        weights_(weights),
+        used_(used),
+        p_(p),
         regulariser_(regulariser) {
     set_num_residuals(static_cast<int>(used.size() + regulariser.rows()));
     mutable_parameter_block_sizes()->push_back(static_cast<int>(p.cols()));
   }
 
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+  bool Evaluate(double const* const* parameters,
+                double* residuals,
+                double** jacobians) const override {
     const int nv = static_cast<int>(p_.cols());
     const Eigen::Map<const Eigen::VectorXd> v(parameters[0], nv);
     const Eigen::VectorXd zeta = current_ + p_ * v;
@@ -42,15 +51,18 @@ class ExactModelCost : public ceres::CostFunction {
     const int nu = static_cast<int>(used_.size());
     for (int r = 0; r < nu; ++r) {
       const int i = used_[r];
-      if (eval.status[i] != PointStatus::kOk) return false;  // leaves the wheel: reject the step
+      if (eval.status[i] != PointStatus::kOk)
+        return false;  // leaves the wheel: reject the step
       const double sw = std::sqrt(weights_(i));
       residuals[r] = sw * (error_(i) + eval.deviations_um(i) - d0_(i));
     }
     const Eigen::VectorXd reg = regulariser_ * v;
     for (int r = 0; r < reg.size(); ++r) residuals[nu + r] = reg(r);
     if (want_jacobian) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
-          jacobians[0], num_residuals(), nv);
+      Eigen::Map<
+          Eigen::
+              Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+          jac(jacobians[0], num_residuals(), nv);
       for (int r = 0; r < nu; ++r) {
         const int i = used_[r];
         jac.row(r) = std::sqrt(weights_(i)) * (eval.jacobian_um.row(i) * p_);
@@ -71,17 +83,20 @@ class ExactModelCost : public ceres::CostFunction {
   Eigen::MatrixXd regulariser_;
 };
 
-// The variables of the refinement: delta = P v, the regulariser R v, and the start v.
+// The variables of the refinement: delta = P v, the regulariser R v, and the
+// start v.
 struct RefinementVariables {
   Eigen::MatrixXd p;
   Eigen::MatrixXd reg;
   Eigen::VectorXd v;
 };
 
-// Without bounds the variables are z (delta = T V_k z). With bounds they are the free monomial
-// coefficients (box bounds), and leaving the subspace is penalised by
-// sigma_1 |(I - V_k V_k') T_ff^-1 v|.
-RefinementVariables ChooseVariables(const CorrectionProblem& problem, const KeptSubspace& s, const Eigen::VectorXd& z,
+// Without bounds the variables are z (delta = T V_k z). With bounds they are
+// the free monomial coefficients (box bounds), and leaving the subspace is
+// penalised by sigma_1 |(I - V_k V_k') T_ff^-1 v|.
+RefinementVariables ChooseVariables(const CorrectionProblem& problem,
+                                    const KeptSubspace& s,
+                                    const Eigen::VectorXd& z,
                                     const Eigen::VectorXd& delta) {
   const int np = problem.num_parameters, nf = problem.NumFree(), k = s.k;
   const std::vector<int>& free = problem.free;
@@ -91,10 +106,14 @@ RefinementVariables ChooseVariables(const CorrectionProblem& problem, const Kept
     for (int c = 0; c < nf; ++c) x.p(free[c], c) = 1.0;
     const Eigen::MatrixXd t_inv = problem.t_free.inverse();
     x.reg.resize(nf + k, nf);
-    x.reg.topRows(nf) = s.sigma1 * (Eigen::MatrixXd::Identity(nf, nf) - s.vk * s.vk.transpose()) * t_inv;
+    x.reg.topRows(nf) =
+        s.sigma1 *
+        (Eigen::MatrixXd::Identity(nf, nf) - s.vk * s.vk.transpose()) * t_inv;
     x.reg.bottomRows(k) = s.lambda * s.vk.transpose() * t_inv;
     x.v.resize(nf);
-    for (int c = 0; c < nf; ++c) x.v(c) = std::clamp(delta(free[c]), problem.lower(free[c]), problem.upper(free[c]));
+    for (int c = 0; c < nf; ++c)
+      x.v(c) = std::clamp(
+          delta(free[c]), problem.lower(free[c]), problem.upper(free[c]));
   } else {
     x.p = s.tv;
     x.reg = s.lambda * Eigen::MatrixXd::Identity(k, k);
@@ -104,19 +123,31 @@ RefinementVariables ChooseVariables(const CorrectionProblem& problem, const Kept
 }
 
 // One Levenberg-Marquardt run of Ceres from *v.
-void Refine(const CorrectionOptions& options, const CorrectionProblem& problem, const RefinementVariables& x,
-            Eigen::VectorXd* v, ceres::Solver::Summary* ceres_summary) {
+void Refine(const CorrectionOptions& options,
+            const CorrectionProblem& problem,
+            const RefinementVariables& x,
+            Eigen::VectorXd* v,
+            ceres::Solver::Summary* ceres_summary) {
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem ceres_problem(problem_options);
-  ceres_problem.AddResidualBlock(new ExactModelCost(*problem.model, problem.parameters, problem.d0(), problem.error_um,
-                                                    problem.weights, problem.used, x.p, x.reg),
-                                 nullptr, v->data());
+  ceres_problem.AddResidualBlock(new ExactModelCost(*problem.model,
+                                                    problem.parameters,
+                                                    problem.d0(),
+                                                    problem.error_um,
+                                                    problem.weights,
+                                                    problem.used,
+                                                    x.p,
+                                                    x.reg),
+                                 nullptr,
+                                 v->data());
   if (problem.has_bounds) {
     for (int c = 0; c < problem.NumFree(); ++c) {
       const int j = problem.free[c];
-      if (std::isfinite(problem.lower(j))) ceres_problem.SetParameterLowerBound(v->data(), c, problem.lower(j));
-      if (std::isfinite(problem.upper(j))) ceres_problem.SetParameterUpperBound(v->data(), c, problem.upper(j));
+      if (std::isfinite(problem.lower(j)))
+        ceres_problem.SetParameterLowerBound(v->data(), c, problem.lower(j));
+      if (std::isfinite(problem.upper(j)))
+        ceres_problem.SetParameterUpperBound(v->data(), c, problem.upper(j));
     }
   }
   ceres::Solver::Options solver_options;
@@ -131,13 +162,16 @@ void Refine(const CorrectionOptions& options, const CorrectionProblem& problem, 
   ceres::Solve(solver_options, &ceres_problem, ceres_summary);
 }
 
-// Ceres cannot start where the exact model loses a point: then start from no change (a valid
-// point) and let the trust region find how far the linear step can be followed.
-bool StartsOnTheFlank(const CorrectionProblem& problem, const RefinementVariables& x) {
+// Ceres cannot start where the exact model loses a point: then start from no
+// change (a valid point) and let the trust region find how far the linear step
+// can be followed.
+bool StartsOnTheFlank(const CorrectionProblem& problem,
+                      const RefinementVariables& x) {
   ModelEvaluation ev;
   problem.model->Evaluate(problem.parameters + x.p * x.v, false, &ev);
   bool start_ok = true;
-  for (int i : problem.used) start_ok = start_ok && ev.status[i] == PointStatus::kOk;
+  for (int i : problem.used)
+    start_ok = start_ok && ev.status[i] == PointStatus::kOk;
   return start_ok;
 }
 
@@ -158,16 +192,20 @@ void RefineOnExactModel(const CorrectionOptions& options,
   Refine(options, problem, x, &v, &ceres_summary);
   int iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
   if (ceres_summary.termination_type != ceres::CONVERGENCE && !from_zero) {
-    // Far from the linear prediction (a strongly nonlinear direction), the trust region may do
-    // better walking out from no change: try that too and keep the lower cost.
+    // Far from the linear prediction (a strongly nonlinear direction), the
+    // trust region may do better walking out from no change: try that too and
+    // keep the lower cost.
     Eigen::VectorXd v_zero = Eigen::VectorXd::Zero(v.size());
     ceres::Solver::Summary zero_summary;
     Refine(options, problem, x, &v_zero, &zero_summary);
     iterations += static_cast<int>(zero_summary.iterations.size()) - 1;
-    const bool zero_usable = zero_summary.termination_type == ceres::CONVERGENCE ||
-                             zero_summary.termination_type == ceres::NO_CONVERGENCE;
-    const bool first_usable = ceres_summary.termination_type == ceres::NO_CONVERGENCE;
-    if (zero_usable && (!first_usable || zero_summary.final_cost < ceres_summary.final_cost)) {
+    const bool zero_usable =
+        zero_summary.termination_type == ceres::CONVERGENCE ||
+        zero_summary.termination_type == ceres::NO_CONVERGENCE;
+    const bool first_usable =
+        ceres_summary.termination_type == ceres::NO_CONVERGENCE;
+    if (zero_usable &&
+        (!first_usable || zero_summary.final_cost < ceres_summary.final_cost)) {
       v = v_zero;
       ceres_summary = zero_summary;
     }
@@ -182,7 +220,8 @@ void RefineOnExactModel(const CorrectionOptions& options,
     *not_converged = "the exact-model refinement reached max_num_iterations";
   } else {
     *delta = x.p * x.v;
-    *not_converged = "the exact-model refinement failed (" + ceres_summary.message +
+    *not_converged = "the exact-model refinement failed (" +
+                     ceres_summary.message +
                      "); the linear correction is reported";
   }
 }

@@ -1,25 +1,30 @@
-// Steps 2-3 of the correction (correction.h): SVD, the rule, lambda and the regularised linear
-// solve. The rule is derived in ChooseRegularisationRule only; the rest reads problem.rule.
+// Steps 2-3 of the correction (correction.h): SVD, the rule, lambda and the
+// regularised linear solve. The rule is derived in ChooseRegularisationRule
+// only; the rest reads problem.rule.
 #include "engine/correction/regularisation.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/SVD>
 
 namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// The lambda of 193 logarithmically spaced levels in [lambda_lo, lambda_hi] where a rule's
-// criterion is smallest (the first, on ties).
+// The lambda of 193 logarithmically spaced levels in [lambda_lo, lambda_hi]
+// where a rule's criterion is smallest (the first, on ties).
 template <typename Criterion>
-double ArgminOnLogGrid(double lambda_lo, double lambda_hi, Criterion criterion) {
+double ArgminOnLogGrid(double lambda_lo,
+                       double lambda_hi,
+                       Criterion criterion) {
   const int kGrid = 193;
-  double best_lambda = lambda_lo, best_value = std::numeric_limits<double>::infinity();
+  double best_lambda = lambda_lo,
+         best_value = std::numeric_limits<double>::infinity();
   for (int g = 0; g < kGrid; ++g) {
-    const double lambda = std::exp(std::log(lambda_lo) + (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
+    const double lambda =
+        std::exp(std::log(lambda_lo) +
+                 (std::log(lambda_hi) - std::log(lambda_lo)) * g / (kGrid - 1));
     const double value = criterion(lambda);
     if (value < best_value) {
       best_value = value;
@@ -29,17 +34,24 @@ double ArgminOnLogGrid(double lambda_lo, double lambda_hi, Criterion criterion) 
   return best_lambda;
 }
 
-// Discrepancy principle on the part of b inside the range of A (the part outside cannot be
-// fitted by any correction): the in-range residual, increasing in lambda, equals the probe
-// noise expected in those directions. No noise (exact data): lambda = 0.
-double DiscrepancyLambda(const LambdaCriteria& c, double lambda_lo, double lambda_hi) {
+// Discrepancy principle on the part of b inside the range of A (the part
+// outside cannot be fitted by any correction): the in-range residual,
+// increasing in lambda, equals the probe noise expected in those directions. No
+// noise (exact data): lambda = 0.
+double DiscrepancyLambda(const LambdaCriteria& c,
+                         double lambda_lo,
+                         double lambda_hi) {
   const double target = c.in_range_noise2;
   if (target <= 0.0 || InRangeResidual2(c, lambda_lo) >= target) return 0.0;
-  if (InRangeResidual2(c, lambda_hi) <= target) return lambda_hi;  // all in range at the noise level: no correction
+  if (InRangeResidual2(c, lambda_hi) <= target)
+    return lambda_hi;  // all in range at the noise level: no correction
   double lo = std::log(lambda_lo), hi = std::log(lambda_hi);
   for (int it = 0; it < 80; ++it) {
     const double mid = 0.5 * (lo + hi);
-    if (InRangeResidual2(c, std::exp(mid)) < target) lo = mid; else hi = mid;
+    if (InRangeResidual2(c, std::exp(mid)) < target)
+      lo = mid;
+    else
+      hi = mid;
   }
   return std::exp(0.5 * (lo + hi));
 }
@@ -49,7 +61,8 @@ double DiscrepancyLambda(const LambdaCriteria& c, double lambda_lo, double lambd
 Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   Svd s;
   if (a.rows() == 0 || a.cols() == 0) return s;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(
+      a, Eigen::ComputeThinU | Eigen::ComputeThinV);
   s.u = svd.matrixU();
   s.sigma = svd.singularValues();
   s.v = svd.matrixV();
@@ -60,19 +73,23 @@ Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
 }
 
 RegularisationRule ChooseRegularisationRule(const CorrectionOptions& options) {
-  if (options.solver != CorrectionSolver::kRegularised) return RegularisationRule::kNone;
+  if (options.solver != CorrectionSolver::kRegularised)
+    return RegularisationRule::kNone;
   if (options.probe_noise_um > 0.0) {
-    return options.use_discrepancy_principle ? RegularisationRule::kDiscrepancyPrinciple
-                                             : RegularisationRule::kUnbiasedPredictiveRisk;
+    return options.use_discrepancy_principle
+               ? RegularisationRule::kDiscrepancyPrinciple
+               : RegularisationRule::kUnbiasedPredictiveRisk;
   }
-  if (options.probe_noise_um >= 0.0) return RegularisationRule::kDiscrepancyPrinciple;
+  if (options.probe_noise_um >= 0.0)
+    return RegularisationRule::kDiscrepancyPrinciple;
   return RegularisationRule::kGeneralisedCrossValidation;
 }
 
 double InRangeResidual2(const LambdaCriteria& c, double lambda) {
   double r2 = 0.0;
   for (int i = 0; i < c.rank; ++i) {
-    const double f = lambda * lambda / (c.sigma(i) * c.sigma(i) + lambda * lambda);
+    const double f =
+        lambda * lambda / (c.sigma(i) * c.sigma(i) + lambda * lambda);
     r2 += f * f * c.beta(i) * c.beta(i);
   }
   return r2;
@@ -80,22 +97,26 @@ double InRangeResidual2(const LambdaCriteria& c, double lambda) {
 
 double DegreesOfFreedom(const LambdaCriteria& c, double lambda) {
   double d = 0.0;
-  for (int i = 0; i < c.rank; ++i) d += c.sigma(i) * c.sigma(i) / (c.sigma(i) * c.sigma(i) + lambda * lambda);
+  for (int i = 0; i < c.rank; ++i)
+    d += c.sigma(i) * c.sigma(i) / (c.sigma(i) * c.sigma(i) + lambda * lambda);
   return d;
 }
 
-double ChooseLambda(RegularisationRule rule, const LambdaCriteria& c, double min_relative_regularisation) {
+double ChooseLambda(RegularisationRule rule,
+                    const LambdaCriteria& c,
+                    double min_relative_regularisation) {
   if (c.rank == 0) return 0.0;
   const double sigma1 = c.sigma(0);
   const double lambda_lo = 1e-8 * sigma1, lambda_hi = 1e4 * sigma1;
   double lambda = 0.0;
   switch (rule) {
     case RegularisationRule::kUnbiasedPredictiveRisk: {
-      // Minimise the in-range residual + 2 sigma^2 dof (the part of b off the range is the same
-      // for every lambda).
+      // Minimise the in-range residual + 2 sigma^2 dof (the part of b off the
+      // range is the same for every lambda).
       const double noise_per_direction = c.in_range_noise2 / c.rank;
       lambda = ArgminOnLogGrid(lambda_lo, lambda_hi, [&](double l) {
-        return InRangeResidual2(c, l) + 2.0 * noise_per_direction * DegreesOfFreedom(c, l);
+        return InRangeResidual2(c, l) +
+               2.0 * noise_per_direction * DegreesOfFreedom(c, l);
       });
       break;
     }
@@ -113,13 +134,16 @@ double ChooseLambda(RegularisationRule rule, const LambdaCriteria& c, double min
     case RegularisationRule::kNone:
       return 0.0;
   }
-  // Exact data (sigma = 0) and GCV: never below the floor. It keeps the exact-model refinement
-  // well posed when the target is out of reach (lambda = 0 lets Levenberg-Marquardt crawl along
-  // directions whose linear effect is tiny), at the cost of fitting the weakest kept direction
-  // (sigma = 0.067 for N = 45) to about 86% per correction. With a known sigma > 0 the rule (UPRE
+  // Exact data (sigma = 0) and GCV: never below the floor. It keeps the
+  // exact-model refinement well posed when the target is out of reach (lambda =
+  // 0 lets Levenberg-Marquardt crawl along directions whose linear effect is
+  // tiny), at the cost of fitting the weakest kept direction (sigma = 0.067 for
+  // N = 45) to about 86% per correction. With a known sigma > 0 the rule (UPRE
   // or the discrepancy principle) alone decides.
-  const bool floored = rule == RegularisationRule::kGeneralisedCrossValidation ||
-                       (rule == RegularisationRule::kDiscrepancyPrinciple && !(c.probe_noise_um > 0.0));
+  const bool floored =
+      rule == RegularisationRule::kGeneralisedCrossValidation ||
+      (rule == RegularisationRule::kDiscrepancyPrinciple &&
+       !(c.probe_noise_um > 0.0));
   if (floored) lambda = std::max(lambda, min_relative_regularisation * sigma1);
   return lambda;
 }
@@ -138,8 +162,9 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
     b(r) = -sw * problem.error_um(rows[r]);
     weight_sum += problem.weights(rows[r]);
   }
-  // A direction with singular value sigma changes the flank by sigma / sqrt(sum w) um rms per
-  // unit of correction size; below min_flank_effect_um it is not counted as reachable.
+  // A direction with singular value sigma changes the flank by sigma / sqrt(sum
+  // w) um rms per unit of correction size; below min_flank_effect_um it is not
+  // counted as reachable.
   ls.svd = ComputeSvd(a, options.min_flank_effect_um * std::sqrt(weight_sum));
   const int rank = ls.svd.rank;
   ls.beta = ls.svd.u.transpose() * b;
@@ -152,22 +177,28 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   c.off_range2 = ls.best.squaredNorm();
   c.num_rows = static_cast<int>(rows.size());
   c.probe_noise_um = problem.probe_noise_um;
-  // The probe noise expected inside the range, sigma^2 sum_{i<rank} sum_r w_r s_r U_ri^2.
-  const double s2 = problem.probe_noise_um > 0.0 ? problem.probe_noise_um * problem.probe_noise_um : 0.0;
+  // The probe noise expected inside the range, sigma^2 sum_{i<rank} sum_r w_r
+  // s_r U_ri^2.
+  const double s2 = problem.probe_noise_um > 0.0
+                        ? problem.probe_noise_um * problem.probe_noise_um
+                        : 0.0;
   for (int i = 0; i < rank; ++i) {
     double v = 0.0;
     for (size_t r = 0; r < rows.size(); ++r) {
-      v += problem.weights(rows[r]) * problem.noise_share(rows[r]) * ls.svd.u(r, i) * ls.svd.u(r, i);
+      v += problem.weights(rows[r]) * problem.noise_share(rows[r]) *
+           ls.svd.u(r, i) * ls.svd.u(r, i);
     }
     c.in_range_noise2 += s2 * v;
   }
   ls.k = rank;
-  ls.lambda = ChooseLambda(problem.rule, c, options.min_relative_regularisation);
+  ls.lambda =
+      ChooseLambda(problem.rule, c, options.min_relative_regularisation);
   ls.dof = DegreesOfFreedom(c, ls.lambda);
   ls.y = Eigen::VectorXd::Zero(nf);
   for (int i = 0; i < rank; ++i) {
     const double sg = ls.svd.sigma(i);
-    ls.y += sg * ls.beta(i) / (sg * sg + ls.lambda * ls.lambda) * ls.svd.v.col(i);
+    ls.y +=
+        sg * ls.beta(i) / (sg * sg + ls.lambda * ls.lambda) * ls.svd.v.col(i);
   }
   ls.residual = a * ls.y - b;
   return ls;
@@ -178,12 +209,14 @@ KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map) {
   s.k = ls.k;
   s.lambda = ls.lambda;
   s.sigma1 = ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) : 0.0;
-  s.ridge = 1e-12 * (ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) * ls.svd.sigma(0) : 1.0);
+  s.ridge = 1e-12 *
+            (ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) * ls.svd.sigma(0) : 1.0);
   s.vk = ls.svd.v.leftCols(s.k);
   s.tv = t_map * s.vk;  // np x k
   s.z = Eigen::VectorXd::Zero(s.k);
   for (int i = 0; i < s.k; ++i) {
-    s.z(i) = ls.svd.sigma(i) * ls.beta(i) / (ls.svd.sigma(i) * ls.svd.sigma(i) + s.lambda * s.lambda);
+    s.z(i) = ls.svd.sigma(i) * ls.beta(i) /
+             (ls.svd.sigma(i) * ls.svd.sigma(i) + s.lambda * s.lambda);
   }
   return s;
 }

@@ -1,16 +1,17 @@
-// engine/correction/regularisation.h (internal): steps 2-3 of the correction (correction.h): the
-// thin SVD of A = W^1/2 S T over the used points, the regularisation rule (chosen here and only
-// here), the Tikhonov level lambda by that rule, and the regularised linear solve.
+// engine/correction/regularisation.h (internal): steps 2-3 of the correction
+// (correction.h): the thin SVD of A = W^1/2 S T over the used points, the
+// regularisation rule (chosen here and only here), the Tikhonov level lambda by
+// that rule, and the regularised linear solve.
 //
 //   const RegularisationRule rule = ChooseRegularisationRule(options);
-//   const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
+//   const LinearSolve ls = SolveRegularisedLinear(options, problem,
+//   problem.used);
 //   // ls.y: the free coordinates, ls.lambda, ls.dof, ls.svd.rank
 #ifndef GEARLOOP_ENGINE_CORRECTION_REGULARISATION_H_
 #define GEARLOOP_ENGINE_CORRECTION_REGULARISATION_H_
 
-#include <vector>
-
 #include <Eigen/Core>
+#include <vector>
 
 #include "engine/correction/correction.h"
 #include "engine/correction/problem.h"
@@ -19,74 +20,90 @@ namespace gearloop {
 namespace correction_internal {
 
 struct Svd {
-  Eigen::MatrixXd u;        // n x p
-  Eigen::VectorXd sigma;    // p, descending
-  Eigen::MatrixXd v;        // q x p
+  Eigen::MatrixXd u;      // n x p
+  Eigen::VectorXd sigma;  // p, descending
+  Eigen::MatrixXd v;      // q x p
   int rank = 0;
 };
 
-// Thin SVD of A; the numerical rank counts singular values >= rank_threshold (and > 0).
+// Thin SVD of A; the numerical rank counts singular values >= rank_threshold
+// (and > 0).
 Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold);
 
-// The rule that chooses lambda, from the solver and the probe noise (correction.h, step 3):
-// pso and lsq-plain: kNone; sigma > 0: kUnbiasedPredictiveRisk, or kDiscrepancyPrinciple with
-// use_discrepancy_principle; sigma = 0 (exact data): kDiscrepancyPrinciple (with no noise, so
-// lambda sits at its floor); sigma < 0 (unknown): kGeneralisedCrossValidation.
+// The rule that chooses lambda, from the solver and the probe noise
+// (correction.h, step 3): pso and lsq-plain: kNone; sigma > 0:
+// kUnbiasedPredictiveRisk, or kDiscrepancyPrinciple with
+// use_discrepancy_principle; sigma = 0 (exact data): kDiscrepancyPrinciple
+// (with no noise, so lambda sits at its floor); sigma < 0 (unknown):
+// kGeneralisedCrossValidation.
 RegularisationRule ChooseRegularisationRule(const CorrectionOptions& options);
 
 // What the rules read: the spectrum of A and b in its left singular vectors.
 struct LambdaCriteria {
-  Eigen::VectorXd sigma;          // singular values, descending (the first `rank` count)
-  Eigen::VectorXd beta;           // U'b
+  Eigen::VectorXd
+      sigma;             // singular values, descending (the first `rank` count)
+  Eigen::VectorXd beta;  // U'b
   int rank = 0;
-  double in_range_noise2 = 0.0;   // probe noise expected in the kept directions, sigma^2 sum_i<rank sum_r w_r s_r U_ri^2
-  double off_range2 = 0.0;        // |b|^2 off the kept directions (no lambda changes it)
-  int num_rows = 0;               // the points used (m)
-  double probe_noise_um = -1.0;   // the problem's sigma (0: exact data)
+  double in_range_noise2 = 0.0;  // probe noise expected in the kept directions,
+                                 // sigma^2 sum_i<rank sum_r w_r s_r U_ri^2
+  double off_range2 =
+      0.0;           // |b|^2 off the kept directions (no lambda changes it)
+  int num_rows = 0;  // the points used (m)
+  double probe_noise_um = -1.0;  // the problem's sigma (0: exact data)
 };
 
-// The in-range residual sum_i<rank (1 - f_i)^2 beta_i^2 and the degrees of freedom sum f_i at
-// lambda, f_i = sigma_i^2 / (sigma_i^2 + lambda^2).
+// The in-range residual sum_i<rank (1 - f_i)^2 beta_i^2 and the degrees of
+// freedom sum f_i at lambda, f_i = sigma_i^2 / (sigma_i^2 + lambda^2).
 double InRangeResidual2(const LambdaCriteria& c, double lambda);
 double DegreesOfFreedom(const LambdaCriteria& c, double lambda);
 
 // lambda by `rule` (0 for rank 0 or kNone):
-//  - UPRE: the minimiser of InRangeResidual2 + 2 (in_range_noise2 / rank) dof over 193
+//  - UPRE: the minimiser of InRangeResidual2 + 2 (in_range_noise2 / rank) dof
+//  over 193
 //    logarithmically spaced levels in [1e-8, 1e4] sigma_1 (the first on ties);
-//  - discrepancy principle: InRangeResidual2 = in_range_noise2 by bisection in log lambda (0
-//    when the noise is 0 or the residual at 1e-8 sigma_1 is already above it, 1e4 sigma_1 when
-//    even that leaves less);
-//  - GCV: the minimiser of (InRangeResidual2 + off_range2) / max(m - dof, 0.5)^2 on that grid.
-// For GCV and exact data (sigma = 0) never below min_relative_regularisation sigma_1.
-double ChooseLambda(RegularisationRule rule, const LambdaCriteria& criteria, double min_relative_regularisation);
+//  - discrepancy principle: InRangeResidual2 = in_range_noise2 by bisection in
+//  log lambda (0
+//    when the noise is 0 or the residual at 1e-8 sigma_1 is already above it,
+//    1e4 sigma_1 when even that leaves less);
+//  - GCV: the minimiser of (InRangeResidual2 + off_range2) / max(m - dof,
+//  0.5)^2 on that grid.
+// For GCV and exact data (sigma = 0) never below min_relative_regularisation
+// sigma_1.
+double ChooseLambda(RegularisationRule rule,
+                    const LambdaCriteria& criteria,
+                    double min_relative_regularisation);
 
 // Everything one regularised linear solve produces.
 struct LinearSolve {
   Svd svd;
-  Eigen::VectorXd beta;       // U' b
-  int k = 0;                  // directions eligible (the numerical rank)
-  double lambda = 0.0;        // Tikhonov level
-  double dof = 0.0;           // sum of the filter factors
-  Eigen::VectorXd y;          // free coordinates
-  Eigen::VectorXd residual;   // weighted residual A y - b over the rows
-  Eigen::VectorXd best;       // weighted residual off the range over the rows
+  Eigen::VectorXd beta;      // U' b
+  int k = 0;                 // directions eligible (the numerical rank)
+  double lambda = 0.0;       // Tikhonov level
+  double dof = 0.0;          // sum of the filter factors
+  Eigen::VectorXd y;         // free coordinates
+  Eigen::VectorXd residual;  // weighted residual A y - b over the rows
+  Eigen::VectorXd best;      // weighted residual off the range over the rows
 };
 
-// Tikhonov in the reachable directions of A = W^1/2 S T on `rows` (grid points), b = -W^1/2 e:
-// y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i, lambda by problem.rule.
+// Tikhonov in the reachable directions of A = W^1/2 S T on `rows` (grid
+// points), b = -W^1/2 e: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i, lambda by
+// problem.rule.
 LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    const std::vector<int>& rows);
 
-// The directions a correction may use (steps 3-4): y = V_k z, delta = T V_k z, k the rank.
+// The directions a correction may use (steps 3-4): y = V_k z, delta = T V_k z,
+// k the rank.
 struct KeptSubspace {
   int k = 0;
   double lambda = 0.0;
-  double sigma1 = 0.0;        // largest singular value (0 when there is none)
-  double ridge = 0.0;         // 1e-12 sigma_1^2 (1e-12 when there is none): keeps the QPs definite
-  Eigen::MatrixXd vk;         // V_k (nf x k)
-  Eigen::MatrixXd tv;         // T V_k (np x k)
-  Eigen::VectorXd z;          // the Tikhonov answer, z_i = sigma_i beta_i / (sigma_i^2 + lambda^2)
+  double sigma1 = 0.0;  // largest singular value (0 when there is none)
+  double ridge = 0.0;   // 1e-12 sigma_1^2 (1e-12 when there is none): keeps the
+                        // QPs definite
+  Eigen::MatrixXd vk;   // V_k (nf x k)
+  Eigen::MatrixXd tv;   // T V_k (np x k)
+  Eigen::VectorXd
+      z;  // the Tikhonov answer, z_i = sigma_i beta_i / (sigma_i^2 + lambda^2)
 };
 KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map);
 

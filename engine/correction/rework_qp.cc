@@ -1,12 +1,11 @@
 // The constrained steps of the correction (rework_qp.h).
 #include "engine/correction/rework_qp.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include <Eigen/Cholesky>
-#include <Eigen/QR>
 
 namespace gearloop {
 namespace correction_internal {
@@ -27,13 +26,15 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
   const Eigen::MatrixXd hinv_gt = llt.solve(constraints.transpose());
   const Eigen::MatrixXd q_mat = constraints * hinv_gt;
   const Eigen::VectorXd q_vec = constraints * y_free - limits;
-  const double tol = 1e-12 * std::max(1.0, q_mat.diagonal().cwiseAbs().maxCoeff());
+  const double tol =
+      1e-12 * std::max(1.0, q_mat.diagonal().cwiseAbs().maxCoeff());
 
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(m);
   std::vector<bool> passive(m, false);
   auto solve_passive = [&](Eigen::VectorXd* z) {
     std::vector<int> idx;
-    for (int i = 0; i < m; ++i) if (passive[i]) idx.push_back(i);
+    for (int i = 0; i < m; ++i)
+      if (passive[i]) idx.push_back(i);
     z->setZero(m);
     if (idx.empty()) return;
     Eigen::MatrixXd qpp(idx.size(), idx.size());
@@ -46,7 +47,8 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
     for (size_t a = 0; a < idx.size(); ++a) (*z)(idx[a]) = zp(a);
   };
   for (int outer = 0; outer < 3 * m + 10; ++outer) {
-    const Eigen::VectorXd w = q_vec - q_mat * mu;  // minus the gradient of the dual
+    const Eigen::VectorXd w =
+        q_vec - q_mat * mu;  // minus the gradient of the dual
     int best = -1;
     double best_w = tol;
     for (int i = 0; i < m; ++i) {
@@ -61,14 +63,16 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
       Eigen::VectorXd z;
       solve_passive(&z);
       bool all_positive = true;
-      for (int i = 0; i < m; ++i) if (passive[i] && z(i) <= 0.0) all_positive = false;
+      for (int i = 0; i < m; ++i)
+        if (passive[i] && z(i) <= 0.0) all_positive = false;
       if (all_positive) {
         mu = z;
         break;
       }
       double alpha = 1.0;
       for (int i = 0; i < m; ++i) {
-        if (passive[i] && z(i) <= 0.0) alpha = std::min(alpha, mu(i) / (mu(i) - z(i)));
+        if (passive[i] && z(i) <= 0.0)
+          alpha = std::min(alpha, mu(i) / (mu(i) - z(i)));
       }
       mu += alpha * (z - mu);
       for (int i = 0; i < m; ++i) {
@@ -102,7 +106,9 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
     b(r) = -sw * (problem.error_um(i) + change_k(i) - stv.row(i).dot(z_k));
   }
   const double lambda = subspace.lambda;
-  const Eigen::MatrixXd hess = a.transpose() * a + (subspace.ridge + lambda * lambda) * Eigen::MatrixXd::Identity(k, k);
+  const Eigen::MatrixXd hess =
+      a.transpose() * a +
+      (subspace.ridge + lambda * lambda) * Eigen::MatrixXd::Identity(k, k);
   const Eigen::VectorXd grad = a.transpose() * b;
   std::vector<Eigen::RowVectorXd> rows;
   std::vector<double> lims;
@@ -154,12 +160,14 @@ int RunReworkPasses(const CorrectionOptions& options,
       worst = std::max(worst, change(i));
     }
     if (lost) {
-      *not_converged = "a grid point leaves the wheel under the rework correction";
+      *not_converged =
+          "a grid point leaves the wheel under the rework correction";
       break;
     }
     if (pass > 0 && worst <= options.rework_tolerance_um) break;
     Eigen::VectorXd z_new;
-    if (!SolveLinearisedQp(problem, subspace, ev.jacobian_um, change, *z, &z_new)) {
+    if (!SolveLinearisedQp(
+            problem, subspace, ev.jacobian_um, change, *z, &z_new)) {
       *not_converged = "the constrained linear problem failed";
       break;
     }

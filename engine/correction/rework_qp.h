@@ -1,16 +1,17 @@
-// engine/correction/rework_qp.h (internal): the constrained steps of the correction
-// (correction.h, "Rework mode" and the bounds): a convex QP solved through its dual with the
-// active-set method of Lawson and Hanson, the QP in the kept coordinates z at a linearisation, and
-// the rework passes that re-linearise it on the exact model.
+// engine/correction/rework_qp.h (internal): the constrained steps of the
+// correction (correction.h, "Rework mode" and the bounds): a convex QP solved
+// through its dual with the active-set method of Lawson and Hanson, the QP in
+// the kept coordinates z at a linearisation, and the rework passes that
+// re-linearise it on the exact model.
 //
 //   Eigen::VectorXd y;
-//   if (SolveConvexQp(hessian, g, constraints, limits, &y)) { /* min 1/2 y'Hy - g'y, G y <= h */ }
+//   if (SolveConvexQp(hessian, g, constraints, limits, &y)) { /* min 1/2 y'Hy -
+//   g'y, G y <= h */ }
 #ifndef GEARLOOP_ENGINE_CORRECTION_REWORK_QP_H_
 #define GEARLOOP_ENGINE_CORRECTION_REWORK_QP_H_
 
-#include <string>
-
 #include <Eigen/Core>
+#include <string>
 
 #include "engine/correction/correction.h"
 #include "engine/correction/problem.h"
@@ -19,19 +20,21 @@
 namespace gearloop {
 namespace correction_internal {
 
-// Convex QP  min 1/2 y'Hy - g'y  s.t.  G y <= h  (H positive definite), through its dual
-// min 1/2 mu'Q mu - q'mu, mu >= 0 with Q = G H^-1 G', q = G H^-1 g - h, solved by the active-set
-// method of Lawson and Hanson (NNLS, "Solving Least Squares Problems", 1974, ch. 23), which needs
-// only Q and q; y = H^-1 (g - G' mu). False when H is not positive definite.
+// Convex QP  min 1/2 y'Hy - g'y  s.t.  G y <= h  (H positive definite), through
+// its dual min 1/2 mu'Q mu - q'mu, mu >= 0 with Q = G H^-1 G', q = G H^-1 g -
+// h, solved by the active-set method of Lawson and Hanson (NNLS, "Solving Least
+// Squares Problems", 1974, ch. 23), which needs only Q and q; y = H^-1 (g - G'
+// mu). False when H is not positive definite.
 bool SolveConvexQp(const Eigen::MatrixXd& hessian,
                    const Eigen::VectorXd& g,
                    const Eigen::MatrixXd& constraints,
                    const Eigen::VectorXd& limits,
                    Eigen::VectorXd* y);
 
-// The QP in z at a linearisation (S_k = jacobian_k, exact change change_k at z_k): minimise
-// |W^1/2 (e + change_k + S_k T V_k (z - z_k))|^2 + lambda^2 |z|^2 subject to the bounds on
-// delta = T V_k z and, in rework mode, the linearised change <= 0 at every reached point.
+// The QP in z at a linearisation (S_k = jacobian_k, exact change change_k at
+// z_k): minimise |W^1/2 (e + change_k + S_k T V_k (z - z_k))|^2 + lambda^2
+// |z|^2 subject to the bounds on delta = T V_k z and, in rework mode, the
+// linearised change <= 0 at every reached point.
 bool SolveLinearisedQp(const CorrectionProblem& problem,
                        const KeptSubspace& subspace,
                        const Eigen::MatrixXd& jacobian_k,
@@ -39,9 +42,10 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
                        const Eigen::VectorXd& z_k,
                        Eigen::VectorXd* z);
 
-// Rework mode: sequential QPs on the exact model, re-linearised at the current change until the
-// predicted added material is within rework_tolerance_um (at most max_rework_passes). Updates z
-// and delta; returns the passes made; a lost grid point or a failed QP goes to not_converged.
+// Rework mode: sequential QPs on the exact model, re-linearised at the current
+// change until the predicted added material is within rework_tolerance_um (at
+// most max_rework_passes). Updates z and delta; returns the passes made; a lost
+// grid point or a failed QP goes to not_converged.
 int RunReworkPasses(const CorrectionOptions& options,
                     const CorrectionProblem& problem,
                     const KeptSubspace& subspace,

@@ -1,11 +1,11 @@
 #include "engine/grinder/flat_wheel_grinder.h"
 
+#include <ceres/jet.h>
+
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/LU>
-#include <ceres/jet.h>
 
 #include "engine/core/damped_newton.h"
 #include "engine/core/units.h"
@@ -14,10 +14,11 @@ namespace gearloop {
 namespace {
 constexpr double kMmToUm = 1000.0;
 
-// Indices of the local variables whose derivatives the sensitivity needs: the two wheel
-// surface parameters, the six axis values, the six axis rates dC_i/dphi1 and the three wheel
-// profile parameters. (R1, f) depend on phi1 and on the 42 coefficients only through the axis
-// values and rates, so d/dphi1 and d/da_{k,i} follow from these 17 by the chain rule.
+// Indices of the local variables whose derivatives the sensitivity needs: the
+// two wheel surface parameters, the six axis values, the six axis rates
+// dC_i/dphi1 and the three wheel profile parameters. (R1, f) depend on phi1 and
+// on the 42 coefficients only through the axis values and rates, so d/dphi1 and
+// d/da_{k,i} follow from these 17 by the chain rule.
 constexpr int kLocalU = 0;
 constexpr int kLocalPhiW = 1;
 constexpr int kLocalValue = 2;   // + axis index
@@ -40,24 +41,33 @@ T Dot(const Vec3<T>& a, const Vec3<T>& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-// Fixed data of the chain: wheel radius, pivot offset [-K2, 0, K1] and the flank mirror F.
+// Fixed data of the chain: wheel radius, pivot offset [-K2, 0, K1] and the
+// flank mirror F.
 struct ChainConstants {
   double wheel_radius_mm = 0.0;
   double offset_x_mm = 0.0;  // -K2
   double offset_z_mm = 0.0;  // K1
-  double mirror_z = 1.0;     // +1 right flank, -1 left flank (F = diag(1, 1, mirror_z))
+  double mirror_z =
+      1.0;  // +1 right flank, -1 left flank (F = diag(1, 1, mirror_z))
 };
 
-// M(A, B) v = Rot_y(B) Rot_x(-A) Rot_z(pi) v, and its partial derivatives with respect to A
-// and B (dM/dB v = e_y x (M v)).
+// M(A, B) v = Rot_y(B) Rot_x(-A) Rot_z(pi) v, and its partial derivatives with
+// respect to A and B (dM/dB v = e_y x (M v)).
 template <typename T>
-void RotateWheel(const Vec3<T>& v, const T& cos_a, const T& sin_a, const T& cos_b, const T& sin_b, Vec3<T>* m_v,
-                 Vec3<T>* dm_da_v, Vec3<T>* dm_db_v) {
+void RotateWheel(const Vec3<T>& v,
+                 const T& cos_a,
+                 const T& sin_a,
+                 const T& cos_b,
+                 const T& sin_b,
+                 Vec3<T>* m_v,
+                 Vec3<T>* dm_da_v,
+                 Vec3<T>* dm_db_v) {
   // Rot_z(pi): (x, y, z) -> (-x, -y, z).
   const T x0 = -v.x;
   const T y0 = -v.y;
   const T z0 = v.z;
-  // Rot_x(-A): (x, y, z) -> (x, c y + s z, -s y + c z); d/dA -> (0, -s y + c z, -c y - s z).
+  // Rot_x(-A): (x, y, z) -> (x, c y + s z, -s y + c z); d/dA -> (0, -s y + c z,
+  // -c y - s z).
   const T y1 = cos_a * y0 + sin_a * z0;
   const T z1 = -sin_a * y0 + cos_a * z0;
   const T dy1 = -sin_a * y0 + cos_a * z0;
@@ -79,16 +89,24 @@ void RotateWheel(const Vec3<T>& v, const T& cos_a, const T& sin_a, const T& cos_
   }
 }
 
-// The wheel surface point R1 in S1 and the meshing function f at one wheel point and one roll
-// position, given the axis values C_i and rates dC_i/dphi1 there (MODEL.md §3):
+// The wheel surface point R1 in S1 and the meshing function f at one wheel
+// point and one roll position, given the axis values C_i and rates dC_i/dphi1
+// there (MODEL.md §3):
 //   q   = D p + M(A, B) w,          w = F ([-K2, 0, K1] + r_w(u_w, phi_w))
 //   R1  = Rot_x(-C) q
-//   dR1/du_w x dR1/dphi_w = Rot_x(-C) M (w_u x w_phi)           (rotations keep cross products)
-//   dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B' dM/dB w)
-//   f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B' dM/dB w)
+//   dR1/du_w x dR1/dphi_w = Rot_x(-C) M (w_u x w_phi)           (rotations keep
+//   cross products) dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B'
+//   dM/dB w) f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B'
+//   dM/dB w)
 template <typename T>
-void LocalSurface(const T& u, const T& phi_w, const T* value, const T* rate, const T* wheel,
-                  const ChainConstants& c, Vec3<T>* r1, T* f) {
+void LocalSurface(const T& u,
+                  const T& phi_w,
+                  const T* value,
+                  const T* rate,
+                  const T* wheel,
+                  const ChainConstants& c,
+                  Vec3<T>* r1,
+                  T* f) {
   using std::cos;
   using std::sin;
   const T& cone = wheel[0];
@@ -106,7 +124,9 @@ void LocalSurface(const T& u, const T& phi_w, const T* value, const T* rate, con
   const T sin_phi = sin(phi_w);
   const T cos_phi = cos(phi_w);
 
-  const Vec3<T> w{rho * sin_phi + c.offset_x_mm, rho * cos_phi, c.mirror_z * (h + c.offset_z_mm)};
+  const Vec3<T> w{rho * sin_phi + c.offset_x_mm,
+                  rho * cos_phi,
+                  c.mirror_z * (h + c.offset_z_mm)};
   const Vec3<T> w_u{rho_u * sin_phi, rho_u * cos_phi, c.mirror_z * h_u};
   const Vec3<T> w_phi{rho * cos_phi, -rho * sin_phi, T(0.0)};
   const Vec3<T> wheel_normal = Cross(w_u, w_phi);
@@ -117,14 +137,16 @@ void LocalSurface(const T& u, const T& phi_w, const T* value, const T* rate, con
   const T sin_b = sin(value[4]);
   Vec3<T> m_w, dm_da_w, dm_db_w, normal_f;
   RotateWheel(w, cos_a, sin_a, cos_b, sin_b, &m_w, &dm_da_w, &dm_db_w);
-  RotateWheel<T>(wheel_normal, cos_a, sin_a, cos_b, sin_b, &normal_f, nullptr, nullptr);
+  RotateWheel<T>(
+      wheel_normal, cos_a, sin_a, cos_b, sin_b, &normal_f, nullptr, nullptr);
 
   // D = diag(-1, 1, -1).
   const Vec3<T> q{-value[0] + m_w.x, value[1] + m_w.y, -value[2] + m_w.z};
   // -C' e_x x q = -C' (0, -q_z, q_y).
-  const Vec3<T> velocity{-rate[0] + rate[3] * dm_da_w.x + rate[4] * dm_db_w.x,
-                         rate[5] * q.z + rate[1] + rate[3] * dm_da_w.y + rate[4] * dm_db_w.y,
-                         -rate[5] * q.y - rate[2] + rate[3] * dm_da_w.z + rate[4] * dm_db_w.z};
+  const Vec3<T> velocity{
+      -rate[0] + rate[3] * dm_da_w.x + rate[4] * dm_db_w.x,
+      rate[5] * q.z + rate[1] + rate[3] * dm_da_w.y + rate[4] * dm_db_w.y,
+      -rate[5] * q.y - rate[2] + rate[3] * dm_da_w.z + rate[4] * dm_db_w.z};
   *f = Dot(normal_f, velocity);
 
   // Rot_x(-C) q.
@@ -137,7 +159,10 @@ void LocalSurface(const T& u, const T& phi_w, const T* value, const T* rate, con
 
 // Axis values and rates of `settings` at roll `roll` (any scalar type).
 template <typename T>
-void AxisState(const MachineSettings& settings, const T& roll, T* value, T* rate) {
+void AxisState(const MachineSettings& settings,
+               const T& roll,
+               T* value,
+               T* rate) {
   for (int i = 0; i < kNumAxes; ++i) {
     const auto& a = settings.axes[i];
     T v(a[kAxisPolynomialDegree]);
@@ -160,16 +185,22 @@ ChainConstants MakeChainConstants(const GrindingSetup& setup) {
   return c;
 }
 
-// The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its Jacobian.
-void SystemAndJacobian(const MachineSettings& settings, const ChainConstants& c, const FlankGridPoint& point,
-                       const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d* jacobian) {
+// The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its
+// Jacobian.
+void SystemAndJacobian(const MachineSettings& settings,
+                       const ChainConstants& c,
+                       const FlankGridPoint& point,
+                       const Eigen::Vector4d& x,
+                       Eigen::Vector4d* g,
+                       Eigen::Matrix4d* jacobian) {
   using Jet3 = ceres::Jet<double, 3>;
   const Jet3 u(x(0), 0);
   const Jet3 phi_w(x(1), 1);
   const Jet3 roll(x(2), 2);
   Jet3 value[kNumAxes], rate[kNumAxes];
   AxisState(settings, roll, value, rate);
-  const Jet3 wheel[3] = {Jet3(settings.wheel.cone_angle_rad), Jet3(settings.wheel.parabola_coefficient_per_mm),
+  const Jet3 wheel[3] = {Jet3(settings.wheel.cone_angle_rad),
+                         Jet3(settings.wheel.parabola_coefficient_per_mm),
                          Jet3(settings.wheel.parabola_vertex_mm)};
   Vec3<Jet3> r1;
   Jet3 f;
@@ -202,8 +233,12 @@ const char* PointStatusName(PointStatus status) {
   return "unknown";
 }
 
-FlatWheelGrinder::FlatWheelGrinder(const GrindingSetup& setup, const EnvelopeOptions& options)
-    : setup_(setup), options_(options), grid_(BuildFlankGrid(setup)), nominal_(NominalSettings(setup)) {
+FlatWheelGrinder::FlatWheelGrinder(const GrindingSetup& setup,
+                                   const EnvelopeOptions& options)
+    : setup_(setup),
+      options_(options),
+      grid_(BuildFlankGrid(setup)),
+      nominal_(NominalSettings(setup)) {
   roll_min_rad_ = std::numeric_limits<double>::infinity();
   roll_max_rad_ = -std::numeric_limits<double>::infinity();
   for (const FlankGridPoint& point : grid_.points) {
@@ -234,37 +269,66 @@ std::vector<ParameterBlock> FlatWheelGrinder::ParameterBlocks() const {
     b.default_scale = i < 3 ? one_um_mm : one_um_mm / r_j;
     blocks.push_back(b);
   }
-  blocks.push_back({"cone_angle", "rad", kConeAngleIndex, 1, false, one_um_mm / setup_.wheel.radius_mm});
-  blocks.push_back({"parabola_coefficient", "1/mm", kParabolaCoefficientIndex, 1, false, 1e-5});
-  blocks.push_back({"parabola_vertex", "mm", kParabolaVertexIndex, 1, false, 1.0});
+  blocks.push_back({"cone_angle",
+                    "rad",
+                    kConeAngleIndex,
+                    1,
+                    false,
+                    one_um_mm / setup_.wheel.radius_mm});
+  blocks.push_back({"parabola_coefficient",
+                    "1/mm",
+                    kParabolaCoefficientIndex,
+                    1,
+                    false,
+                    1e-5});
+  blocks.push_back(
+      {"parabola_vertex", "mm", kParabolaVertexIndex, 1, false, 1.0});
   return blocks;
 }
 
-Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings, double wheel_u_mm,
-                                               double wheel_phi_rad, double roll_rad, double* meshing) const {
+Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
+                                               double wheel_u_mm,
+                                               double wheel_phi_rad,
+                                               double roll_rad,
+                                               double* meshing) const {
   double value[kNumAxes], rate[kNumAxes];
   AxisState(settings, roll_rad, value, rate);
-  const double wheel[3] = {settings.wheel.cone_angle_rad, settings.wheel.parabola_coefficient_per_mm,
+  const double wheel[3] = {settings.wheel.cone_angle_rad,
+                           settings.wheel.parabola_coefficient_per_mm,
                            settings.wheel.parabola_vertex_mm};
   Vec3<double> r1;
   double f = 0.0;
-  LocalSurface(wheel_u_mm, wheel_phi_rad, value, rate, wheel, MakeChainConstants(setup_), &r1, &f);
+  LocalSurface(wheel_u_mm,
+               wheel_phi_rad,
+               value,
+               rate,
+               wheel,
+               MakeChainConstants(setup_),
+               &r1,
+               &f);
   if (meshing != nullptr) *meshing = f;
   return Eigen::Vector3d(r1.x, r1.y, r1.z);
 }
 
-EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, const FlankGridPoint& point) const {
+EnvelopeContact FlatWheelGrinder::SolveContact(
+    const MachineSettings& settings, const FlankGridPoint& point) const {
   const ChainConstants c = MakeChainConstants(setup_);
   EnvelopeContact contact;
 
-  // First guess: the nominal contact of the plane wheel. phi1 turns the point's normal onto the
-  // wheel-plane normal n_w = M(A0, B0) F e_z; then the point, carried into the wheel frame, gives
-  // u_w and phi_w.
+  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
+  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
+  // carried into the wheel frame, gives u_w and phi_w.
   const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
   const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
   Vec3<double> n_w;
-  RotateWheel<double>(Vec3<double>{0.0, 0.0, c.mirror_z}, std::cos(a0), std::sin(a0), std::cos(b0), std::sin(b0), &n_w,
-              nullptr, nullptr);
+  RotateWheel<double>(Vec3<double>{0.0, 0.0, c.mirror_z},
+                      std::cos(a0),
+                      std::sin(a0),
+                      std::cos(b0),
+                      std::sin(b0),
+                      &n_w,
+                      nullptr,
+                      nullptr);
   const Eigen::Vector3d& n = point.normal;
   double roll = WrapAngle(std::atan2(n_w.z, n_w.y) - std::atan2(n.z(), n.y()));
   {
@@ -273,7 +337,9 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
     // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
     const double cc = std::cos(value[5]), sc = std::sin(value[5]);
     const Eigen::Vector3d& p = point.position_mm;
-    const Eigen::Vector3d qf(p.x() + value[0], cc * p.y() - sc * p.z() - value[1], sc * p.y() + cc * p.z() + value[2]);
+    const Eigen::Vector3d qf(p.x() + value[0],
+                             cc * p.y() - sc * p.z() - value[1],
+                             sc * p.y() + cc * p.z() + value[2]);
     // M^T = Rot_z(pi)^T Rot_x(-A)^T Rot_y(B)^T.
     const double ca = std::cos(value[3]), sa = std::sin(value[3]);
     const double cb = std::cos(value[4]), sb = std::sin(value[4]);
@@ -291,25 +357,33 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
   const double roll_guess = roll;
   Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
   const double r_j = setup_.gear.PitchRadiusMm();
-  const Eigen::Vector4d step_scale(1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
-  const engine_internal::DampedNewtonSummary newton = engine_internal::DampedNewton<4>(
-      engine_internal::DampedNewtonOptions{options_.max_iterations, options_.step_tolerance_mm, options_.max_step_mm},
-      step_scale,
-      [&](const Eigen::Vector4d& x, Eigen::Vector4d* g, Eigen::Matrix4d* jacobian) {
-        SystemAndJacobian(settings, c, point, x, g, jacobian);
-      },
-      &x);
+  const Eigen::Vector4d step_scale(
+      1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
+  const engine_internal::DampedNewtonSummary newton =
+      engine_internal::DampedNewton<4>(
+          engine_internal::DampedNewtonOptions{options_.max_iterations,
+                                               options_.step_tolerance_mm,
+                                               options_.max_step_mm},
+          step_scale,
+          [&](const Eigen::Vector4d& x,
+              Eigen::Vector4d* g,
+              Eigen::Matrix4d* jacobian) {
+            SystemAndJacobian(settings, c, point, x, g, jacobian);
+          },
+          &x);
   const bool converged = newton.converged;
   contact.iterations = newton.num_iterations;
   contact.wheel_u_mm = x(0);
   contact.wheel_phi_rad = x(1);
   contact.roll_rad = x(2);
   contact.deviation_mm = x(3);
-  if (!converged || !x.allFinite() || std::abs(x(2) - roll_guess) > options_.max_roll_excursion_rad ||
+  if (!converged || !x.allFinite() ||
+      std::abs(x(2) - roll_guess) > options_.max_roll_excursion_rad ||
       std::abs(x(3)) > options_.max_deviation_mm) {
     contact.status = PointStatus::kNotConverged;
   } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
-    // The contact lies beyond the rim (or past the wheel centre): the real wheel does not reach it.
+    // The contact lies beyond the rim (or past the wheel centre): the real
+    // wheel does not reach it.
     contact.status = PointStatus::kNotReached;
   } else {
     contact.status = PointStatus::kOk;
@@ -317,19 +391,23 @@ EnvelopeContact FlatWheelGrinder::SolveContact(const MachineSettings& settings, 
   return contact;
 }
 
-Eigen::Matrix<double, 1, kNumGrinderParameters> FlatWheelGrinder::ContactSensitivity(
-    const MachineSettings& settings, const FlankGridPoint& point, const EnvelopeContact& contact) const {
+Eigen::Matrix<double, 1, kNumGrinderParameters>
+FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
+                                     const FlankGridPoint& point,
+                                     const EnvelopeContact& contact) const {
   using JetN = ceres::Jet<double, kNumLocal>;
   const ChainConstants c = MakeChainConstants(setup_);
   const double roll = contact.roll_rad;
   double value_d[kNumAxes], rate_d[kNumAxes];
   AxisState(settings, roll, value_d, rate_d);
-  // Second derivatives of the axes d^2 C_i / d phi1^2 for the phi1 column of the system.
+  // Second derivatives of the axes d^2 C_i / d phi1^2 for the phi1 column of
+  // the system.
   double accel_d[kNumAxes];
   for (int i = 0; i < kNumAxes; ++i) {
     const auto& a = settings.axes[i];
     double acc = 0.0;
-    for (int k = kAxisPolynomialDegree; k >= 2; --k) acc = acc * roll + double(k) * (k - 1) * a[k];
+    for (int k = kAxisPolynomialDegree; k >= 2; --k)
+      acc = acc * roll + double(k) * (k - 1) * a[k];
     accel_d[i] = acc;
   }
   const JetN u(contact.wheel_u_mm, kLocalU);
@@ -339,9 +417,10 @@ Eigen::Matrix<double, 1, kNumGrinderParameters> FlatWheelGrinder::ContactSensiti
     value[i] = JetN(value_d[i], kLocalValue + i);
     rate[i] = JetN(rate_d[i], kLocalRate + i);
   }
-  const JetN wheel[3] = {JetN(settings.wheel.cone_angle_rad, kLocalWheel),
-                         JetN(settings.wheel.parabola_coefficient_per_mm, kLocalWheel + 1),
-                         JetN(settings.wheel.parabola_vertex_mm, kLocalWheel + 2)};
+  const JetN wheel[3] = {
+      JetN(settings.wheel.cone_angle_rad, kLocalWheel),
+      JetN(settings.wheel.parabola_coefficient_per_mm, kLocalWheel + 1),
+      JetN(settings.wheel.parabola_vertex_mm, kLocalWheel + 2)};
   Vec3<JetN> r1;
   JetN f;
   LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
@@ -357,38 +436,44 @@ Eigen::Matrix<double, 1, kNumGrinderParameters> FlatWheelGrinder::ContactSensiti
   dg_dx.col(1) = local.col(kLocalPhiW);
   dg_dx.col(2).setZero();
   for (int i = 0; i < kNumAxes; ++i) {
-    dg_dx.col(2) += local.col(kLocalValue + i) * rate_d[i] + local.col(kLocalRate + i) * accel_d[i];
+    dg_dx.col(2) += local.col(kLocalValue + i) * rate_d[i] +
+                    local.col(kLocalRate + i) * accel_d[i];
   }
   dg_dx.col(3) << -point.normal, 0.0;
 
-  // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta = -y^T dG/dzeta with
-  // (dG/dx)^T y = e_4.
-  const Eigen::Vector4d y = dg_dx.transpose().partialPivLu().solve(Eigen::Vector4d::UnitW());
+  // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta =
+  // -y^T dG/dzeta with (dG/dx)^T y = e_4.
+  const Eigen::Vector4d y =
+      dg_dx.transpose().partialPivLu().solve(Eigen::Vector4d::UnitW());
   const Eigen::Matrix<double, 1, kNumLocal> y_local = -y.transpose() * local;
 
   Eigen::Matrix<double, 1, kNumGrinderParameters> sensitivity;
   for (int i = 0; i < kNumAxes; ++i) {
     // d C_i / d a_{k,i} = phi1^k, d C_i' / d a_{k,i} = k phi1^(k-1).
-    double power = 1.0;  // phi1^k
+    double power = 1.0;        // phi1^k
     double power_below = 0.0;  // phi1^(k-1)
     for (int k = 0; k < kCoefficientsPerAxis; ++k) {
       sensitivity(i * kCoefficientsPerAxis + k) =
-          y_local(kLocalValue + i) * power + y_local(kLocalRate + i) * k * power_below;
+          y_local(kLocalValue + i) * power +
+          y_local(kLocalRate + i) * k * power_below;
       power_below = power;
       power *= roll;
     }
   }
-  for (int m = 0; m < kNumWheelProfileParameters; ++m) sensitivity(kNumAxisCoefficients + m) = y_local(kLocalWheel + m);
+  for (int m = 0; m < kNumWheelProfileParameters; ++m)
+    sensitivity(kNumAxisCoefficients + m) = y_local(kLocalWheel + m);
   return sensitivity;
 }
 
-void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters, bool with_jacobian,
+void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
+                                bool with_jacobian,
                                 ModelEvaluation* evaluation) const {
   const MachineSettings settings = MachineSettings::FromVector(parameters);
   const int n = grid_.NumPoints();
   evaluation->deviations_um.setZero(n);
   evaluation->status.assign(n, PointStatus::kNotConverged);
-  evaluation->contact_roll_rad.assign(n, std::numeric_limits<double>::quiet_NaN());
+  evaluation->contact_roll_rad.assign(n,
+                                      std::numeric_limits<double>::quiet_NaN());
   if (with_jacobian) {
     evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
   } else {
@@ -402,7 +487,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters, bool with_jac
     evaluation->deviations_um(i) = contact.deviation_mm * kMmToUm;
     evaluation->contact_roll_rad[i] = contact.roll_rad;
     if (with_jacobian) {
-      evaluation->jacobian_um.row(i) = ContactSensitivity(settings, point, contact) * kMmToUm;
+      evaluation->jacobian_um.row(i) =
+          ContactSensitivity(settings, point, contact) * kMmToUm;
     }
   }
 }

@@ -11,7 +11,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool Contains(const std::vector<int>& v, int i) { return std::find(v.begin(), v.end(), i) != v.end(); }
+bool Contains(const std::vector<int>& v, int i) {
+  return std::find(v.begin(), v.end(), i) != v.end();
+}
 
 }  // namespace
 
@@ -20,18 +22,23 @@ bool MeasurementSimulationOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (!(probe_noise_um >= 0.0) || !std::isfinite(probe_noise_um)) return fail("probe_noise_um must be finite and >= 0");
-  if (!(outlier_probability >= 0.0 && outlier_probability <= 1.0)) return fail("outlier_probability must lie in [0, 1]");
-  if (!(missing_probability >= 0.0 && missing_probability <= 1.0)) return fail("missing_probability must lie in [0, 1]");
-  if (!std::isfinite(outlier_size_um)) return fail("outlier_size_um must be finite");
+  if (!(probe_noise_um >= 0.0) || !std::isfinite(probe_noise_um))
+    return fail("probe_noise_um must be finite and >= 0");
+  if (!(outlier_probability >= 0.0 && outlier_probability <= 1.0))
+    return fail("outlier_probability must lie in [0, 1]");
+  if (!(missing_probability >= 0.0 && missing_probability <= 1.0))
+    return fail("missing_probability must lie in [0, 1]");
+  if (!std::isfinite(outlier_size_um))
+    return fail("outlier_size_um must be finite");
   if (teeth < 1) return fail("teeth must be >= 1");
   return true;
 }
 
-SimulatedMeasurement SimulateMeasurement(const MachineModel& model,
-                                         const Eigen::VectorXd& commanded_parameters,
-                                         const Eigen::VectorXd& hidden_errors,
-                                         const MeasurementSimulationOptions& options) {
+SimulatedMeasurement SimulateMeasurement(
+    const MachineModel& model,
+    const Eigen::VectorXd& commanded_parameters,
+    const Eigen::VectorXd& hidden_errors,
+    const MeasurementSimulationOptions& options) {
   SimulatedMeasurement out;
   const int n = model.NumPoints();
   ModelEvaluation eval;
@@ -39,18 +46,20 @@ SimulatedMeasurement SimulateMeasurement(const MachineModel& model,
   out.status = eval.status;
   out.true_deviations_um = Eigen::VectorXd::Constant(n, kNaN);
   for (int i = 0; i < n; ++i) {
-    if (eval.status[i] == PointStatus::kOk) out.true_deviations_um(i) = eval.deviations_um(i);
+    if (eval.status[i] == PointStatus::kOk)
+      out.true_deviations_um(i) = eval.deviations_um(i);
   }
 
-  // One generator for everything, drawn in a fixed order: missing, then per tooth noise and
-  // outliers, so a seed reproduces the same grid.
+  // One generator for everything, drawn in a fixed order: missing, then per
+  // tooth noise and outliers, so a seed reproduces the same grid.
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::vector<bool> missing(n, false);
   for (int i = 0; i < n; ++i) {
     const bool draw = unit(rng) < options.missing_probability;
-    missing[i] = draw || Contains(options.missing_points, i) || !std::isfinite(out.true_deviations_um(i));
+    missing[i] = draw || Contains(options.missing_points, i) ||
+                 !std::isfinite(out.true_deviations_um(i));
   }
   std::vector<bool> outlier(n, false);
   for (int tooth = 0; tooth < options.teeth; ++tooth) {
@@ -61,7 +70,8 @@ SimulatedMeasurement SimulateMeasurement(const MachineModel& model,
       const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
       if (missing[i]) continue;
       double value = out.true_deviations_um(i) + noise;
-      if (random_outlier || (tooth == 0 && Contains(options.outlier_points, i))) {
+      if (random_outlier ||
+          (tooth == 0 && Contains(options.outlier_points, i))) {
         value += sign * options.outlier_size_um;
         outlier[i] = true;
       }
@@ -69,7 +79,8 @@ SimulatedMeasurement SimulateMeasurement(const MachineModel& model,
     }
     out.teeth_um.push_back(grid);
   }
-  out.measured_um = options.teeth == 1 ? out.teeth_um.front() : AverageTeeth(out.teeth_um);
+  out.measured_um =
+      options.teeth == 1 ? out.teeth_um.front() : AverageTeeth(out.teeth_um);
   if (options.teeth == 1) out.teeth_um.clear();
   for (int i = 0; i < n; ++i) {
     if (missing[i]) out.missing_indices.push_back(i);
@@ -78,25 +89,29 @@ SimulatedMeasurement SimulateMeasurement(const MachineModel& model,
   return out;
 }
 
-Eigen::VectorXd RandomHiddenErrors(const MachineModel& model,
-                                   double roll_min_rad,
-                                   double roll_max_rad,
-                                   double block_size,
-                                   int max_order,
-                                   double wheel_size,
-                                   std::uint64_t seed,
-                                   const std::vector<std::string>& fixed_blocks) {
+Eigen::VectorXd RandomHiddenErrors(
+    const MachineModel& model,
+    double roll_min_rad,
+    double roll_max_rad,
+    double block_size,
+    int max_order,
+    double wheel_size,
+    std::uint64_t seed,
+    const std::vector<std::string>& fixed_blocks) {
   const std::vector<ParameterBlock> blocks = model.ParameterBlocks();
   Eigen::VectorXd y = Eigen::VectorXd::Zero(model.NumParameters());
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   for (const ParameterBlock& b : blocks) {
-    const bool fixed = std::find(fixed_blocks.begin(), fixed_blocks.end(), b.name) != fixed_blocks.end();
+    const bool fixed =
+        std::find(fixed_blocks.begin(), fixed_blocks.end(), b.name) !=
+        fixed_blocks.end();
     if (b.is_polynomial) {
       const int top = std::min(max_order, b.num_coefficients - 1);
       for (int k = 0; k <= top; ++k) {
         const double draw = gauss(rng);
-        if (!fixed) y(b.first_index + k) = draw * block_size / std::sqrt(top + 1.0);
+        if (!fixed)
+          y(b.first_index + k) = draw * block_size / std::sqrt(top + 1.0);
       }
     } else {
       for (int k = 0; k < b.num_coefficients; ++k) {
@@ -108,11 +123,12 @@ Eigen::VectorXd RandomHiddenErrors(const MachineModel& model,
   return DeltaFromCorrectionCoordinates(blocks, y, roll_min_rad, roll_max_rad);
 }
 
-ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
-                                    const Eigen::VectorXd& initial_commanded_parameters,
-                                    const Eigen::VectorXd& hidden_errors,
-                                    const Eigen::VectorXd& target_um,
-                                    const ClosedLoopOptions& options) {
+ClosedLoopResult SimulateClosedLoop(
+    const MachineModel& model,
+    const Eigen::VectorXd& initial_commanded_parameters,
+    const Eigen::VectorXd& hidden_errors,
+    const Eigen::VectorXd& target_um,
+    const ClosedLoopOptions& options) {
   ClosedLoopResult result;
   Eigen::VectorXd commanded = initial_commanded_parameters;
   MeasurementSimulationOptions measurement = options.measurement;
@@ -120,7 +136,8 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
     ClosedLoopIteration it;
     it.part = part;
     it.commanded_parameters = commanded;
-    const SimulatedMeasurement cmm = SimulateMeasurement(model, commanded, hidden_errors, measurement);
+    const SimulatedMeasurement cmm =
+        SimulateMeasurement(model, commanded, hidden_errors, measurement);
     ++measurement.seed;
     it.true_error_um = cmm.true_deviations_um - target_um;
     it.measured_um = cmm.measured_um;
@@ -138,7 +155,8 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
         ++mcount;
       }
     }
-    // A part on which the wheel reaches no grid point has no error figure (NaN), never 0.
+    // A part on which the wheel reaches no grid point has no error figure
+    // (NaN), never 0.
     const double no_figure = std::numeric_limits<double>::quiet_NaN();
     it.true_rms_um = count > 0 ? std::sqrt(sum2 / count) : no_figure;
     it.true_max_um = count > 0 ? max_abs : no_figure;
@@ -151,14 +169,16 @@ ClosedLoopResult SimulateClosedLoop(const MachineModel& model,
       input.target_um = target_um;
       input.roll_min_rad = options.roll_min_rad;
       input.roll_max_rad = options.roll_max_rad;
-      const CorrectionResult correction = ComputeCorrection(options.correction, input);
+      const CorrectionResult correction =
+          ComputeCorrection(options.correction, input);
       it.correction = correction.summary;
       it.corrected = true;
       it.predicted_residual_um = correction.predicted_residual_um;
       it.predicted_change_um = correction.predicted_change_um;
       result.iterations.push_back(it);
       if (!correction.summary.IsSolutionUsable()) {
-        result.message = "correction " + std::to_string(part) + " unusable: " + correction.summary.message;
+        result.message = "correction " + std::to_string(part) +
+                         " unusable: " + correction.summary.message;
         return result;
       }
       commanded = correction.parameters;

@@ -10,34 +10,49 @@
 namespace gearloop {
 namespace {
 
-bool ReadIntegerInRange(const nlohmann::json& object, const std::string& path, const char* key, long long min,
-                        long long max, int* value, ApiError* error) {
+bool ReadIntegerInRange(const nlohmann::json& object,
+                        const std::string& path,
+                        const char* key,
+                        long long min,
+                        long long max,
+                        int* value,
+                        ApiError* error) {
   long long v = *value;
   bool found = false;
   if (!ReadInteger(object, path, key, false, &v, error, &found)) return false;
   if (!found) return true;
   if (v < min || v > max) {
     const std::string field = JoinPath(path, key);
-    *error = InvalidValue(field, field + " must lie in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+    *error = InvalidValue(field,
+                          field + " must lie in [" + std::to_string(min) +
+                              ", " + std::to_string(max) + "]");
     return false;
   }
   *value = static_cast<int>(v);
   return true;
 }
 
-bool ReadNamedMap(const nlohmann::json& object, const std::string& path, const char* key, bool integers,
-                  std::map<std::string, double>* out, ApiError* error) {
+bool ReadNamedMap(const nlohmann::json& object,
+                  const std::string& path,
+                  const char* key,
+                  bool integers,
+                  std::map<std::string, double>* out,
+                  ApiError* error) {
   if (!object.contains(key)) return true;
   const std::string field = JoinPath(path, key);
   const nlohmann::json& value = object.at(key);
   if (!value.is_object()) {
-    *error = InvalidRequest(field, field + " must be an object of block name -> number");
+    *error = InvalidRequest(
+        field, field + " must be an object of block name -> number");
     return false;
   }
   for (const auto& item : value.items()) {
     const std::string item_field = JoinPath(field, item.key());
-    if (!item.value().is_number() || (integers && !item.value().is_number_integer())) {
-      *error = InvalidRequest(item_field, item_field + (integers ? " must be an integer" : " must be a number"));
+    if (!item.value().is_number() ||
+        (integers && !item.value().is_number_integer())) {
+      *error = InvalidRequest(item_field,
+                              item_field + (integers ? " must be an integer"
+                                                     : " must be a number"));
       return false;
     }
     const double number = item.value().get<double>();
@@ -50,26 +65,55 @@ bool ReadNamedMap(const nlohmann::json& object, const std::string& path, const c
   return true;
 }
 
-bool ParseModification(const nlohmann::json& value, const std::string& path, TargetModification* modification,
+bool ParseModification(const nlohmann::json& value,
+                       const std::string& path,
+                       TargetModification* modification,
                        ApiError* error) {
   if (!value.is_object()) {
-    *error = InvalidRequest(path, path + " must be an object {kind, amount_um, ...}");
+    *error = InvalidRequest(path,
+                            path + " must be an object {kind, amount_um, ...}");
     return false;
   }
   std::string kind;
   if (!ReadString(value, path, "kind", true, &kind, error)) return false;
   if (!ParseModificationKind(kind, &modification->kind)) {
-    *error = InvalidValue(JoinPath(path, "kind"), "unknown modification kind \"" + kind + "\"");
+    *error = InvalidValue(JoinPath(path, "kind"),
+                          "unknown modification kind \"" + kind + "\"");
     return false;
   }
   std::string shape = "linear";
-  if (!ReadNumber(value, path, "amount_um", true, &modification->amount_um, error) ||
-      !ReadNumber(value, path, "length_fraction", false, &modification->length_fraction, error) ||
+  if (!ReadNumber(
+          value, path, "amount_um", true, &modification->amount_um, error) ||
+      !ReadNumber(value,
+                  path,
+                  "length_fraction",
+                  false,
+                  &modification->length_fraction,
+                  error) ||
       !ReadString(value, path, "shape", false, &shape, error) ||
-      !ReadNumber(value, path, "second_amount_um", false, &modification->second_amount_um, error) ||
-      !ReadNumber(value, path, "second_length_fraction", false, &modification->second_length_fraction, error) ||
-      !ReadNumber(value, path, "amount_gradient_um", false, &modification->amount_gradient_um, error) ||
-      !ReadNumber(value, path, "second_amount_gradient_um", false, &modification->second_amount_gradient_um,
+      !ReadNumber(value,
+                  path,
+                  "second_amount_um",
+                  false,
+                  &modification->second_amount_um,
+                  error) ||
+      !ReadNumber(value,
+                  path,
+                  "second_length_fraction",
+                  false,
+                  &modification->second_length_fraction,
+                  error) ||
+      !ReadNumber(value,
+                  path,
+                  "amount_gradient_um",
+                  false,
+                  &modification->amount_gradient_um,
+                  error) ||
+      !ReadNumber(value,
+                  path,
+                  "second_amount_gradient_um",
+                  false,
+                  &modification->second_amount_gradient_um,
                   error)) {
     return false;
   }
@@ -78,7 +122,8 @@ bool ParseModification(const nlohmann::json& value, const std::string& path, Tar
   } else if (shape == "parabolic") {
     modification->shape = ReliefShape::kParabolic;
   } else {
-    *error = InvalidValue(JoinPath(path, "shape"), "shape must be \"linear\" or \"parabolic\"");
+    *error = InvalidValue(JoinPath(path, "shape"),
+                          "shape must be \"linear\" or \"parabolic\"");
     return false;
   }
   ValidationIssue issue;
@@ -91,7 +136,8 @@ bool ParseModification(const nlohmann::json& value, const std::string& path, Tar
 
 nlohmann::json PointList(const std::vector<int>& indices, int columns) {
   nlohmann::json list = nlohmann::json::array();
-  for (int i : indices) list.push_back({{"row", i / columns}, {"column", i % columns}});
+  for (int i : indices)
+    list.push_back({{"row", i / columns}, {"column", i % columns}});
   return list;
 }
 
@@ -125,52 +171,72 @@ nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   for (const BlockMotion& b : motion.blocks) {
     const std::string suffix = UnitSuffix(b.unit);
     if (!b.is_polynomial) {
-      wheel[b.name + suffix] = FiniteOrNull(b.change.empty() ? std::nan("") : b.change.front());
+      wheel[b.name + suffix] =
+          FiniteOrNull(b.change.empty() ? std::nan("") : b.change.front());
       continue;
     }
     nlohmann::json change = nlohmann::json::array();
     for (double v : b.change) change.push_back(FiniteOrNull(v));
-    axes[b.name] = {{"change" + suffix, change}, {"rms" + suffix, FiniteOrNull(b.rms)},
+    axes[b.name] = {{"change" + suffix, change},
+                    {"rms" + suffix, FiniteOrNull(b.rms)},
                     {"max_abs" + suffix, FiniteOrNull(b.max_abs)}};
   }
   return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
 }
 
-// The measurement: one grid, or several teeth handed to the engine as they are (it averages them
-// and knows that an averaged point is less noisy).
-bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* measured_um,
-                                std::vector<Eigen::VectorXd>* measured_teeth_um, ApiError* error) {
+// The measurement: one grid, or several teeth handed to the engine as they are
+// (it averages them and knows that an averaged point is less noisy).
+bool ParseCorrectionMeasurement(const nlohmann::json& body,
+                                int rows,
+                                int columns,
+                                Eigen::VectorXd* measured_um,
+                                std::vector<Eigen::VectorXd>* measured_teeth_um,
+                                ApiError* error) {
   if (!body.contains("measurement")) {
-    *error = InvalidRequest("measurement", "missing required field measurement");
+    *error =
+        InvalidRequest("measurement", "missing required field measurement");
     return false;
   }
   const nlohmann::json& measurement = body.at("measurement");
   if (!measurement.is_object()) {
-    *error = InvalidRequest("measurement", "measurement must be an object {\"deviations_um\": grid}");
+    *error = InvalidRequest(
+        "measurement",
+        "measurement must be an object {\"deviations_um\": grid}");
     return false;
   }
   std::vector<bool> present;
   if (measurement.contains("deviations_um")) {
-    if (!ParseGridValues(measurement.at("deviations_um"), "measurement.deviations_um", rows, columns,
-                         /*allow_null=*/true, measured_um, &present, error)) {
+    if (!ParseGridValues(measurement.at("deviations_um"),
+                         "measurement.deviations_um",
+                         rows,
+                         columns,
+                         /*allow_null=*/true,
+                         measured_um,
+                         &present,
+                         error)) {
       return false;
     }
     for (int i = 0; i < measured_um->size(); ++i) {
-      if (!present[i]) (*measured_um)(i) = std::numeric_limits<double>::quiet_NaN();
+      if (!present[i])
+        (*measured_um)(i) = std::numeric_limits<double>::quiet_NaN();
     }
     return true;
   }
   if (measurement.contains("teeth")) {
     const nlohmann::json& teeth = measurement.at("teeth");
     if (!teeth.is_array() || teeth.empty() || teeth.size() > 1000) {
-      *error = InvalidRequest("measurement.teeth", "measurement.teeth must be an array of 1 to 1000 grids");
+      *error = InvalidRequest(
+          "measurement.teeth",
+          "measurement.teeth must be an array of 1 to 1000 grids");
       return false;
     }
     measured_teeth_um->clear();
     for (size_t t = 0; t < teeth.size(); ++t) {
       Eigen::VectorXd grid;
       const std::string path = "measurement.teeth[" + std::to_string(t) + "]";
-      if (!ParseGridValues(teeth[t], path, rows, columns, true, &grid, &present, error)) return false;
+      if (!ParseGridValues(
+              teeth[t], path, rows, columns, true, &grid, &present, error))
+        return false;
       for (int i = 0; i < grid.size(); ++i) {
         if (!present[i]) grid(i) = std::numeric_limits<double>::quiet_NaN();
       }
@@ -179,52 +245,76 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body, int rows, int column
     measured_um->resize(0);
     return true;
   }
-  *error = InvalidRequest("measurement.deviations_um", "missing required field measurement.deviations_um");
+  *error = InvalidRequest("measurement.deviations_um",
+                          "missing required field measurement.deviations_um");
   return false;
 }
 
 bool HasTargetModifications(const nlohmann::json& body) {
-  return body.contains("target") && body.at("target").is_object() && body.at("target").contains("modifications");
+  return body.contains("target") && body.at("target").is_object() &&
+         body.at("target").contains("modifications");
 }
 
-bool ParseCorrectionTarget(const nlohmann::json& body, int rows, int columns, Eigen::VectorXd* target_um,
-                           std::optional<std::vector<TargetModification>>* modifications, ApiError* error) {
+bool ParseCorrectionTarget(
+    const nlohmann::json& body,
+    int rows,
+    int columns,
+    Eigen::VectorXd* target_um,
+    std::optional<std::vector<TargetModification>>* modifications,
+    ApiError* error) {
   target_um->setZero(rows * columns);
   if (!body.contains("target") || body.at("target").is_null()) return true;
   const nlohmann::json& target = body.at("target");
   if (!target.is_object()) {
-    *error = InvalidRequest("target", "target must be an object {\"deviations_um\": grid} or {\"modifications\": [...]}");
+    *error = InvalidRequest("target",
+                            "target must be an object {\"deviations_um\": "
+                            "grid} or {\"modifications\": [...]}");
     return false;
   }
   if (target.contains("deviations_um")) {
     std::vector<bool> present;
-    return ParseGridValues(target.at("deviations_um"), "target.deviations_um", rows, columns, /*allow_null=*/false,
-                           target_um, &present, error);
+    return ParseGridValues(target.at("deviations_um"),
+                           "target.deviations_um",
+                           rows,
+                           columns,
+                           /*allow_null=*/false,
+                           target_um,
+                           &present,
+                           error);
   }
   if (target.contains("modifications")) {
     const nlohmann::json& list = target.at("modifications");
     if (!list.is_array() || list.size() > 100) {
-      *error = InvalidRequest("target.modifications", "target.modifications must be an array of at most 100 modifications");
+      *error = InvalidRequest(
+          "target.modifications",
+          "target.modifications must be an array of at most 100 modifications");
       return false;
     }
     std::vector<TargetModification> parsed(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
-      if (!ParseModification(list[i], "target.modifications[" + std::to_string(i) + "]", &parsed[i], error)) {
+      if (!ParseModification(list[i],
+                             "target.modifications[" + std::to_string(i) + "]",
+                             &parsed[i],
+                             error)) {
         return false;
       }
     }
     *modifications = std::move(parsed);
     return true;
   }
-  *error = InvalidRequest("target", "target needs \"deviations_um\" or \"modifications\"");
+  *error = InvalidRequest(
+      "target", "target needs \"deviations_um\" or \"modifications\"");
   return false;
 }
 
-nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) {
+nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
+                                       int columns) {
   nlohmann::json block_sizes = nlohmann::json::object();
-  for (const BlockCorrectionSize& block : s.block_sizes) block_sizes[block.name] = FiniteOrNull(block.size);
+  for (const BlockCorrectionSize& block : s.block_sizes)
+    block_sizes[block.name] = FiniteOrNull(block.size);
   nlohmann::json singular_values = nlohmann::json::array();
-  for (int i = 0; i < s.singular_values.size(); ++i) singular_values.push_back(FiniteOrNull(s.singular_values(i)));
+  for (int i = 0; i < s.singular_values.size(); ++i)
+    singular_values.push_back(FiniteOrNull(s.singular_values(i)));
   return {
       {"status", CorrectionStatusName(s.status)},
       {"message", s.message},
@@ -253,7 +343,8 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) 
       {"elapsed_ms", s.elapsed_ms},
       {"points_used", s.num_points_used},
       {"free_parameters", s.num_free_parameters},
-      {"roll_range_deg", {s.roll_min_rad * kDegPerRad, s.roll_max_rad * kDegPerRad}},
+      {"roll_range_deg",
+       {s.roll_min_rad * kDegPerRad, s.roll_max_rad * kDegPerRad}},
       {"correction_size", FiniteOrNull(s.correction_size)},
       {"block_sizes", block_sizes},
       {"outliers", PointList(s.outlier_indices, columns)},
@@ -261,7 +352,10 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s, int columns) 
   };
 }
 
-bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, CorrectionOptions* options,
+bool ParseCorrectionOptions(const nlohmann::json& body,
+                            int rows,
+                            int columns,
+                            CorrectionOptions* options,
                             ApiError* error) {
   CorrectionOptions o;
   if (body.contains("options") && !body.at("options").is_null()) {
@@ -273,80 +367,143 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
     }
     std::string solver;
     bool found = false;
-    if (!ReadString(j, path, "solver", false, &solver, error, &found)) return false;
+    if (!ReadString(j, path, "solver", false, &solver, error, &found))
+      return false;
     if (found && !ParseCorrectionSolver(solver, &o.solver)) {
-      *error = InvalidValue("options.solver", "options.solver must be \"regularised\", \"pso\" or \"lsq-plain\"");
+      *error = InvalidValue(
+          "options.solver",
+          "options.solver must be \"regularised\", \"pso\" or \"lsq-plain\"");
       return false;
     }
     std::string mode;
     if (!ReadString(j, path, "mode", false, &mode, error, &found)) return false;
     if (found && !ParseCorrectionMode(mode, &o.mode)) {
-      *error = InvalidValue("options.mode", "options.mode must be \"next-part\" or \"rework\"");
+      *error = InvalidValue("options.mode",
+                            "options.mode must be \"next-part\" or \"rework\"");
       return false;
     }
-    if (!ReadIntegerInRange(j, path, "default_max_order", -1, 6, &o.default_max_order, error)) return false;
+    if (!ReadIntegerInRange(
+            j, path, "default_max_order", -1, 6, &o.default_max_order, error))
+      return false;
     std::map<std::string, double> orders;
-    if (!ReadNamedMap(j, path, "max_order", /*integers=*/true, &orders, error)) return false;
+    if (!ReadNamedMap(j, path, "max_order", /*integers=*/true, &orders, error))
+      return false;
     for (const auto& [name, order] : orders) {
       if (order < -1 || order > 6) {
-        *error = InvalidValue("options.max_order." + name, "a maximum order lies in [-1, 6]");
+        *error = InvalidValue("options.max_order." + name,
+                              "a maximum order lies in [-1, 6]");
         return false;
       }
       o.max_order[name] = static_cast<int>(order);
     }
-    if (!ReadNamedMap(j, path, "block_scales", false, &o.block_scales, error)) return false;
+    if (!ReadNamedMap(j, path, "block_scales", false, &o.block_scales, error))
+      return false;
     if (j.contains("point_weights")) {
       std::vector<bool> present;
-      if (!ParseGridValues(j.at("point_weights"), "options.point_weights", rows, columns, false, &o.point_weights,
-                           &present, error)) {
+      if (!ParseGridValues(j.at("point_weights"),
+                           "options.point_weights",
+                           rows,
+                           columns,
+                           false,
+                           &o.point_weights,
+                           &present,
+                           error)) {
         return false;
       }
     }
-    // Absent: the probe noise is unknown and generalised cross-validation picks the level.
+    // Absent: the probe noise is unknown and generalised cross-validation picks
+    // the level.
     bool noise_found = false;
-    if (!ReadNumber(j, path, "probe_noise_um", false, &o.probe_noise_um, error, &noise_found)) return false;
+    if (!ReadNumber(j,
+                    path,
+                    "probe_noise_um",
+                    false,
+                    &o.probe_noise_um,
+                    error,
+                    &noise_found))
+      return false;
     if (noise_found && !(o.probe_noise_um >= 0.0 && o.probe_noise_um <= 1e3)) {
-      *error = InvalidValue("options.probe_noise_um", "options.probe_noise_um must lie in [0, 1000] um");
+      *error = InvalidValue("options.probe_noise_um",
+                            "options.probe_noise_um must lie in [0, 1000] um");
       return false;
     }
     std::string rule;
     bool rule_found = false;
-    if (!ReadString(j, path, "regularisation_rule", false, &rule, error, &rule_found)) return false;
+    if (!ReadString(
+            j, path, "regularisation_rule", false, &rule, error, &rule_found))
+      return false;
     if (rule_found) {
       if (rule != "upre" && rule != "discrepancy-principle") {
         *error = InvalidValue("options.regularisation_rule",
-                              "options.regularisation_rule must be \"upre\" or \"discrepancy-principle\" "
+                              "options.regularisation_rule must be \"upre\" or "
+                              "\"discrepancy-principle\" "
                               "(it applies when probe_noise_um > 0)");
         return false;
       }
       o.use_discrepancy_principle = rule == "discrepancy-principle";
     }
-    if (!ReadBool(j, path, "estimate_machine_state", false, &o.estimate_machine_state, error)) return false;
-    if (!ReadNumber(j, path, "min_flank_effect_um", false, &o.min_flank_effect_um, error) ||
-        !ReadIntegerInRange(j, path, "max_num_iterations", 0, 200, &o.max_num_iterations, error) ||
-        !ReadIntegerInRange(j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||
-        !ReadNumber(j, path, "rework_tolerance_um", false, &o.rework_tolerance_um, error) ||
-        !ReadNumber(j, path, "outlier_threshold", false, &o.outlier_threshold, error) ||
-        !ReadNumber(j, path, "outlier_min_um", false, &o.outlier_min_um, error) ||
-        !ReadNumber(j, path, "max_outlier_fraction", false, &o.max_outlier_fraction, error) ||
-        !ReadIntegerInRange(j, path, "pso_particles", 1, 200, &o.pso_particles, error) ||
-        !ReadIntegerInRange(j, path, "pso_generations", 1, 2000, &o.pso_generations, error)) {
+    if (!ReadBool(j,
+                  path,
+                  "estimate_machine_state",
+                  false,
+                  &o.estimate_machine_state,
+                  error))
+      return false;
+    if (!ReadNumber(j,
+                    path,
+                    "min_flank_effect_um",
+                    false,
+                    &o.min_flank_effect_um,
+                    error) ||
+        !ReadIntegerInRange(j,
+                            path,
+                            "max_num_iterations",
+                            0,
+                            200,
+                            &o.max_num_iterations,
+                            error) ||
+        !ReadIntegerInRange(
+            j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||
+        !ReadNumber(j,
+                    path,
+                    "rework_tolerance_um",
+                    false,
+                    &o.rework_tolerance_um,
+                    error) ||
+        !ReadNumber(
+            j, path, "outlier_threshold", false, &o.outlier_threshold, error) ||
+        !ReadNumber(
+            j, path, "outlier_min_um", false, &o.outlier_min_um, error) ||
+        !ReadNumber(j,
+                    path,
+                    "max_outlier_fraction",
+                    false,
+                    &o.max_outlier_fraction,
+                    error) ||
+        !ReadIntegerInRange(
+            j, path, "pso_particles", 1, 200, &o.pso_particles, error) ||
+        !ReadIntegerInRange(
+            j, path, "pso_generations", 1, 2000, &o.pso_generations, error)) {
       return false;
     }
     long long seed = static_cast<long long>(o.pso_seed);
     if (!ReadInteger(j, path, "pso_seed", false, &seed, error)) return false;
     if (seed < 0) {
-      *error = InvalidValue("options.pso_seed", "options.pso_seed must not be negative");
+      *error = InvalidValue("options.pso_seed",
+                            "options.pso_seed must not be negative");
       return false;
     }
     o.pso_seed = static_cast<unsigned long long>(seed);
   }
-  // The swarm's work grows with particles x generations x grid points; keep one request from
-  // occupying a worker for long (the published 40 x 200 on 5 x 9 is 3.6e5; 5e6 takes ~0.3 s).
-  const double swarm_work = static_cast<double>(o.pso_particles) * o.pso_generations * rows * columns;
+  // The swarm's work grows with particles x generations x grid points; keep one
+  // request from occupying a worker for long (the published 40 x 200 on 5 x 9
+  // is 3.6e5; 5e6 takes ~0.3 s).
+  const double swarm_work =
+      static_cast<double>(o.pso_particles) * o.pso_generations * rows * columns;
   if (o.solver == CorrectionSolver::kParticleSwarm && swarm_work > 5e6) {
-    *error = InvalidValue("options.pso_generations",
-                          "pso_particles x pso_generations x grid points must stay below 5e6");
+    *error = InvalidValue(
+        "options.pso_generations",
+        "pso_particles x pso_generations x grid points must stay below 5e6");
     return false;
   }
   std::string message;
@@ -358,30 +515,45 @@ bool ParseCorrectionOptions(const nlohmann::json& body, int rows, int columns, C
   return true;
 }
 
-bool ParseSettingsSourceJobId(const nlohmann::json& body, std::optional<int64_t>* id, ApiError* error) {
+bool ParseSettingsSourceJobId(const nlohmann::json& body,
+                              std::optional<int64_t>* id,
+                              ApiError* error) {
   id->reset();
-  if (!body.contains("settings_source_job_id") || body.at("settings_source_job_id").is_null()) return true;
+  if (!body.contains("settings_source_job_id") ||
+      body.at("settings_source_job_id").is_null())
+    return true;
   long long value = 0;
-  if (!ReadInteger(body, "", "settings_source_job_id", true, &value, error)) return false;
+  if (!ReadInteger(body, "", "settings_source_job_id", true, &value, error))
+    return false;
   if (value <= 0) {
-    *error = InvalidValue("settings_source_job_id", "settings_source_job_id must name a stored job (id >= 1)");
+    *error =
+        InvalidValue("settings_source_job_id",
+                     "settings_source_job_id must name a stored job (id >= 1)");
     return false;
   }
   *id = value;
   return true;
 }
 
-bool ParseCorrectionRequest(const nlohmann::json& body, int rows, int columns, bool target_modifications_allowed,
-                            CorrectionRequest* request, ApiError* error) {
+bool ParseCorrectionRequest(const nlohmann::json& body,
+                            int rows,
+                            int columns,
+                            bool target_modifications_allowed,
+                            CorrectionRequest* request,
+                            ApiError* error) {
   CorrectionRequest r;
-  if (!ParseCorrectionMeasurement(body, rows, columns, &r.measured_um, &r.measured_teeth_um, error)) return false;
+  if (!ParseCorrectionMeasurement(
+          body, rows, columns, &r.measured_um, &r.measured_teeth_um, error))
+    return false;
   if (!target_modifications_allowed && HasTargetModifications(body)) {
     *error = InvalidValue("target.modifications",
-                          "target modifications are defined for the grinder's involute flank; give a bevel target as "
+                          "target modifications are defined for the grinder's "
+                          "involute flank; give a bevel target as "
                           "target.deviations_um");
     return false;
   }
-  if (!ParseCorrectionTarget(body, rows, columns, &r.target_um, &r.target_modifications, error) ||
+  if (!ParseCorrectionTarget(
+          body, rows, columns, &r.target_um, &r.target_modifications, error) ||
       !ParseCorrectionOptions(body, rows, columns, &r.options, error) ||
       !ParseSettingsSourceJobId(body, &r.settings_source_job_id, error)) {
     return false;

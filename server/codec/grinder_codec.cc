@@ -29,42 +29,68 @@ std::string ApiFieldPath(const std::string& engine_field) {
   // Any other *_rad field of the engine is *_deg in the API.
   const std::string suffix = "_rad";
   if (engine_field.size() > suffix.size() &&
-      engine_field.compare(engine_field.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      engine_field.compare(
+          engine_field.size() - suffix.size(), suffix.size(), suffix) == 0) {
     return engine_field.substr(0, engine_field.size() - suffix.size()) + "_deg";
   }
   return engine_field;
 }
 
-bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, ApiError* error) {
+bool ParseGrindingSetup(const nlohmann::json& request,
+                        GrindingSetup* setup,
+                        ApiError* error) {
   GrindingSetup s;
   const nlohmann::json* gear = nullptr;
-  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error)) return false;
+  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error))
+    return false;
   long long teeth = 0;
   double pressure_angle_deg = 0.0;
   double helix_angle_deg = 0.0;
   if (!ReadInteger(*gear, "gear", "teeth", true, &teeth, error) ||
-      !ReadNumber(*gear, "gear", "normal_module_mm", true, &s.gear.normal_module_mm, error) ||
-      !ReadNumber(*gear, "gear", "normal_pressure_angle_deg", true, &pressure_angle_deg, error) ||
-      !ReadNumber(*gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
-      !ReadNumber(*gear, "gear", "face_width_mm", true, &s.gear.face_width_mm, error) ||
-      !ReadNumber(*gear, "gear", "tip_radius_mm", true, &s.gear.tip_radius_mm, error) ||
-      !ReadNumber(*gear, "gear", "root_radius_mm", true, &s.gear.root_radius_mm, error)) {
+      !ReadNumber(*gear,
+                  "gear",
+                  "normal_module_mm",
+                  true,
+                  &s.gear.normal_module_mm,
+                  error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "normal_pressure_angle_deg",
+                  true,
+                  &pressure_angle_deg,
+                  error) ||
+      !ReadNumber(
+          *gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
+      !ReadNumber(
+          *gear, "gear", "face_width_mm", true, &s.gear.face_width_mm, error) ||
+      !ReadNumber(
+          *gear, "gear", "tip_radius_mm", true, &s.gear.tip_radius_mm, error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "root_radius_mm",
+                  true,
+                  &s.gear.root_radius_mm,
+                  error)) {
     return false;
   }
   if (teeth < -1000000 || teeth > 1000000) {
-    *error = InvalidValue("gear.teeth", "gear.teeth is out of range, got " + std::to_string(teeth));
+    *error = InvalidValue(
+        "gear.teeth",
+        "gear.teeth is out of range, got " + std::to_string(teeth));
     return false;
   }
   s.gear.teeth = static_cast<int>(teeth);
   if (helix_angle_deg < 0.0) {
-    *error = InvalidValue("gear.helix_angle_deg",
-                          "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
-                              nlohmann::json(helix_angle_deg).dump());
+    *error = InvalidValue(
+        "gear.helix_angle_deg",
+        "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
+            nlohmann::json(helix_angle_deg).dump());
     return false;
   }
   std::string hand;
   bool hand_found = false;
-  if (!ReadString(*gear, "gear", "hand", false, &hand, error, &hand_found)) return false;
+  if (!ReadString(*gear, "gear", "hand", false, &hand, error, &hand_found))
+    return false;
   double sign = 0.0;
   if (hand_found) {
     if (hand == "left") {
@@ -72,11 +98,14 @@ bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, Api
     } else if (hand == "right") {
       sign = -1.0;
     } else {
-      *error = InvalidValue("gear.hand", "gear.hand must be \"left\" or \"right\"");
+      *error =
+          InvalidValue("gear.hand", "gear.hand must be \"left\" or \"right\"");
       return false;
     }
   } else if (helix_angle_deg != 0.0) {
-    *error = InvalidRequest("gear.hand", "missing required field gear.hand (a helical gear needs \"left\" or \"right\")");
+    *error = InvalidRequest("gear.hand",
+                            "missing required field gear.hand (a helical gear "
+                            "needs \"left\" or \"right\")");
     return false;
   }
   s.gear.normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
@@ -85,17 +114,26 @@ bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, Api
 
   const nlohmann::json* wheel = nullptr;
   if (!RequireObject(request, "", "wheel", true, &wheel, error) ||
-      !ReadNumber(*wheel, "wheel", "radius_mm", true, &s.wheel.radius_mm, error)) {
+      !ReadNumber(
+          *wheel, "wheel", "radius_mm", true, &s.wheel.radius_mm, error)) {
     return false;
   }
 
   const nlohmann::json* machine = nullptr;
-  if (!RequireObject(request, "", "machine", false, &machine, error)) return false;
+  if (!RequireObject(request, "", "machine", false, &machine, error))
+    return false;
   if (machine != nullptr) {
     if (!RequireFlatWheelGrinder(request, error)) return false;
-    if (!ReadNumber(*machine, "machine", "k1_mm", false, &s.machine.k1_mm, error) ||
-        !ReadNumber(*machine, "machine", "k2_mm", false, &s.machine.k2_mm, error) ||
-        !ReadNumber(*machine, "machine", "traverse_mm_per_rad", false, &s.machine.traverse_mm_per_rad, error)) {
+    if (!ReadNumber(
+            *machine, "machine", "k1_mm", false, &s.machine.k1_mm, error) ||
+        !ReadNumber(
+            *machine, "machine", "k2_mm", false, &s.machine.k2_mm, error) ||
+        !ReadNumber(*machine,
+                    "machine",
+                    "traverse_mm_per_rad",
+                    false,
+                    &s.machine.traverse_mm_per_rad,
+                    error)) {
       return false;
     }
   }
@@ -105,19 +143,33 @@ bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, Api
   if (grid != nullptr) {
     long long profile_points = s.grid.profile_points;
     long long lead_points = s.grid.lead_points;
-    if (!ReadInteger(*grid, "grid", "profile_points", false, &profile_points, error) ||
-        !ReadInteger(*grid, "grid", "lead_points", false, &lead_points, error) ||
-        !ReadRange(*grid, "grid", "profile_range", &s.grid.profile_begin, &s.grid.profile_end, error) ||
-        !ReadRange(*grid, "grid", "lead_range", &s.grid.lead_begin, &s.grid.lead_end, error)) {
+    if (!ReadInteger(
+            *grid, "grid", "profile_points", false, &profile_points, error) ||
+        !ReadInteger(
+            *grid, "grid", "lead_points", false, &lead_points, error) ||
+        !ReadRange(*grid,
+                   "grid",
+                   "profile_range",
+                   &s.grid.profile_begin,
+                   &s.grid.profile_end,
+                   error) ||
+        !ReadRange(*grid,
+                   "grid",
+                   "lead_range",
+                   &s.grid.lead_begin,
+                   &s.grid.lead_end,
+                   error)) {
       return false;
     }
     // Bounded before the narrowing; the engine checks the real limits.
     if (profile_points < 0 || profile_points > 10000) {
-      *error = InvalidValue("grid.profile_points", "grid.profile_points is out of range");
+      *error = InvalidValue("grid.profile_points",
+                            "grid.profile_points is out of range");
       return false;
     }
     if (lead_points < 0 || lead_points > 10000) {
-      *error = InvalidValue("grid.lead_points", "grid.lead_points is out of range");
+      *error =
+          InvalidValue("grid.lead_points", "grid.lead_points is out of range");
       return false;
     }
     s.grid.profile_points = static_cast<int>(profile_points);
@@ -144,10 +196,13 @@ bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, Api
   return true;
 }
 
-bool ParseMachineSettings(const nlohmann::json& settings, const std::string& path, MachineSettings* result,
+bool ParseMachineSettings(const nlohmann::json& settings,
+                          const std::string& path,
+                          MachineSettings* result,
                           ApiError* error) {
   if (!settings.is_object()) {
-    *error = InvalidRequest(path, path + " must be an object, got " + TypeName(settings));
+    *error = InvalidRequest(
+        path, path + " must be an object, got " + TypeName(settings));
     return false;
   }
   MachineSettings s;
@@ -163,13 +218,21 @@ bool ParseMachineSettings(const nlohmann::json& settings, const std::string& pat
     const nlohmann::json& coefficients = axes->at(kAxisNames[i]);
     if (!coefficients.is_array() || coefficients.empty() ||
         coefficients.size() > static_cast<size_t>(kCoefficientsPerAxis)) {
-      *error = InvalidRequest(field, field + " must be an array of 1 to 7 numbers (coefficient k multiplies roll^k)");
+      *error = InvalidRequest(field,
+                              field +
+                                  " must be an array of 1 to 7 numbers "
+                                  "(coefficient k multiplies roll^k)");
       return false;
     }
     for (size_t k = 0; k < coefficients.size(); ++k) {
-      if (!NumberFromJson(coefficients[k], field + "[" + std::to_string(k) + "]", &s.axes[i][k], error)) return false;
+      if (!NumberFromJson(coefficients[k],
+                          field + "[" + std::to_string(k) + "]",
+                          &s.axes[i][k],
+                          error))
+        return false;
       if (std::fabs(s.axes[i][k]) > 1e6) {
-        *error = InvalidValue(field + "[" + std::to_string(k) + "]", "axis coefficient is implausibly large");
+        *error = InvalidValue(field + "[" + std::to_string(k) + "]",
+                              "axis coefficient is implausibly large");
         return false;
       }
     }
@@ -178,32 +241,53 @@ bool ParseMachineSettings(const nlohmann::json& settings, const std::string& pat
     bool known = false;
     for (const char* name : kAxisNames) known = known || item.key() == name;
     if (!known) {
-      *error = InvalidRequest(JoinPath(axes_path, item.key()), "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
+      *error = InvalidRequest(
+          JoinPath(axes_path, item.key()),
+          "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
       return false;
     }
   }
   const nlohmann::json* wheel = nullptr;
-  if (!RequireObject(settings, path, "wheel", false, &wheel, error)) return false;
+  if (!RequireObject(settings, path, "wheel", false, &wheel, error))
+    return false;
   if (wheel != nullptr) {
     const std::string wheel_path = JoinPath(path, "wheel");
     double cone_angle_deg = 0.0;
-    if (!ReadNumber(*wheel, wheel_path, "cone_angle_deg", false, &cone_angle_deg, error) ||
-        !ReadNumber(*wheel, wheel_path, "parabola_coefficient_per_mm", false, &s.wheel.parabola_coefficient_per_mm,
+    if (!ReadNumber(*wheel,
+                    wheel_path,
+                    "cone_angle_deg",
+                    false,
+                    &cone_angle_deg,
                     error) ||
-        !ReadNumber(*wheel, wheel_path, "parabola_vertex_mm", false, &s.wheel.parabola_vertex_mm, error)) {
+        !ReadNumber(*wheel,
+                    wheel_path,
+                    "parabola_coefficient_per_mm",
+                    false,
+                    &s.wheel.parabola_coefficient_per_mm,
+                    error) ||
+        !ReadNumber(*wheel,
+                    wheel_path,
+                    "parabola_vertex_mm",
+                    false,
+                    &s.wheel.parabola_vertex_mm,
+                    error)) {
       return false;
     }
     if (std::fabs(cone_angle_deg) >= 45.0) {
-      *error = InvalidValue(JoinPath(wheel_path, "cone_angle_deg"), "the wheel cone angle must lie within (-45, 45) deg");
+      *error =
+          InvalidValue(JoinPath(wheel_path, "cone_angle_deg"),
+                       "the wheel cone angle must lie within (-45, 45) deg");
       return false;
     }
     if (std::fabs(s.wheel.parabola_coefficient_per_mm) > 1.0) {
-      *error = InvalidValue(JoinPath(wheel_path, "parabola_coefficient_per_mm"),
-                            "the parabola coefficient must lie within [-1, 1] 1/mm");
+      *error =
+          InvalidValue(JoinPath(wheel_path, "parabola_coefficient_per_mm"),
+                       "the parabola coefficient must lie within [-1, 1] 1/mm");
       return false;
     }
     if (std::fabs(s.wheel.parabola_vertex_mm) > 1e4) {
-      *error = InvalidValue(JoinPath(wheel_path, "parabola_vertex_mm"), "the parabola vertex must lie within 1e4 mm");
+      *error = InvalidValue(JoinPath(wheel_path, "parabola_vertex_mm"),
+                            "the parabola vertex must lie within 1e4 mm");
       return false;
     }
     s.wheel.cone_angle_rad = cone_angle_deg * kRadPerDeg;
@@ -216,17 +300,21 @@ nlohmann::json MachineSettingsToJson(const MachineSettings& settings) {
   nlohmann::json axes = nlohmann::json::object();
   for (int i = 0; i < kNumAxes; ++i) {
     nlohmann::json coefficients = nlohmann::json::array();
-    for (int k = 0; k < kCoefficientsPerAxis; ++k) coefficients.push_back(settings.axes[i][k]);
+    for (int k = 0; k < kCoefficientsPerAxis; ++k)
+      coefficients.push_back(settings.axes[i][k]);
     axes[kAxisNames[i]] = coefficients;
   }
   return {{"axes", axes},
           {"wheel",
            {{"cone_angle_deg", settings.wheel.cone_angle_rad / kRadPerDeg},
-            {"parabola_coefficient_per_mm", settings.wheel.parabola_coefficient_per_mm},
+            {"parabola_coefficient_per_mm",
+             settings.wheel.parabola_coefficient_per_mm},
             {"parabola_vertex_mm", settings.wheel.parabola_vertex_mm}}}};
 }
 
-const char* FlankName(Flank flank) { return flank == Flank::kLeft ? "left" : "right"; }
+const char* FlankName(Flank flank) {
+  return flank == Flank::kLeft ? "left" : "right";
+}
 
 std::string HandName(const GearData& gear) {
   if (gear.helix_angle_rad > 0.0) return "left";
@@ -235,19 +323,23 @@ std::string HandName(const GearData& gear) {
 }
 
 nlohmann::json GearToJson(const GearData& gear) {
-  nlohmann::json j = {{"teeth", gear.teeth},
-                      {"normal_module_mm", gear.normal_module_mm},
-                      {"normal_pressure_angle_deg", RoundTo1e9(gear.normal_pressure_angle_rad / kRadPerDeg)},
-                      {"helix_angle_deg", RoundTo1e9(std::fabs(gear.helix_angle_rad) / kRadPerDeg)},
-                      {"face_width_mm", gear.face_width_mm},
-                      {"tip_radius_mm", gear.tip_radius_mm},
-                      {"root_radius_mm", gear.root_radius_mm}};
+  nlohmann::json j = {
+      {"teeth", gear.teeth},
+      {"normal_module_mm", gear.normal_module_mm},
+      {"normal_pressure_angle_deg",
+       RoundTo1e9(gear.normal_pressure_angle_rad / kRadPerDeg)},
+      {"helix_angle_deg",
+       RoundTo1e9(std::fabs(gear.helix_angle_rad) / kRadPerDeg)},
+      {"face_width_mm", gear.face_width_mm},
+      {"tip_radius_mm", gear.tip_radius_mm},
+      {"root_radius_mm", gear.root_radius_mm}};
   const std::string hand = HandName(gear);
   if (!hand.empty()) j["hand"] = hand;
   return j;
 }
 
-nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& evaluation) {
+nlohmann::json EvaluationToJson(const FlankGrid& grid,
+                                const ModelEvaluation& evaluation) {
   std::vector<bool> present(grid.NumPoints());
   nlohmann::json not_reached = nlohmann::json::array();
   nlohmann::json points = nlohmann::json::array();
@@ -258,25 +350,34 @@ nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& ev
     if (present[i]) {
       ++reached;
     } else {
-      not_reached.push_back({{"row", p.row}, {"column", p.column}, {"status", PointStatusName(evaluation.status[i])}});
+      not_reached.push_back(
+          {{"row", p.row},
+           {"column", p.column},
+           {"status", PointStatusName(evaluation.status[i])}});
     }
-    points.push_back({{"row", p.row},
-                      {"column", p.column},
-                      {"roll_length_mm", p.roll_length_mm},
-                      {"radius_mm", p.radius_mm},
-                      {"x_mm", p.x_mm},
-                      {"position_mm", {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()}},
-                      {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}}});
+    points.push_back(
+        {{"row", p.row},
+         {"column", p.column},
+         {"roll_length_mm", p.roll_length_mm},
+         {"radius_mm", p.radius_mm},
+         {"x_mm", p.x_mm},
+         {"position_mm",
+          {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()}},
+         {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}}});
   }
-  return {{"rows", grid.rows},
-          {"columns", grid.columns},
-          {"deviations_um", GridToJson(evaluation.deviations_um, present, grid.rows, grid.columns)},
-          {"not_reached", not_reached},
-          {"reached", reached},
-          {"points", points}};
+  return {
+      {"rows", grid.rows},
+      {"columns", grid.columns},
+      {"deviations_um",
+       GridToJson(evaluation.deviations_um, present, grid.rows, grid.columns)},
+      {"not_reached", not_reached},
+      {"reached", reached},
+      {"points", points}};
 }
 
-nlohmann::json NominalToJson(const GrindingSetup& setup, const MachineSettings& nominal, double roll_min_rad,
+nlohmann::json NominalToJson(const GrindingSetup& setup,
+                             const MachineSettings& nominal,
+                             double roll_min_rad,
                              double roll_max_rad) {
   const GearData& g = setup.gear;
   return {{"settings", MachineSettingsToJson(nominal)},
@@ -284,27 +385,34 @@ nlohmann::json NominalToJson(const GrindingSetup& setup, const MachineSettings& 
           {"flank", FlankName(setup.flank)},
           {"pitch_radius_mm", g.PitchRadiusMm()},
           {"base_radius_mm", g.BaseRadiusMm()},
-          {"transverse_pressure_angle_deg", g.TransversePressureAngleRad() * kDegPerRad},
+          {"transverse_pressure_angle_deg",
+           g.TransversePressureAngleRad() * kDegPerRad},
           {"form_roll_length_mm", g.FormRollLengthMm()},
           {"tip_roll_length_mm", g.TipRollLengthMm()},
-          {"roll_range_deg", {roll_min_rad * kDegPerRad, roll_max_rad * kDegPerRad}}};
+          {"roll_range_deg",
+           {roll_min_rad * kDegPerRad, roll_max_rad * kDegPerRad}}};
 }
 
 namespace {
 
 nlohmann::json SensitivitySummaryToJson(const SensitivitySummary& s) {
   nlohmann::json values = nlohmann::json::array();
-  for (int i = 0; i < s.singular_values.size(); ++i) values.push_back(s.singular_values(i));
-  return nlohmann::json{{"singular_values", values},
-                        {"rank", s.rank},
-                        {"condition_number", std::isfinite(s.condition_number) ? nlohmann::json(s.condition_number)
-                                                                                : nlohmann::json(nullptr)}};
+  for (int i = 0; i < s.singular_values.size(); ++i)
+    values.push_back(s.singular_values(i));
+  return nlohmann::json{
+      {"singular_values", values},
+      {"rank", s.rank},
+      {"condition_number",
+       std::isfinite(s.condition_number) ? nlohmann::json(s.condition_number)
+                                         : nlohmann::json(nullptr)}};
 }
 
 }  // namespace
 
-nlohmann::json SensitivityToJson(const Eigen::MatrixXd& matrix, const SensitivitySummary& raw,
-                                 const SensitivitySummary& normalised, const FlankGrid& grid,
+nlohmann::json SensitivityToJson(const Eigen::MatrixXd& matrix,
+                                 const SensitivitySummary& raw,
+                                 const SensitivitySummary& normalised,
+                                 const FlankGrid& grid,
                                  const ModelEvaluation& evaluation) {
   nlohmann::json rows = nlohmann::json::array();
   for (int i = 0; i < matrix.rows(); ++i) {

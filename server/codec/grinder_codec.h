@@ -1,20 +1,22 @@
-// server/codec/grinder_codec.h: the flat-wheel grinder's request pieces (gear, wheel, machine,
-// grid, flank, settings) read from JSON into engine types, and the grinder's answers written back.
-// Pure mapping: the engine's own validation (ValidateSetup) is called, no model is evaluated.
+// server/codec/grinder_codec.h: the flat-wheel grinder's request pieces (gear,
+// wheel, machine, grid, flank, settings) read from JSON into engine types, and
+// the grinder's answers written back. Pure mapping: the engine's own validation
+// (ValidateSetup) is called, no model is evaluated.
 //
 //   GrindingSetup setup;
 //   ApiError error;
-//   if (!ParseGrindingSetup(body, &setup, &error)) return RespondError(res, error);
+//   if (!ParseGrindingSetup(body, &setup, &error)) return RespondError(res,
+//   error);
 //
-// Units: the API carries angles of the gear and the wheel profile in DEGREES (the engine in
-// radians), the helix angle unsigned with a hand ("left" -> beta > 0, MODEL.md §1), axis
-// coefficients as the machine takes them (X, Y, Z in mm, A, B, C in rad, per rad^k of roll).
+// Units: the API carries angles of the gear and the wheel profile in DEGREES
+// (the engine in radians), the helix angle unsigned with a hand ("left" -> beta
+// > 0, MODEL.md §1), axis coefficients as the machine takes them (X, Y, Z in
+// mm, A, B, C in rad, per rad^k of roll).
 #ifndef GEARLOOP_SERVER_CODEC_GRINDER_CODEC_H_
 #define GEARLOOP_SERVER_CODEC_GRINDER_CODEC_H_
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "engine/core/machine_model.h"
 #include "engine/core/sensitivity.h"
@@ -25,14 +27,17 @@
 
 namespace gearloop {
 
-// Reads "gear", "wheel", "machine" (optional, zeros), "grid" (optional, defaults), "flank"
-// (optional, "right") from `request` and validates them with the engine (ValidateSetup);
-// engine field names in the engine's issue are mapped to the API's (ApiFieldPath).
-bool ParseGrindingSetup(const nlohmann::json& request, GrindingSetup* setup, ApiError* error);
+// Reads "gear", "wheel", "machine" (optional, zeros), "grid" (optional,
+// defaults), "flank" (optional, "right") from `request` and validates them with
+// the engine (ValidateSetup); engine field names in the engine's issue are
+// mapped to the API's (ApiFieldPath).
+bool ParseGrindingSetup(const nlohmann::json& request,
+                        GrindingSetup* setup,
+                        ApiError* error);
 
-// Reads settings {"axes": {"X": [..7], ..., "C": [..]}, "wheel": {...}} found at `path` (for
-// error fields). Each axis takes 1..7 coefficients (missing higher orders are 0); "wheel" is
-// optional (a flat wheel).
+// Reads settings {"axes": {"X": [..7], ..., "C": [..]}, "wheel": {...}} found
+// at `path` (for error fields). Each axis takes 1..7 coefficients (missing
+// higher orders are 0); "wheel" is optional (a flat wheel).
 bool ParseMachineSettings(const nlohmann::json& settings,
                           const std::string& path,
                           MachineSettings* result,
@@ -41,9 +46,10 @@ bool ParseMachineSettings(const nlohmann::json& settings,
 // The settings in the API's shape (cone angle in degrees).
 nlohmann::json MachineSettingsToJson(const MachineSettings& settings);
 
-// Maps an engine field path ("gear.normal_pressure_angle_rad", "grid.profile_begin",
-// "settings.wheel.cone_angle_rad") to the API's name for it ("gear.normal_pressure_angle_deg",
-// "grid.profile_range[0]", "settings.wheel.cone_angle_deg"). Unknown paths pass unchanged.
+// Maps an engine field path ("gear.normal_pressure_angle_rad",
+// "grid.profile_begin", "settings.wheel.cone_angle_rad") to the API's name for
+// it ("gear.normal_pressure_angle_deg", "grid.profile_range[0]",
+// "settings.wheel.cone_angle_deg"). Unknown paths pass unchanged.
 std::string ApiFieldPath(const std::string& engine_field);
 
 // The API's view of the gear data ("helix_angle_deg" unsigned + "hand").
@@ -53,21 +59,24 @@ const char* FlankName(Flank flank);
 // "left" for beta > 0, "right" for beta < 0, "" for a spur gear.
 std::string HandName(const GearData& gear);
 
-// The evaluation of `settings` on the grid: "deviations_um" (null where not reached),
-// "not_reached" [{row, column, status}], "reached", and "points" [{row, column,
-// roll_length_mm, radius_mm, x_mm, position_mm [3], normal [3]}] in row-major order.
-nlohmann::json EvaluationToJson(const FlankGrid& grid, const ModelEvaluation& evaluation);
+// The evaluation of `settings` on the grid: "deviations_um" (null where not
+// reached), "not_reached" [{row, column, status}], "reached", and "points"
+// [{row, column, roll_length_mm, radius_mm, x_mm, position_mm [3], normal [3]}]
+// in row-major order.
+nlohmann::json EvaluationToJson(const FlankGrid& grid,
+                                const ModelEvaluation& evaluation);
 
-// POST /api/v1/nominal's answer: the nominal settings, the gear, the flank, its radii and roll
-// lengths and the roll range [deg] of the grid.
+// POST /api/v1/nominal's answer: the nominal settings, the gear, the flank, its
+// radii and roll lengths and the roll range [deg] of the grid.
 nlohmann::json NominalToJson(const GrindingSetup& setup,
                              const MachineSettings& nominal,
                              double roll_min_rad,
                              double roll_max_rad);
 
-// POST /api/v1/sensitivity's answer: the Jacobian `matrix_um` (cone-angle column per degree, as
-// the API quotes it), its parameter names and units, the raw and the column-normalised singular
-// values, rank and condition number, its size, and the points not reached.
+// POST /api/v1/sensitivity's answer: the Jacobian `matrix_um` (cone-angle
+// column per degree, as the API quotes it), its parameter names and units, the
+// raw and the column-normalised singular values, rank and condition number, its
+// size, and the points not reached.
 nlohmann::json SensitivityToJson(const Eigen::MatrixXd& matrix_um,
                                  const SensitivitySummary& raw,
                                  const SensitivitySummary& normalised,

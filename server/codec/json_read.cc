@@ -15,9 +15,13 @@ std::string TypeName(const nlohmann::json& value) {
   return "an object";
 }
 
-bool NumberFromJson(const nlohmann::json& value, const std::string& path, double* out, ApiError* error) {
+bool NumberFromJson(const nlohmann::json& value,
+                    const std::string& path,
+                    double* out,
+                    ApiError* error) {
   if (!value.is_number()) {
-    *error = InvalidRequest(path, path + " must be a number, got " + TypeName(value));
+    *error = InvalidRequest(path,
+                            path + " must be a number, got " + TypeName(value));
     return false;
   }
   const double number = value.get<double>();
@@ -31,8 +35,8 @@ bool NumberFromJson(const nlohmann::json& value, const std::string& path, double
 
 namespace {
 
-// Depth of nesting of arrays and objects, counted without parsing (strings skipped), so a
-// hostile "[[[[..." never reaches the parser.
+// Depth of nesting of arrays and objects, counted without parsing (strings
+// skipped), so a hostile "[[[[..." never reaches the parser.
 int JsonNestingDepth(const std::string& text) {
   int depth = 0;
   int max_depth = 0;
@@ -60,7 +64,10 @@ int JsonNestingDepth(const std::string& text) {
   return max_depth;
 }
 
-bool IntegerFromJson(const nlohmann::json& v, const std::string& field, long long* value, ApiError* error) {
+bool IntegerFromJson(const nlohmann::json& v,
+                     const std::string& field,
+                     long long* value,
+                     ApiError* error) {
   if (v.is_number_integer()) {
     // Unsigned values above the signed range arrive as number_unsigned.
     if (v.is_number_unsigned() && v.get<unsigned long long>() > 1000000000ULL) {
@@ -80,13 +87,15 @@ bool IntegerFromJson(const nlohmann::json& v, const std::string& field, long lon
     *error = InvalidRequest(field, field + " must be an integer");
     return false;
   }
-  *error = InvalidRequest(field, field + " must be an integer, got " + TypeName(v));
+  *error =
+      InvalidRequest(field, field + " must be an integer, got " + TypeName(v));
   return false;
 }
 
-// Shared head of the Read* functions: sets *found (if given) to whether `key` is present; an
-// absent optional field leaves the value at its default and succeeds, an absent required one
-// fails with "missing required field". A present one goes to read_value(value, field).
+// Shared head of the Read* functions: sets *found (if given) to whether `key`
+// is present; an absent optional field leaves the value at its default and
+// succeeds, an absent required one fails with "missing required field". A
+// present one goes to read_value(value, field).
 template <typename ReadValue>
 bool ReadField(const nlohmann::json& object,
                const std::string& path,
@@ -118,27 +127,38 @@ bool ReadRange(const nlohmann::json& object,
   if (!object.contains(key)) return true;  // defaults stay
   const nlohmann::json& value = object.at(key);
   if (!value.is_array() || value.size() != 2) {
-    *error = InvalidRequest(field, field + " must be an array of two numbers [begin, end]");
+    *error = InvalidRequest(
+        field, field + " must be an array of two numbers [begin, end]");
     return false;
   }
   return NumberFromJson(value[0], field + "[0]", begin, error) &&
          NumberFromJson(value[1], field + "[1]", end, error);
 }
 
-bool RequireObject(const nlohmann::json& request, const std::string& path, const char* key, bool required,
-                   const nlohmann::json** out, ApiError* error) {
+bool RequireObject(const nlohmann::json& request,
+                   const std::string& path,
+                   const char* key,
+                   bool required,
+                   const nlohmann::json** out,
+                   ApiError* error) {
   *out = nullptr;
-  return ReadField(request, path, key, required, error, /*found=*/nullptr,
-                   [&](const nlohmann::json& value, const std::string& field) {
-                     if (!value.is_object()) {
-                       *error = InvalidRequest(field, field + " must be an object, got " + TypeName(value));
-                       return false;
-                     }
-                     *out = &value;
-                     return true;
-                   });
+  return ReadField(
+      request,
+      path,
+      key,
+      required,
+      error,
+      /*found=*/nullptr,
+      [&](const nlohmann::json& value, const std::string& field) {
+        if (!value.is_object()) {
+          *error = InvalidRequest(
+              field, field + " must be an object, got " + TypeName(value));
+          return false;
+        }
+        *out = &value;
+        return true;
+      });
 }
-
 
 std::string JoinPath(const std::string& path, const std::string& key) {
   return path.empty() ? key : path + "." + key;
@@ -153,17 +173,27 @@ ApiError InvalidValue(const std::string& field, const std::string& message) {
 }
 
 nlohmann::json ErrorBody(const ApiError& error) {
-  return {{"error", {{"code", error.code}, {"message", error.message}, {"field", error.field}}}};
+  return {{"error",
+           {{"code", error.code},
+            {"message", error.message},
+            {"field", error.field}}}};
 }
 
-bool ParseJsonBody(const std::string& text, nlohmann::json* body, ApiError* error) {
+bool ParseJsonBody(const std::string& text,
+                   nlohmann::json* body,
+                   ApiError* error) {
   if (JsonNestingDepth(text) > kMaxJsonDepth) {
-    *error = ApiError{400, "invalid_json",
-                      "the body nests arrays or objects deeper than " + std::to_string(kMaxJsonDepth) + " levels", ""};
+    *error = ApiError{400,
+                      "invalid_json",
+                      "the body nests arrays or objects deeper than " +
+                          std::to_string(kMaxJsonDepth) + " levels",
+                      ""};
     return false;
   }
-  // Parse without exceptions; nlohmann refuses NaN, Infinity and invalid UTF-8 in strings.
-  nlohmann::json parsed = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  // Parse without exceptions; nlohmann refuses NaN, Infinity and invalid UTF-8
+  // in strings.
+  nlohmann::json parsed =
+      nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (parsed.is_discarded()) {
     // Parse again with exceptions only for the message (position of the fault).
     std::string message = "the body is not valid JSON";
@@ -177,49 +207,98 @@ bool ParseJsonBody(const std::string& text, nlohmann::json* body, ApiError* erro
     return false;
   }
   if (!parsed.is_object()) {
-    *error = InvalidRequest("", "the body must be a JSON object, got " + TypeName(parsed));
+    *error = InvalidRequest(
+        "", "the body must be a JSON object, got " + TypeName(parsed));
     return false;
   }
   *body = std::move(parsed);
   return true;
 }
 
-bool ReadNumber(const nlohmann::json& object, const std::string& path, const char* key, bool required, double* value,
-                ApiError* error, bool* found) {
-  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
-    return NumberFromJson(v, field, value, error);
-  });
+bool ReadNumber(const nlohmann::json& object,
+                const std::string& path,
+                const char* key,
+                bool required,
+                double* value,
+                ApiError* error,
+                bool* found) {
+  return ReadField(object,
+                   path,
+                   key,
+                   required,
+                   error,
+                   found,
+                   [&](const nlohmann::json& v, const std::string& field) {
+                     return NumberFromJson(v, field, value, error);
+                   });
 }
 
-bool ReadInteger(const nlohmann::json& object, const std::string& path, const char* key, bool required,
-                 long long* value, ApiError* error, bool* found) {
-  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
-    return IntegerFromJson(v, field, value, error);
-  });
+bool ReadInteger(const nlohmann::json& object,
+                 const std::string& path,
+                 const char* key,
+                 bool required,
+                 long long* value,
+                 ApiError* error,
+                 bool* found) {
+  return ReadField(object,
+                   path,
+                   key,
+                   required,
+                   error,
+                   found,
+                   [&](const nlohmann::json& v, const std::string& field) {
+                     return IntegerFromJson(v, field, value, error);
+                   });
 }
 
-bool ReadString(const nlohmann::json& object, const std::string& path, const char* key, bool required,
-                std::string* value, ApiError* error, bool* found) {
-  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
-    if (!v.is_string()) {
-      *error = InvalidRequest(field, field + " must be a string, got " + TypeName(v));
-      return false;
-    }
-    *value = v.get<std::string>();
-    return true;
-  });
+bool ReadString(const nlohmann::json& object,
+                const std::string& path,
+                const char* key,
+                bool required,
+                std::string* value,
+                ApiError* error,
+                bool* found) {
+  return ReadField(object,
+                   path,
+                   key,
+                   required,
+                   error,
+                   found,
+                   [&](const nlohmann::json& v, const std::string& field) {
+                     if (!v.is_string()) {
+                       *error = InvalidRequest(
+                           field,
+                           field + " must be a string, got " + TypeName(v));
+                       return false;
+                     }
+                     *value = v.get<std::string>();
+                     return true;
+                   });
 }
 
-bool ReadBool(const nlohmann::json& object, const std::string& path, const char* key, bool required, bool* value,
-              ApiError* error, bool* found) {
-  return ReadField(object, path, key, required, error, found, [&](const nlohmann::json& v, const std::string& field) {
-    if (!v.is_boolean()) {
-      *error = InvalidRequest(field, field + " must be true or false, got " + TypeName(v));
-      return false;
-    }
-    *value = v.get<bool>();
-    return true;
-  });
+bool ReadBool(const nlohmann::json& object,
+              const std::string& path,
+              const char* key,
+              bool required,
+              bool* value,
+              ApiError* error,
+              bool* found) {
+  return ReadField(
+      object,
+      path,
+      key,
+      required,
+      error,
+      found,
+      [&](const nlohmann::json& v, const std::string& field) {
+        if (!v.is_boolean()) {
+          *error = InvalidRequest(
+              field, field + " must be true or false, got " + TypeName(v));
+          return false;
+        }
+        *value = v.get<bool>();
+        return true;
+      });
 }
 
 bool ReadCoefficient(const nlohmann::json& value,
@@ -241,11 +320,19 @@ bool ReadCoefficient(const nlohmann::json& value,
   return true;
 }
 
-
-bool ParseGridValues(const nlohmann::json& value, const std::string& path, int rows, int columns, bool allow_null,
-                     Eigen::VectorXd* values, std::vector<bool>* present, ApiError* error) {
+bool ParseGridValues(const nlohmann::json& value,
+                     const std::string& path,
+                     int rows,
+                     int columns,
+                     bool allow_null,
+                     Eigen::VectorXd* values,
+                     std::vector<bool>* present,
+                     ApiError* error) {
   if (!value.is_array() || static_cast<int>(value.size()) != rows) {
-    *error = InvalidRequest(path, path + " must be an array of " + std::to_string(rows) + " rows (the grid's profile_points)");
+    *error =
+        InvalidRequest(path,
+                       path + " must be an array of " + std::to_string(rows) +
+                           " rows (the grid's profile_points)");
     return false;
   }
   values->setZero(rows * columns);
@@ -254,8 +341,10 @@ bool ParseGridValues(const nlohmann::json& value, const std::string& path, int r
     const std::string row_path = path + "[" + std::to_string(r) + "]";
     const nlohmann::json& row = value[r];
     if (!row.is_array() || static_cast<int>(row.size()) != columns) {
-      *error = InvalidRequest(row_path, row_path + " must be an array of " + std::to_string(columns) +
-                                            " numbers (the grid's lead_points)");
+      *error = InvalidRequest(row_path,
+                              row_path + " must be an array of " +
+                                  std::to_string(columns) +
+                                  " numbers (the grid's lead_points)");
       return false;
     }
     for (int c = 0; c < columns; ++c) {
@@ -263,7 +352,8 @@ bool ParseGridValues(const nlohmann::json& value, const std::string& path, int r
       const nlohmann::json& entry = row[c];
       if (entry.is_null()) {
         if (!allow_null) {
-          *error = InvalidRequest(entry_path, entry_path + " must be a number, got null");
+          *error = InvalidRequest(entry_path,
+                                  entry_path + " must be a number, got null");
           return false;
         }
         (*present)[r * columns + c] = false;
@@ -272,7 +362,10 @@ bool ParseGridValues(const nlohmann::json& value, const std::string& path, int r
       double number = 0.0;
       if (!NumberFromJson(entry, entry_path, &number, error)) return false;
       if (std::fabs(number) > 1e6) {
-        *error = InvalidValue(entry_path, entry_path + " is beyond 1 m of deviation; deviations are in micrometres");
+        *error = InvalidValue(
+            entry_path,
+            entry_path +
+                " is beyond 1 m of deviation; deviations are in micrometres");
         return false;
       }
       (*values)(r * columns + c) = number;
@@ -281,13 +374,17 @@ bool ParseGridValues(const nlohmann::json& value, const std::string& path, int r
   return true;
 }
 
-nlohmann::json GridToJson(const Eigen::VectorXd& values, const std::vector<bool>& present, int rows, int columns) {
+nlohmann::json GridToJson(const Eigen::VectorXd& values,
+                          const std::vector<bool>& present,
+                          int rows,
+                          int columns) {
   nlohmann::json grid = nlohmann::json::array();
   for (int r = 0; r < rows; ++r) {
     nlohmann::json row = nlohmann::json::array();
     for (int c = 0; c < columns; ++c) {
       const int i = r * columns + c;
-      const bool ok = (present.empty() || present[i]) && i < values.size() && std::isfinite(values(i));
+      const bool ok = (present.empty() || present[i]) && i < values.size() &&
+                      std::isfinite(values(i));
       row.push_back(ok ? nlohmann::json(values(i)) : nlohmann::json(nullptr));
     }
     grid.push_back(row);

@@ -5,27 +5,34 @@
 namespace gearloop {
 namespace {
 
-// The words of the refusal are the grinder's, as before the server knew other families: an
-// unknown kind, or a bevel kind on a grinder endpoint.
+// The words of the refusal are the grinder's, as before the server knew other
+// families: an unknown kind, or a bevel kind on a grinder endpoint.
 ApiError UnknownKind(const std::string& kind) {
-  return InvalidValue("machine.kind", "machine.kind \"" + kind + "\" is not known; this server has \"" +
-                                          kFlatWheelGrinderKind + "\"");
+  return InvalidValue("machine.kind",
+                      "machine.kind \"" + kind +
+                          "\" is not known; this server has \"" +
+                          kFlatWheelGrinderKind + "\"");
 }
 
 }  // namespace
 
 const char* MachineKindName(MachineKind kind) {
-  return kind == MachineKind::kFreeFormBevelGenerator ? kFreeFormBevelGeneratorKind : kFlatWheelGrinderKind;
+  return kind == MachineKind::kFreeFormBevelGenerator
+             ? kFreeFormBevelGeneratorKind
+             : kFlatWheelGrinderKind;
 }
 
-bool ReadMachineKind(const nlohmann::json& body, MachineKind* kind, ApiError* error) {
+bool ReadMachineKind(const nlohmann::json& body,
+                     MachineKind* kind,
+                     ApiError* error) {
   *kind = MachineKind::kFlatWheelGrinder;
   const nlohmann::json* machine = nullptr;
   if (!RequireObject(body, "", "machine", false, &machine, error)) return false;
   if (machine == nullptr) return true;
   std::string name;
   bool found = false;
-  if (!ReadString(*machine, "machine", "kind", false, &name, error, &found)) return false;
+  if (!ReadString(*machine, "machine", "kind", false, &name, error, &found))
+    return false;
   if (!found || name == kFlatWheelGrinderKind) return true;
   if (name == kFreeFormBevelGeneratorKind) {
     *kind = MachineKind::kFreeFormBevelGenerator;

@@ -6,7 +6,8 @@
 namespace gearloop {
 
 BatchRunner::BatchRunner(int workers, Work work) : work_(std::move(work)) {
-  for (int i = 0; i < std::max(1, workers); ++i) threads_.emplace_back([this] { Loop(); });
+  for (int i = 0; i < std::max(1, workers); ++i)
+    threads_.emplace_back([this] { Loop(); });
 }
 
 BatchRunner::~BatchRunner() { Stop(); }

@@ -1,11 +1,13 @@
-// server/http/batch_runner.h: a bounded pool of background workers for batch items. Items wait
-// in memory; they are also pending rows in the database, so a stop loses nothing: the next start
-// enqueues them again.
+// server/http/batch_runner.h: a bounded pool of background workers for batch
+// items. Items wait in memory; they are also pending rows in the database, so a
+// stop loses nothing: the next start enqueues them again.
 //
-//   BatchRunner batches(/*workers=*/2, [&](const PendingBatchItem& item) { RunBatchItem(context, item); });
+//   BatchRunner batches(/*workers=*/2, [&](const PendingBatchItem& item) {
+//   RunBatchItem(context, item); });
 //   batches.Enqueue(repository->ReadPendingBatchItems());
 //   ...
-//   batches.Stop();   // the items in hand are finished, waiting ones stay pending
+//   batches.Stop();   // the items in hand are finished, waiting ones stay
+//   pending
 #ifndef GEARLOOP_SERVER_HTTP_BATCH_RUNNER_H_
 #define GEARLOOP_SERVER_HTTP_BATCH_RUNNER_H_
 
@@ -34,8 +36,8 @@ class BatchRunner {
   void Enqueue(std::vector<PendingBatchItem> items);
   // Items waiting for a worker.
   size_t Queued() const;
-  // Workers finish the item in hand and leave; waiting items are dropped (they stay pending in
-  // the database). Idempotent.
+  // Workers finish the item in hand and leave; waiting items are dropped (they
+  // stay pending in the database). Idempotent.
   void Stop();
 
  private:

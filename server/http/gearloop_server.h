@@ -1,20 +1,22 @@
-// server/http/gearloop_server.h: the gearloop HTTP server (API.md, api/openapi.yaml): cpp-httplib
-// routes, one thin handler per endpoint (parse -> validate -> engine -> persist -> respond), the
-// SQLite job history, a bounded background pool for batches, metrics and the access log.
+// server/http/gearloop_server.h: the gearloop HTTP server (API.md,
+// api/openapi.yaml): cpp-httplib routes, one thin handler per endpoint (parse
+// -> validate -> engine -> persist -> respond), the SQLite job history, a
+// bounded background pool for batches, metrics and the access log.
 //
 //   ServerOptions options;
-//   options.port = 0;                              // ephemeral; see port() after Bind()
-//   options.database_path = "/tmp/gearloop.sqlite";
-//   GearloopServer server(options);                // opens and migrates the database
-//   if (server.Bind() < 0) { ... }
-//   std::thread serving([&] { server.Serve(); });  // blocks until Stop()
+//   options.port = 0;                              // ephemeral; see port()
+//   after Bind() options.database_path = "/tmp/gearloop.sqlite"; GearloopServer
+//   server(options);                // opens and migrates the database if
+//   (server.Bind() < 0) { ... } std::thread serving([&] { server.Serve(); });
+//   // blocks until Stop()
 //   ...
-//   server.Stop();                                 // in-flight requests finish first
-//   serving.join();
+//   server.Stop();                                 // in-flight requests finish
+//   first serving.join();
 //
-// Durability: a correction is answered 201 only after its job is committed; a batch is
-// answered 202 only after all its items are committed as pending, and pending items are picked
-// up again when the server starts, so no acknowledged work is lost by a stop or a crash.
+// Durability: a correction is answered 201 only after its job is committed; a
+// batch is answered 202 only after all its items are committed as pending, and
+// pending items are picked up again when the server starts, so no acknowledged
+// work is lost by a stop or a crash.
 #ifndef GEARLOOP_SERVER_HTTP_GEARLOOP_SERVER_H_
 #define GEARLOOP_SERVER_HTTP_GEARLOOP_SERVER_H_
 
@@ -25,14 +27,16 @@
 namespace gearloop {
 
 struct ServerOptions {
-  // Address to listen on. Without a token file only loopback addresses are allowed.
+  // Address to listen on. Without a token file only loopback addresses are
+  // allowed.
   std::string host = "127.0.0.1";
   // TCP port; 0 picks a free one (read it from port() after Bind()).
   int port = 8080;
   // SQLite file of the job history (":memory:" for a throwaway one).
   std::string database_path = "./gearloop.sqlite";
-  // HTTP worker threads (0 = four per hardware thread, at least 16). cpp-httplib holds a thread
-  // per open keep-alive connection, so this bounds the clients served at once, not the CPU use.
+  // HTTP worker threads (0 = four per hardware thread, at least 16).
+  // cpp-httplib holds a thread per open keep-alive connection, so this bounds
+  // the clients served at once, not the CPU use.
   int threads = 0;
   // Background workers running batch items.
   int batch_workers = 1;
@@ -41,7 +45,8 @@ struct ServerOptions {
   // Most items in one batch, and most batch items waiting at once (503 beyond).
   int max_batch_items = 1000;
   int max_queued_batch_items = 20000;
-  // Token file of issue 7 ("<role> <sha256-hex> [name]" per line); empty = no tokens.
+  // Token file of issue 7 ("<role> <sha256-hex> [name]" per line); empty = no
+  // tokens.
   std::string token_file;
   // One access-log line per request (method, path, status, ms) through glog.
   bool access_log = true;
@@ -54,19 +59,20 @@ const char* ServerVersion();
 
 class GearloopServer {
  public:
-  // Opens (and migrates) the database and loads the token file. Throws std::runtime_error
-  // (StorageError for the database) when either fails, or when tokens are off and the host is
-  // not a loopback address.
+  // Opens (and migrates) the database and loads the token file. Throws
+  // std::runtime_error (StorageError for the database) when either fails, or
+  // when tokens are off and the host is not a loopback address.
   explicit GearloopServer(const ServerOptions& options);
   ~GearloopServer();
   GearloopServer(const GearloopServer&) = delete;
   GearloopServer& operator=(const GearloopServer&) = delete;
 
-  // Binds the listening socket; returns the bound port, or -1 when the address is unusable.
+  // Binds the listening socket; returns the bound port, or -1 when the address
+  // is unusable.
   int Bind();
-  // Serves requests until Stop(); returns after in-flight requests have been answered. Bind()
-  // must have succeeded. Batch workers stop with it (their current item is finished; waiting
-  // items stay pending in the database).
+  // Serves requests until Stop(); returns after in-flight requests have been
+  // answered. Bind() must have succeeded. Batch workers stop with it (their
+  // current item is finished; waiting items stay pending in the database).
   void Serve();
   // Asks Serve() to return; callable from any thread, any number of times.
   void Stop();

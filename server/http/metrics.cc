@@ -11,7 +11,8 @@ std::string FormatDouble(double value) {
   return buffer;
 }
 
-// Label values are route patterns of our own, but escape anyway as the format requires.
+// Label values are route patterns of our own, but escape anyway as the format
+// requires.
 std::string EscapeLabel(const std::string& value) {
   std::string out;
   for (char c : value) {
@@ -40,18 +41,22 @@ void Metrics::Histogram::Add(double seconds) {
   sum_seconds += seconds;
 }
 
-void Metrics::Histogram::Render(const std::string& name, std::string* out) const {
+void Metrics::Histogram::Render(const std::string& name,
+                                std::string* out) const {
   uint64_t cumulative = 0;
   for (size_t i = 0; i < kBucketsSeconds.size(); ++i) {
     cumulative += buckets[i];
-    *out += name + "_bucket{le=\"" + FormatDouble(kBucketsSeconds[i]) + "\"} " + std::to_string(cumulative) + "\n";
+    *out += name + "_bucket{le=\"" + FormatDouble(kBucketsSeconds[i]) + "\"} " +
+            std::to_string(cumulative) + "\n";
   }
   *out += name + "_bucket{le=\"+Inf\"} " + std::to_string(count) + "\n";
   *out += name + "_sum " + FormatDouble(sum_seconds) + "\n";
   *out += name + "_count " + std::to_string(count) + "\n";
 }
 
-void Metrics::RecordRequest(const std::string& route, int status, double seconds) {
+void Metrics::RecordRequest(const std::string& route,
+                            int status,
+                            double seconds) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++requests_[{route, status}];
   request_duration_.Add(seconds);
@@ -62,27 +67,37 @@ void Metrics::RecordSolve(double seconds) {
   solver_duration_.Add(seconds);
 }
 
-std::string Metrics::Render(int64_t jobs_stored, int64_t batch_items_queued) const {
+std::string Metrics::Render(int64_t jobs_stored,
+                            int64_t batch_items_queued) const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::string out;
-  out += "# HELP gearloop_http_requests_total HTTP requests answered, by route pattern and status.\n";
+  out +=
+      "# HELP gearloop_http_requests_total HTTP requests answered, by route "
+      "pattern and status.\n";
   out += "# TYPE gearloop_http_requests_total counter\n";
   for (const auto& [key, count] : requests_) {
-    out += "gearloop_http_requests_total{route=\"" + EscapeLabel(key.first) + "\",status=\"" +
-           std::to_string(key.second) + "\"} " + std::to_string(count) + "\n";
+    out += "gearloop_http_requests_total{route=\"" + EscapeLabel(key.first) +
+           "\",status=\"" + std::to_string(key.second) + "\"} " +
+           std::to_string(count) + "\n";
   }
-  out += "# HELP gearloop_http_request_duration_seconds Time from the request line to the response.\n";
+  out +=
+      "# HELP gearloop_http_request_duration_seconds Time from the request "
+      "line to the response.\n";
   out += "# TYPE gearloop_http_request_duration_seconds histogram\n";
   request_duration_.Render("gearloop_http_request_duration_seconds", &out);
-  out += "# HELP gearloop_solver_duration_seconds Time spent in correction solves.\n";
+  out +=
+      "# HELP gearloop_solver_duration_seconds Time spent in correction "
+      "solves.\n";
   out += "# TYPE gearloop_solver_duration_seconds histogram\n";
   solver_duration_.Render("gearloop_solver_duration_seconds", &out);
   out += "# HELP gearloop_jobs_stored Correction jobs in the history.\n";
   out += "# TYPE gearloop_jobs_stored gauge\n";
   out += "gearloop_jobs_stored " + std::to_string(jobs_stored) + "\n";
-  out += "# HELP gearloop_batch_items_queued Batch items waiting for a worker.\n";
+  out +=
+      "# HELP gearloop_batch_items_queued Batch items waiting for a worker.\n";
   out += "# TYPE gearloop_batch_items_queued gauge\n";
-  out += "gearloop_batch_items_queued " + std::to_string(batch_items_queued) + "\n";
+  out += "gearloop_batch_items_queued " + std::to_string(batch_items_queued) +
+         "\n";
   return out;
 }
 

@@ -17,22 +17,35 @@
 namespace gearloop {
 namespace {
 
-// Parses the whole request: the machine (its family decides which fields), then measurement,
-// target, options and the lineage link. Target modifications are evaluated on the family's flank.
-bool ParseCorrection(const nlohmann::json& body, CorrectionProblem* problem, CorrectionRequest* request,
+// Parses the whole request: the machine (its family decides which fields), then
+// measurement, target, options and the lineage link. Target modifications are
+// evaluated on the family's flank.
+bool ParseCorrection(const nlohmann::json& body,
+                     CorrectionProblem* problem,
+                     CorrectionRequest* request,
                      ApiError* error) {
   if (!CorrectionProblemFor(body, problem, error) ||
-      !ParseCorrectionRequest(body, problem->rows, problem->columns,
-                              /*target_modifications_allowed=*/static_cast<bool>(problem->evaluate_modifications),
-                              request, error)) {
+      !ParseCorrectionRequest(
+          body,
+          problem->rows,
+          problem->columns,
+          /*target_modifications_allowed=*/
+          static_cast<bool>(problem->evaluate_modifications),
+          request,
+          error)) {
     return false;
   }
-  if (request->target_modifications) request->target_um = problem->evaluate_modifications(*request->target_modifications);
+  if (request->target_modifications)
+    request->target_um =
+        problem->evaluate_modifications(*request->target_modifications);
   return true;
 }
 
 // The engine call and its result as answered and stored.
-bool Solve(const CorrectionProblem& problem, const CorrectionRequest& request, CorrectionRun* run, ApiError* error) {
+bool Solve(const CorrectionProblem& problem,
+           const CorrectionRequest& request,
+           CorrectionRun* run,
+           ApiError* error) {
   const auto start = std::chrono::steady_clock::now();
   CorrectionInput input;
   input.model = problem.model.get();
@@ -41,25 +54,37 @@ bool Solve(const CorrectionProblem& problem, const CorrectionRequest& request, C
   input.measured_teeth_um = request.measured_teeth_um;
   input.target_um = request.target_um;
   run->result = ComputeCorrection(request.options, input);
-  run->solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  run->solve_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   const CorrectionSummary& s = run->result.summary;
   if (s.status == CorrectionStatus::kInvalidInput) {
-    *error = InvalidValue("measurement", "the correction cannot be computed: " + s.message);
+    *error = InvalidValue("measurement",
+                          "the correction cannot be computed: " + s.message);
     return false;
   }
-  // The answer shows the grid the solver corrected: several teeth as their point-wise mean.
+  // The answer shows the grid the solver corrected: several teeth as their
+  // point-wise mean.
   const Eigen::VectorXd measured_um =
-      request.measured_teeth_um.empty() ? request.measured_um : AverageTeeth(request.measured_teeth_um);
-  run->result_json = CorrectionResultJson(problem, s, problem.current_parameters,
-                                          CorrectionStep{run->result.parameters, run->result.delta},
-                                          run->result.predicted_residual_um, run->result.predicted_change_um,
-                                          measured_um, request.target_um);
+      request.measured_teeth_um.empty()
+          ? request.measured_um
+          : AverageTeeth(request.measured_teeth_um);
+  run->result_json = CorrectionResultJson(
+      problem,
+      s,
+      problem.current_parameters,
+      CorrectionStep{run->result.parameters, run->result.delta},
+      run->result.predicted_residual_um,
+      run->result.predicted_change_um,
+      measured_um,
+      request.target_um);
   JobRecord& job = run->job;
   job.status = CorrectionStatusName(s.status);
   problem.job_summary_columns(&job);
   job.result_json = run->result_json.dump();
   if (std::isfinite(s.residual_rms_um)) job.residual_rms_um = s.residual_rms_um;
-  if (std::isfinite(s.best_reachable_rms_um)) job.best_reachable_rms_um = s.best_reachable_rms_um;
+  if (std::isfinite(s.best_reachable_rms_um))
+    job.best_reachable_rms_um = s.best_reachable_rms_um;
   job.rank = s.rank;
   job.elapsed_ms = run->solve_seconds * 1e3;
   job.settings_source_job_id = request.settings_source_job_id;
@@ -67,8 +92,12 @@ bool Solve(const CorrectionProblem& problem, const CorrectionRequest& request, C
 }
 
 // Stores a solved job of `kind` for `request_json` and answers 201 with it.
-void StoreAndRespond(const ServiceContext& context, const char* kind, std::string request_json,
-                     std::optional<int64_t> parent_job_id, CorrectionRun* run, httplib::Response& res) {
+void StoreAndRespond(const ServiceContext& context,
+                     const char* kind,
+                     std::string request_json,
+                     std::optional<int64_t> parent_job_id,
+                     CorrectionRun* run,
+                     httplib::Response& res) {
   JobRecord& job = run->job;
   job.kind = kind;
   job.created_utc = CurrentUtcIso8601();
@@ -77,7 +106,9 @@ void StoreAndRespond(const ServiceContext& context, const char* kind, std::strin
   job.parent_job_id = parent_job_id;
   job.id = context.repository->WriteJob(job);
   // The engine is silent; the server tells what the solver did (STYLE.md).
-  if (context.log_solves) LOG(INFO) << "job " << job.id << " (" << job.kind << "): " << run->result.summary.BriefReport();
+  if (context.log_solves)
+    LOG(INFO) << "job " << job.id << " (" << job.kind
+              << "): " << run->result.summary.BriefReport();
   res.set_header("Location", JobLocation(job.id));
   RespondJson(res, 201, CreatedJobJson(job, run->result_json));
 }
@@ -88,81 +119,117 @@ ApiError NoStoredJob(const std::string& id_text) {
 
 }  // namespace
 
-nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem, const Eigen::VectorXd& delta,
+nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
+                                        const Eigen::VectorXd& delta,
                                         const CorrectionSummary& summary) {
-  return AxisMotionToJson(
-      ComputeAxisMotion(problem.model->ParameterBlocks(), delta, summary.roll_min_rad, summary.roll_max_rad));
+  return AxisMotionToJson(ComputeAxisMotion(problem.model->ParameterBlocks(),
+                                            delta,
+                                            summary.roll_min_rad,
+                                            summary.roll_max_rad));
 }
 
-nlohmann::json CorrectionResultJson(const CorrectionProblem& problem, const CorrectionSummary& summary,
-                                    const Eigen::VectorXd& commanded, const std::optional<CorrectionStep>& step,
-                                    const Eigen::VectorXd& predicted_residual_um,
-                                    const Eigen::VectorXd& predicted_change_um, const Eigen::VectorXd& measured_um,
-                                    const Eigen::VectorXd& target_um) {
+nlohmann::json CorrectionResultJson(
+    const CorrectionProblem& problem,
+    const CorrectionSummary& summary,
+    const Eigen::VectorXd& commanded,
+    const std::optional<CorrectionStep>& step,
+    const Eigen::VectorXd& predicted_residual_um,
+    const Eigen::VectorXd& predicted_change_um,
+    const Eigen::VectorXd& measured_um,
+    const Eigen::VectorXd& target_um) {
   const int rows = problem.rows;
   const int columns = problem.columns;
   nlohmann::json result = CorrectionSummaryToJson(summary, columns);
   const nlohmann::json header = problem.result_header(commanded);
   for (const auto& item : header.items()) result[item.key()] = item.value();
   if (step) {
-    result[problem.parameters_key] = problem.parameters_to_json(step->parameters);
+    result[problem.parameters_key] =
+        problem.parameters_to_json(step->parameters);
     result["delta"] = problem.delta_to_json(step->delta);
-    result["axis_motion"] = CorrectionAxisMotionJson(problem, step->delta, summary);
+    result["axis_motion"] =
+        CorrectionAxisMotionJson(problem, step->delta, summary);
   }
-  result["predicted_residual_um"] = GridToJson(predicted_residual_um, {}, rows, columns);
-  result["predicted_change_um"] = GridToJson(predicted_change_um, {}, rows, columns);
+  result["predicted_residual_um"] =
+      GridToJson(predicted_residual_um, {}, rows, columns);
+  result["predicted_change_um"] =
+      GridToJson(predicted_change_um, {}, rows, columns);
   result["measured_um"] = GridToJson(measured_um, {}, rows, columns);
   result["target_um"] = GridToJson(target_um, {}, rows, columns);
   return result;
 }
 
-bool RunCorrection(const ServiceContext& context, const nlohmann::json& body, CorrectionRun* run, ApiError* error) {
+bool RunCorrection(const ServiceContext& context,
+                   const nlohmann::json& body,
+                   CorrectionRun* run,
+                   ApiError* error) {
   CorrectionProblem problem;
   CorrectionRequest request;
   if (!ParseCorrection(body, &problem, &request, error)) return false;
-  if (request.settings_source_job_id && !context.repository->JobExists(*request.settings_source_job_id)) {
-    *error = InvalidValue("settings_source_job_id", "no stored job " + std::to_string(*request.settings_source_job_id));
+  if (request.settings_source_job_id &&
+      !context.repository->JobExists(*request.settings_source_job_id)) {
+    *error = InvalidValue(
+        "settings_source_job_id",
+        "no stored job " + std::to_string(*request.settings_source_job_id));
     return false;
   }
   if (!Solve(problem, request, run, error)) return false;
-  if (context.record_solve_seconds) context.record_solve_seconds(run->solve_seconds);
+  if (context.record_solve_seconds)
+    context.record_solve_seconds(run->solve_seconds);
   return true;
 }
 
-void CreateCorrection(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void CreateCorrection(const ServiceContext& context,
+                      const httplib::Request& req,
+                      httplib::Response& res) {
   nlohmann::json body;
   ApiError error;
   CorrectionRun run;
-  if (!ParseJsonBody(req.body, &body, &error) || !RunCorrection(context, body, &run, &error)) {
+  if (!ParseJsonBody(req.body, &body, &error) ||
+      !RunCorrection(context, body, &run, &error)) {
     return RespondError(res, error);
   }
   StoreAndRespond(context, "correction", Dump(body), std::nullopt, &run, res);
 }
 
-void ReplayCorrection(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void ReplayCorrection(const ServiceContext& context,
+                      const httplib::Request& req,
+                      httplib::Response& res) {
   int64_t id = 0;
   std::optional<JobRecord> parent;
   if (ParseId(req.matches[1], &id)) parent = context.repository->ReadJob(id);
   if (!parent) return RespondError(res, NoStoredJob(req.matches[1].str()));
   nlohmann::json changes = nlohmann::json::object();
   ApiError error;
-  if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error)) return RespondError(res, error);
+  if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))
+    return RespondError(res, error);
   for (const auto& item : changes.items()) {
     if (item.key() != "options" && item.key() != "target") {
-      return RespondError(res, InvalidRequest(item.key(), "a replay may change only \"options\" and \"target\""));
+      return RespondError(
+          res,
+          InvalidRequest(
+              item.key(),
+              "a replay may change only \"options\" and \"target\""));
     }
   }
-  nlohmann::json request = nlohmann::json::parse(parent->request_json, nullptr, false);
-  if (!request.is_object()) throw std::runtime_error("stored request of job " + std::to_string(id) + " is not JSON");
+  nlohmann::json request =
+      nlohmann::json::parse(parent->request_json, nullptr, false);
+  if (!request.is_object())
+    throw std::runtime_error("stored request of job " + std::to_string(id) +
+                             " is not JSON");
   if (changes.contains("options")) {
-    if (!changes["options"].is_object()) return RespondError(res, InvalidRequest("options", "options must be an object"));
-    // Changed options are merged into the stored ones (RFC 7396: null removes a field).
-    if (!request.contains("options") || !request["options"].is_object()) request["options"] = nlohmann::json::object();
+    if (!changes["options"].is_object())
+      return RespondError(
+          res, InvalidRequest("options", "options must be an object"));
+    // Changed options are merged into the stored ones (RFC 7396: null removes a
+    // field).
+    if (!request.contains("options") || !request["options"].is_object())
+      request["options"] = nlohmann::json::object();
     request["options"].merge_patch(changes["options"]);
   }
   if (changes.contains("target")) request["target"] = changes["target"];
   CorrectionRun run;
-  if (!RunCorrection(context, request, &run, &error)) return RespondError(res, error);
+  if (!RunCorrection(context, request, &run, &error))
+    return RespondError(res, error);
   StoreAndRespond(context, "replay", Dump(request), id, &run, res);
 }
 
@@ -171,7 +238,8 @@ void RunBatchItem(const ServiceContext& context, const PendingBatchItem& item) {
   try {
     nlohmann::json body;
     CorrectionRun run;
-    if (ParseJsonBody(item.request_json, &body, &error) && RunCorrection(context, body, &run, &error)) {
+    if (ParseJsonBody(item.request_json, &body, &error) &&
+        RunCorrection(context, body, &run, &error)) {
       JobRecord& job = run.job;
       job.kind = "batch_item";
       job.created_utc = CurrentUtcIso8601();
@@ -181,8 +249,10 @@ void RunBatchItem(const ServiceContext& context, const PendingBatchItem& item) {
       return;
     }
   } catch (const std::exception& e) {
-    LOG(ERROR) << "batch " << item.batch_id << " item " << item.index << " failed: " << e.what();
-    error = ApiError{500, "internal_error", "internal error while running this item", ""};
+    LOG(ERROR) << "batch " << item.batch_id << " item " << item.index
+               << " failed: " << e.what();
+    error = ApiError{
+        500, "internal_error", "internal error while running this item", ""};
   }
   BatchItemRecord failure;
   failure.error_status = error.status;
@@ -192,7 +262,8 @@ void RunBatchItem(const ServiceContext& context, const PendingBatchItem& item) {
   try {
     context.repository->FailBatchItem(item.batch_id, item.index, failure);
   } catch (const std::exception& e) {
-    LOG(ERROR) << "cannot record failure of batch " << item.batch_id << " item " << item.index << ": " << e.what();
+    LOG(ERROR) << "cannot record failure of batch " << item.batch_id << " item "
+               << item.index << ": " << e.what();
   }
 }
 

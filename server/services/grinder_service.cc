@@ -12,13 +12,19 @@
 namespace gearloop {
 namespace {
 
-// Reads the body, the setup and (optionally) the settings common to nominal/evaluate/sensitivity.
-bool ParseSetupAndSettings(const httplib::Request& req, GrindingSetup* setup, MachineSettings* settings,
+// Reads the body, the setup and (optionally) the settings common to
+// nominal/evaluate/sensitivity.
+bool ParseSetupAndSettings(const httplib::Request& req,
+                           GrindingSetup* setup,
+                           MachineSettings* settings,
                            ApiError* error) {
   nlohmann::json body;
-  if (!ParseJsonBody(req.body, &body, error) || !ParseGrindingSetup(body, setup, error)) return false;
+  if (!ParseJsonBody(req.body, &body, error) ||
+      !ParseGrindingSetup(body, setup, error))
+    return false;
   if (body.contains("settings") && !body.at("settings").is_null()) {
-    return ParseMachineSettings(body.at("settings"), "settings", settings, error);
+    return ParseMachineSettings(
+        body.at("settings"), "settings", settings, error);
   }
   *settings = NominalSettings(*setup);
   return true;
@@ -30,16 +36,23 @@ void GrinderNominal(const httplib::Request& req, httplib::Response& res) {
   GrindingSetup setup;
   MachineSettings settings;
   ApiError error;
-  if (!ParseSetupAndSettings(req, &setup, &settings, &error)) return RespondError(res, error);
+  if (!ParseSetupAndSettings(req, &setup, &settings, &error))
+    return RespondError(res, error);
   const FlatWheelGrinder grinder(setup);
-  RespondJson(res, 200, NominalToJson(setup, grinder.nominal(), grinder.roll_min_rad(), grinder.roll_max_rad()));
+  RespondJson(res,
+              200,
+              NominalToJson(setup,
+                            grinder.nominal(),
+                            grinder.roll_min_rad(),
+                            grinder.roll_max_rad()));
 }
 
 void GrinderEvaluate(const httplib::Request& req, httplib::Response& res) {
   GrindingSetup setup;
   MachineSettings settings;
   ApiError error;
-  if (!ParseSetupAndSettings(req, &setup, &settings, &error)) return RespondError(res, error);
+  if (!ParseSetupAndSettings(req, &setup, &settings, &error))
+    return RespondError(res, error);
   const FlatWheelGrinder grinder(setup);
   ModelEvaluation evaluation;
   grinder.Evaluate(settings.ToVector(), /*with_jacobian=*/false, &evaluation);
@@ -50,16 +63,22 @@ void GrinderSensitivity(const httplib::Request& req, httplib::Response& res) {
   GrindingSetup setup;
   MachineSettings settings;
   ApiError error;
-  if (!ParseSetupAndSettings(req, &setup, &settings, &error)) return RespondError(res, error);
+  if (!ParseSetupAndSettings(req, &setup, &settings, &error))
+    return RespondError(res, error);
   const FlatWheelGrinder grinder(setup);
   ModelEvaluation evaluation;
   grinder.Evaluate(settings.ToVector(), /*with_jacobian=*/true, &evaluation);
-  // The API quotes the cone-angle column per degree (API.md); the engine per radian.
+  // The API quotes the cone-angle column per degree (API.md); the engine per
+  // radian.
   Eigen::MatrixXd matrix = evaluation.jacobian_um;
   matrix.col(kConeAngleIndex) /= kDegPerRad;
   const SensitivitySummary raw = AnalyzeSensitivity(matrix, Eigen::VectorXd());
-  const SensitivitySummary normalised = AnalyzeSensitivity(matrix, UnitColumnScales(matrix));
-  RespondJson(res, 200, SensitivityToJson(matrix, raw, normalised, grinder.grid(), evaluation));
+  const SensitivitySummary normalised =
+      AnalyzeSensitivity(matrix, UnitColumnScales(matrix));
+  RespondJson(
+      res,
+      200,
+      SensitivityToJson(matrix, raw, normalised, grinder.grid(), evaluation));
 }
 
 }  // namespace gearloop

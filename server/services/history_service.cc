@@ -21,27 +21,36 @@ ApiError NoStoredJob(const std::string& id_text) {
 
 }  // namespace
 
-bool ParseJobFilter(const httplib::Request& req, JobFilter* filter, ApiError* error) {
-  static const std::regex kTime(R"(\d{4}-\d{2}-\d{2}(T\d{2}:\d{2}(:\d{2}(\.\d{1,3})?)?Z?)?)");
-  auto integer = [&](const char* key, long long min, long long max, long long* out) {
-    if (!req.has_param(key)) return true;
-    const std::string text = req.get_param_value(key);
-    const std::string field = std::string("query.") + key;
-    if (text.empty() || text.size() > 12 || text.find_first_not_of("-0123456789") != std::string::npos ||
-        text.find('-', 1) != std::string::npos || text == "-") {
-      *error = InvalidRequest(field, field + " must be an integer");
-      return false;
-    }
-    const long long value = std::stoll(text);
-    if (value < min || value > max) {
-      *error = InvalidValue(field, field + " must lie in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
-      return false;
-    }
-    *out = value;
-    return true;
-  };
+bool ParseJobFilter(const httplib::Request& req,
+                    JobFilter* filter,
+                    ApiError* error) {
+  static const std::regex kTime(
+      R"(\d{4}-\d{2}-\d{2}(T\d{2}:\d{2}(:\d{2}(\.\d{1,3})?)?Z?)?)");
+  auto integer =
+      [&](const char* key, long long min, long long max, long long* out) {
+        if (!req.has_param(key)) return true;
+        const std::string text = req.get_param_value(key);
+        const std::string field = std::string("query.") + key;
+        if (text.empty() || text.size() > 12 ||
+            text.find_first_not_of("-0123456789") != std::string::npos ||
+            text.find('-', 1) != std::string::npos || text == "-") {
+          *error = InvalidRequest(field, field + " must be an integer");
+          return false;
+        }
+        const long long value = std::stoll(text);
+        if (value < min || value > max) {
+          *error = InvalidValue(field,
+                                field + " must lie in [" + std::to_string(min) +
+                                    ", " + std::to_string(max) + "]");
+          return false;
+        }
+        *out = value;
+        return true;
+      };
   long long limit = 50, offset = 0, teeth = 0;
-  if (!integer("limit", 1, 1000, &limit) || !integer("offset", 0, 1000000000, &offset)) return false;
+  if (!integer("limit", 1, 1000, &limit) ||
+      !integer("offset", 0, 1000000000, &offset))
+    return false;
   filter->limit = static_cast<int>(limit);
   filter->offset = static_cast<int>(offset);
   if (req.has_param("teeth")) {
@@ -52,17 +61,22 @@ bool ParseJobFilter(const httplib::Request& req, JobFilter* filter, ApiError* er
     const std::string text = req.get_param_value("module_mm");
     char* end = nullptr;
     const double value = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value)) {
-      *error = InvalidRequest("query.module_mm", "query.module_mm must be a number");
+    if (text.empty() || end != text.c_str() + text.size() ||
+        !std::isfinite(value)) {
+      *error =
+          InvalidRequest("query.module_mm", "query.module_mm must be a number");
       return false;
     }
     filter->gear_normal_module_mm = value;
   }
   if (req.has_param("flank")) {
     const std::string flank = req.get_param_value("flank");
-    if (flank != "left" && flank != "right" && flank != "convex" && flank != "concave") {
-      *error = InvalidValue("query.flank",
-                            "query.flank must be \"left\" or \"right\" (a gear) or \"convex\" or \"concave\" (a bevel pinion)");
+    if (flank != "left" && flank != "right" && flank != "convex" &&
+        flank != "concave") {
+      *error =
+          InvalidValue("query.flank",
+                       "query.flank must be \"left\" or \"right\" (a gear) or "
+                       "\"convex\" or \"concave\" (a bevel pinion)");
       return false;
     }
     filter->flank = flank;
@@ -73,30 +87,44 @@ bool ParseJobFilter(const httplib::Request& req, JobFilter* filter, ApiError* er
     if (!req.has_param(key)) continue;
     const std::string text = req.get_param_value(key);
     if (!std::regex_match(text, kTime)) {
-      *error = InvalidRequest(std::string("query.") + key,
-                              std::string("query.") + key + " must be an ISO-8601 UTC date or time (2026-11-22T08:00:00Z)");
+      *error = InvalidRequest(
+          std::string("query.") + key,
+          std::string("query.") + key +
+              " must be an ISO-8601 UTC date or time (2026-11-22T08:00:00Z)");
       return false;
     }
-    (std::string(key) == "created_from" ? filter->created_from : filter->created_to) = text;
+    (std::string(key) == "created_from" ? filter->created_from
+                                        : filter->created_to) = text;
   }
-  if (filter->created_from && filter->created_to && *filter->created_from > *filter->created_to) {
-    *error = InvalidValue("query.created_to", "query.created_to lies before query.created_from");
+  if (filter->created_from && filter->created_to &&
+      *filter->created_from > *filter->created_to) {
+    *error = InvalidValue("query.created_to",
+                          "query.created_to lies before query.created_from");
     return false;
   }
   return true;
 }
 
-void ListCorrections(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void ListCorrections(const ServiceContext& context,
+                     const httplib::Request& req,
+                     httplib::Response& res) {
   JobFilter filter;
   ApiError error;
   if (!ParseJobFilter(req, &filter, &error)) return RespondError(res, error);
   const JobPage page = context.repository->ListJobs(filter);
   nlohmann::json jobs = nlohmann::json::array();
   for (const JobRecord& job : page.jobs) jobs.push_back(JobSummaryJson(job));
-  RespondJson(res, 200, {{"jobs", jobs}, {"total", page.total}, {"limit", filter.limit}, {"offset", filter.offset}});
+  RespondJson(res,
+              200,
+              {{"jobs", jobs},
+               {"total", page.total},
+               {"limit", filter.limit},
+               {"offset", filter.offset}});
 }
 
-void GetCorrection(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void GetCorrection(const ServiceContext& context,
+                   const httplib::Request& req,
+                   httplib::Response& res) {
   int64_t id = 0;
   std::optional<JobRecord> job;
   if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
@@ -107,51 +135,87 @@ void GetCorrection(const ServiceContext& context, const httplib::Request& req, h
   RespondJson(res, 200, answer);
 }
 
-void GetLineage(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void GetLineage(const ServiceContext& context,
+                const httplib::Request& req,
+                httplib::Response& res) {
   int64_t id = 0;
   std::vector<JobRecord> lineage;
-  if (ParseId(req.matches[1], &id)) lineage = context.repository->ReadLineage(id);
-  if (lineage.empty()) return RespondError(res, NoStoredJob(req.matches[1].str()));
+  if (ParseId(req.matches[1], &id))
+    lineage = context.repository->ReadLineage(id);
+  if (lineage.empty())
+    return RespondError(res, NoStoredJob(req.matches[1].str()));
   nlohmann::json jobs = nlohmann::json::array();
   for (const JobRecord& job : lineage) jobs.push_back(JobSummaryJson(job));
   RespondJson(res, 200, {{"id", id}, {"jobs", jobs}});
 }
 
-void CreateBatch(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void CreateBatch(const ServiceContext& context,
+                 const httplib::Request& req,
+                 httplib::Response& res) {
   nlohmann::json body;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error)) return RespondError(res, error);
-  if (!body.contains("items")) return RespondError(res, InvalidRequest("items", "missing required field items"));
+  if (!body.contains("items"))
+    return RespondError(
+        res, InvalidRequest("items", "missing required field items"));
   const nlohmann::json& items = body.at("items");
-  if (!items.is_array()) return RespondError(res, InvalidRequest("items", "items must be an array of correction requests"));
-  if (items.empty() || items.size() > static_cast<size_t>(context.max_batch_items)) {
-    return RespondError(res, InvalidValue("items", "a batch holds 1 to " + std::to_string(context.max_batch_items) +
-                                                       " items, got " + std::to_string(items.size())));
+  if (!items.is_array())
+    return RespondError(
+        res,
+        InvalidRequest("items",
+                       "items must be an array of correction requests"));
+  if (items.empty() ||
+      items.size() > static_cast<size_t>(context.max_batch_items)) {
+    return RespondError(
+        res,
+        InvalidValue("items",
+                     "a batch holds 1 to " +
+                         std::to_string(context.max_batch_items) +
+                         " items, got " + std::to_string(items.size())));
   }
   std::vector<std::string> texts;
   for (size_t i = 0; i < items.size(); ++i) {
     const std::string field = "items[" + std::to_string(i) + "]";
-    if (!items[i].is_object()) return RespondError(res, InvalidRequest(field, field + " must be a correction request object"));
+    if (!items[i].is_object())
+      return RespondError(
+          res,
+          InvalidRequest(field,
+                         field + " must be a correction request object"));
     texts.push_back(Dump(items[i]));
   }
-  const size_t queued = context.queued_batch_items ? context.queued_batch_items() : 0;
-  if (queued + texts.size() > static_cast<size_t>(context.max_queued_batch_items)) {
+  const size_t queued =
+      context.queued_batch_items ? context.queued_batch_items() : 0;
+  if (queued + texts.size() >
+      static_cast<size_t>(context.max_queued_batch_items)) {
     res.set_header("Retry-After", "10");
-    return RespondError(res, ApiError{503, "unavailable", "too many batch items are waiting; try again later", ""});
+    return RespondError(
+        res,
+        ApiError{503,
+                 "unavailable",
+                 "too many batch items are waiting; try again later",
+                 ""});
   }
   const int64_t batch_id = context.repository->CreateBatch(texts);
   std::vector<PendingBatchItem> pending(texts.size());
-  for (size_t i = 0; i < texts.size(); ++i) pending[i] = {batch_id, static_cast<int>(i), std::move(texts[i])};
-  if (context.enqueue_batch_items) context.enqueue_batch_items(std::move(pending));
+  for (size_t i = 0; i < texts.size(); ++i)
+    pending[i] = {batch_id, static_cast<int>(i), std::move(texts[i])};
+  if (context.enqueue_batch_items)
+    context.enqueue_batch_items(std::move(pending));
   res.set_header("Location", BatchLocation(batch_id));
   RespondJson(res, 202, BatchAcceptedJson(batch_id, items.size()));
 }
 
-void GetBatch(const ServiceContext& context, const httplib::Request& req, httplib::Response& res) {
+void GetBatch(const ServiceContext& context,
+              const httplib::Request& req,
+              httplib::Response& res) {
   int64_t id = 0;
   std::optional<BatchRecord> batch;
-  if (ParseId(req.matches[1], &id)) batch = context.repository->ReadBatch(id, /*with_items=*/true);
-  if (!batch) return RespondError(res, ApiError{404, "not_found", "no batch " + req.matches[1].str(), ""});
+  if (ParseId(req.matches[1], &id))
+    batch = context.repository->ReadBatch(id, /*with_items=*/true);
+  if (!batch)
+    return RespondError(
+        res,
+        ApiError{404, "not_found", "no batch " + req.matches[1].str(), ""});
   RespondJson(res, 200, BatchToJson(*batch));
 }
 

@@ -16,25 +16,33 @@
 namespace gearloop {
 namespace {
 
-// One machine family: how its requests name the machine and how its parameters look in JSON.
+// One machine family: how its requests name the machine and how its parameters
+// look in JSON.
 class MachineFamily {
  public:
   virtual ~MachineFamily() = default;
-  virtual bool Correction(const nlohmann::json& body, CorrectionProblem* problem, ApiError* error) const = 0;
-  virtual bool Simulation(const nlohmann::json& body, SimulationProblem* simulation, ApiError* error) const = 0;
+  virtual bool Correction(const nlohmann::json& body,
+                          CorrectionProblem* problem,
+                          ApiError* error) const = 0;
+  virtual bool Simulation(const nlohmann::json& body,
+                          SimulationProblem* simulation,
+                          ApiError* error) const = 0;
 
   // The one switch on the machine kind (ReadMachineKind reads it).
   static std::unique_ptr<MachineFamily> Create(MachineKind kind);
 };
 
-// --- The flat-wheel grinder ----------------------------------------------------------------
+// --- The flat-wheel grinder
+// ----------------------------------------------------------------
 
 nlohmann::json GrinderParametersToJson(const Eigen::VectorXd& parameters) {
   return MachineSettingsToJson(MachineSettings::FromVector(parameters));
 }
 
 // The grinder's model and renderings for `setup`, ground with `settings`.
-void FillGrinderProblem(const nlohmann::json& body, const GrindingSetup& setup, const MachineSettings& settings,
+void FillGrinderProblem(const nlohmann::json& body,
+                        const GrindingSetup& setup,
+                        const MachineSettings& settings,
                         CorrectionProblem* problem) {
   problem->model = std::make_unique<FlatWheelGrinder>(setup);
   problem->current_parameters = settings.ToVector();
@@ -43,7 +51,9 @@ void FillGrinderProblem(const nlohmann::json& body, const GrindingSetup& setup, 
   problem->parameters_key = "settings";
   problem->parameters_to_json = GrinderParametersToJson;
   problem->delta_to_json = GrinderParametersToJson;
-  problem->result_header = [](const Eigen::VectorXd&) { return nlohmann::json::object(); };
+  problem->result_header = [](const Eigen::VectorXd&) {
+    return nlohmann::json::object();
+  };
   nlohmann::json setup_keys = nlohmann::json::object();
   for (const char* key : {"gear", "wheel", "machine", "grid", "flank"}) {
     if (body.contains(key)) setup_keys[key] = body.at(key);
@@ -56,21 +66,28 @@ void FillGrinderProblem(const nlohmann::json& body, const GrindingSetup& setup, 
   problem->job_summary_columns = [setup](JobRecord* job) {
     job->gear_teeth = setup.gear.teeth;
     job->gear_normal_module_mm = setup.gear.normal_module_mm;
-    job->gear_helix_angle_deg = RoundTo1e9(std::fabs(setup.gear.helix_angle_rad) * kDegPerRad);
+    job->gear_helix_angle_deg =
+        RoundTo1e9(std::fabs(setup.gear.helix_angle_rad) * kDegPerRad);
     job->gear_hand = HandName(setup.gear);
     job->flank = FlankName(setup.flank);
     job->machine_kind = kFlatWheelGrinderKind;
   };
-  problem->evaluate_modifications = [setup](const std::vector<TargetModification>& modifications) {
-    return EvaluateTargetModifications(modifications, BuildFlankGrid(setup), setup.gear, setup.flank);
-  };
+  problem->evaluate_modifications =
+      [setup](const std::vector<TargetModification>& modifications) {
+        return EvaluateTargetModifications(
+            modifications, BuildFlankGrid(setup), setup.gear, setup.flank);
+      };
 }
 
 // The setup and the settings (default nominal) of a grinder request.
-bool ParseGrinderSetup(const nlohmann::json& body, GrindingSetup* setup, MachineSettings* settings, ApiError* error) {
+bool ParseGrinderSetup(const nlohmann::json& body,
+                       GrindingSetup* setup,
+                       MachineSettings* settings,
+                       ApiError* error) {
   if (!ParseGrindingSetup(body, setup, error)) return false;
   if (body.contains("settings") && !body.at("settings").is_null()) {
-    return ParseMachineSettings(body.at("settings"), "settings", settings, error);
+    return ParseMachineSettings(
+        body.at("settings"), "settings", settings, error);
   }
   *settings = NominalSettings(*setup);
   return true;
@@ -78,7 +95,9 @@ bool ParseGrinderSetup(const nlohmann::json& body, GrindingSetup* setup, Machine
 
 class FlatWheelGrinderFamily : public MachineFamily {
  public:
-  bool Correction(const nlohmann::json& body, CorrectionProblem* problem, ApiError* error) const override {
+  bool Correction(const nlohmann::json& body,
+                  CorrectionProblem* problem,
+                  ApiError* error) const override {
     GrindingSetup setup;
     MachineSettings settings;
     if (!ParseGrinderSetup(body, &setup, &settings, error)) return false;
@@ -86,39 +105,61 @@ class FlatWheelGrinderFamily : public MachineFamily {
     return true;
   }
 
-  bool Simulation(const nlohmann::json& body, SimulationProblem* simulation, ApiError* error) const override {
+  bool Simulation(const nlohmann::json& body,
+                  SimulationProblem* simulation,
+                  ApiError* error) const override {
     GrindingSetup setup;
     MachineSettings settings;
     if (!ParseGrinderSetup(body, &setup, &settings, error)) return false;
     CorrectionProblem& problem = simulation->problem;
     FillGrinderProblem(body, setup, settings, &problem);
     simulation->hidden_errors.setZero(kNumGrinderParameters);
-    if (body.contains("hidden_errors") && body.contains("random_hidden_errors")) {
-      *error = InvalidRequest("random_hidden_errors", "give hidden_errors or random_hidden_errors, not both");
+    if (body.contains("hidden_errors") &&
+        body.contains("random_hidden_errors")) {
+      *error = InvalidRequest(
+          "random_hidden_errors",
+          "give hidden_errors or random_hidden_errors, not both");
       return false;
     }
     if (body.contains("hidden_errors") &&
-        !ParseGrinderHiddenErrors(body.at("hidden_errors"), &simulation->hidden_errors, error)) {
+        !ParseGrinderHiddenErrors(
+            body.at("hidden_errors"), &simulation->hidden_errors, error)) {
       return false;
     }
     if (body.contains("random_hidden_errors")) {
       RandomHiddenErrorsRequest random;
-      if (!ParseRandomHiddenErrors(body.at("random_hidden_errors"), &random, error)) return false;
-      const auto& grinder = static_cast<const FlatWheelGrinder&>(*problem.model);
-      simulation->hidden_errors =
-          RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), random.block_size,
-                             random.max_order, random.wheel_size, random.seed, random.fixed_blocks);
+      if (!ParseRandomHiddenErrors(
+              body.at("random_hidden_errors"), &random, error))
+        return false;
+      const auto& grinder =
+          static_cast<const FlatWheelGrinder&>(*problem.model);
+      simulation->hidden_errors = RandomHiddenErrors(grinder,
+                                                     grinder.roll_min_rad(),
+                                                     grinder.roll_max_rad(),
+                                                     random.block_size,
+                                                     random.max_order,
+                                                     random.wheel_size,
+                                                     random.seed,
+                                                     random.fixed_blocks);
     }
-    return ParseMeasurementSimulation(body, /*with_point_lists=*/true, problem.rows, problem.columns,
-                                      &simulation->measurement, error);
+    return ParseMeasurementSimulation(body,
+                                      /*with_point_lists=*/true,
+                                      problem.rows,
+                                      problem.columns,
+                                      &simulation->measurement,
+                                      error);
   }
 };
 
-// --- The free-form bevel generator ---------------------------------------------------------
+// --- The free-form bevel generator
+// ---------------------------------------------------------
 
 // The generator's model and renderings for `setup`.
-void FillBevelProblem(const nlohmann::json& body, const BevelSetup& setup, CorrectionProblem* problem) {
-  problem->model = std::make_unique<BevelFreeFormGenerator>(setup.job, setup.grid, setup.nominal);
+void FillBevelProblem(const nlohmann::json& body,
+                      const BevelSetup& setup,
+                      CorrectionProblem* problem) {
+  problem->model = std::make_unique<BevelFreeFormGenerator>(
+      setup.job, setup.grid, setup.nominal);
   problem->current_parameters = setup.motion.ToVector();
   problem->rows = setup.grid.rows;
   problem->columns = setup.grid.columns;
@@ -126,7 +167,8 @@ void FillBevelProblem(const nlohmann::json& body, const BevelSetup& setup, Corre
   problem->answer_header = {{"machine_kind", kFreeFormBevelGeneratorKind}};
   const int degree = setup.motion.degree;
   const Eigen::VectorXd c_coefficients = setup.motion.c_coefficients;
-  // The C axis is not corrected: a corrected or commanded motion keeps the request's C.
+  // The C axis is not corrected: a corrected or commanded motion keeps the
+  // request's C.
   auto to_json = [degree, c_coefficients](const Eigen::VectorXd& parameters) {
     FreeFormMotion motion = FreeFormMotion::FromVector(degree, parameters);
     motion.c_coefficients = c_coefficients;
@@ -138,16 +180,20 @@ void FillBevelProblem(const nlohmann::json& body, const BevelSetup& setup, Corre
   };
   const std::string side = BevelFlankSideName(setup.job.side);
   problem->result_header = [side, to_json](const Eigen::VectorXd& commanded) {
-    return nlohmann::json{
-        {"machine_kind", kFreeFormBevelGeneratorKind}, {"side", side}, {"commanded_motion", to_json(commanded)}};
+    return nlohmann::json{{"machine_kind", kFreeFormBevelGeneratorKind},
+                          {"side", side},
+                          {"commanded_motion", to_json(commanded)}};
   };
   const nlohmann::json job = body.at("job");
-  problem->request_setup_json = [job, to_json](const Eigen::VectorXd& commanded) {
-    return nlohmann::json{
-        {"machine", {{"kind", kFreeFormBevelGeneratorKind}}}, {"job", job}, {"motion", to_json(commanded)}};
+  problem->request_setup_json = [job,
+                                 to_json](const Eigen::VectorXd& commanded) {
+    return nlohmann::json{{"machine", {{"kind", kFreeFormBevelGeneratorKind}}},
+                          {"job", job},
+                          {"motion", to_json(commanded)}};
   };
   problem->job_summary_columns = [side](JobRecord* record) {
-    // A pinion flank has no tooth count or module in the summary; the pinion is left-hand (§2.4).
+    // A pinion flank has no tooth count or module in the summary; the pinion is
+    // left-hand (§2.4).
     record->gear_teeth = 0;
     record->gear_normal_module_mm = 0.0;
     record->gear_helix_angle_deg = 0.0;
@@ -159,23 +205,32 @@ void FillBevelProblem(const nlohmann::json& body, const BevelSetup& setup, Corre
 
 class FreeFormBevelGeneratorFamily : public MachineFamily {
  public:
-  bool Correction(const nlohmann::json& body, CorrectionProblem* problem, ApiError* error) const override {
+  bool Correction(const nlohmann::json& body,
+                  CorrectionProblem* problem,
+                  ApiError* error) const override {
     BevelSetup setup;
     if (!PrepareBevel(body, &setup, error)) return false;
     FillBevelProblem(body, setup, problem);
     return true;
   }
 
-  bool Simulation(const nlohmann::json& body, SimulationProblem* simulation, ApiError* error) const override {
+  bool Simulation(const nlohmann::json& body,
+                  SimulationProblem* simulation,
+                  ApiError* error) const override {
     BevelSetup setup;
     if (!PrepareBevel(body, &setup, error)) return false;
     FreeFormMotion hidden;
-    if (!ParseBevelHiddenErrors(body, setup.motion.degree, &hidden, error)) return false;
+    if (!ParseBevelHiddenErrors(body, setup.motion.degree, &hidden, error))
+      return false;
     FillBevelProblem(body, setup, &simulation->problem);
     simulation->hidden_errors = hidden.ToVector();
     // The bevel simulations take no outlier or missing point lists.
-    return ParseMeasurementSimulation(body, /*with_point_lists=*/false, /*rows=*/0, /*columns=*/0,
-                                      &simulation->measurement, error);
+    return ParseMeasurementSimulation(body,
+                                      /*with_point_lists=*/false,
+                                      /*rows=*/0,
+                                      /*columns=*/0,
+                                      &simulation->measurement,
+                                      error);
   }
 };
 
@@ -191,32 +246,47 @@ std::unique_ptr<MachineFamily> MachineFamily::Create(MachineKind kind) {
 
 }  // namespace
 
-bool CorrectionProblemFor(const nlohmann::json& body, CorrectionProblem* problem, ApiError* error) {
+bool CorrectionProblemFor(const nlohmann::json& body,
+                          CorrectionProblem* problem,
+                          ApiError* error) {
   MachineKind kind;
-  return ReadMachineKind(body, &kind, error) && MachineFamily::Create(kind)->Correction(body, problem, error);
+  return ReadMachineKind(body, &kind, error) &&
+         MachineFamily::Create(kind)->Correction(body, problem, error);
 }
 
-bool SimulationProblemFor(const nlohmann::json& body, SimulationProblem* simulation, ApiError* error) {
+bool SimulationProblemFor(const nlohmann::json& body,
+                          SimulationProblem* simulation,
+                          ApiError* error) {
   MachineKind kind;
-  return ReadMachineKind(body, &kind, error) && MachineFamily::Create(kind)->Simulation(body, simulation, error);
+  return ReadMachineKind(body, &kind, error) &&
+         MachineFamily::Create(kind)->Simulation(body, simulation, error);
 }
 
-bool PrepareBevel(const nlohmann::json& body, BevelSetup* setup, ApiError* error) {
+bool PrepareBevel(const nlohmann::json& body,
+                  BevelSetup* setup,
+                  ApiError* error) {
   if (!ParseBevelJob(body, &setup->job, error)) return false;
   if (body.contains("motion") && !body.at("motion").is_null()) {
-    if (!ParseFreeFormMotion(body.at("motion"), "motion", &setup->motion, error)) return false;
+    if (!ParseFreeFormMotion(
+            body.at("motion"), "motion", &setup->motion, error))
+      return false;
     setup->motion_given = true;
     setup->grid = CradleGenerator(setup->job).BuildGrid();
     if (!setup->grid.ok) {
-      *error = InvalidValue("job", "the flank grid is not found on the cradle flank: " + setup->grid.message);
+      *error =
+          InvalidValue("job",
+                       "the flank grid is not found on the cradle flank: " +
+                           setup->grid.message);
       return false;
     }
     setup->nominal = setup->motion;
     return true;
   }
-  const ConversionResult conversion = ConvertCradleToFreeForm(ConversionOptions(), setup->job);
+  const ConversionResult conversion =
+      ConvertCradleToFreeForm(ConversionOptions(), setup->job);
   if (!conversion.ok) {
-    *error = InvalidValue("job", "the cradle summary cannot be converted: " + conversion.message);
+    *error = InvalidValue(
+        "job", "the cradle summary cannot be converted: " + conversion.message);
     return false;
   }
   setup->grid = conversion.grid;

@@ -1,6 +1,7 @@
-// server/services/service_context.h: what the services need of the server around them: the job
-// history, the batch queue, the solver metrics and the version stamped on every job. Filled once
-// by server/http/gearloop_server.cc; a test fills it with a ":memory:" repository and no queue.
+// server/services/service_context.h: what the services need of the server
+// around them: the job history, the batch queue, the solver metrics and the
+// version stamped on every job. Filled once by server/http/gearloop_server.cc;
+// a test fills it with a ":memory:" repository and no queue.
 //
 //   ServiceContext context;
 //   context.repository = repository.get();
@@ -22,12 +23,14 @@ struct ServiceContext {
   JobRepository* repository = nullptr;
   // Stamped on every stored job.
   std::string server_version;
-  // Called with the duration of every correction solve [s] (the solver histogram); may be empty.
+  // Called with the duration of every correction solve [s] (the solver
+  // histogram); may be empty.
   std::function<void(double seconds)> record_solve_seconds;
   // One log line per solve (the engine is silent; STYLE.md).
   bool log_solves = true;
-  // The batch queue: items waiting for a worker, and how to hand new ones over; may be empty
-  // (then no batch is accepted beyond max_queued_batch_items, and accepted ones only wait).
+  // The batch queue: items waiting for a worker, and how to hand new ones over;
+  // may be empty (then no batch is accepted beyond max_queued_batch_items, and
+  // accepted ones only wait).
   std::function<size_t()> queued_batch_items;
   std::function<void(std::vector<PendingBatchItem> items)> enqueue_batch_items;
   // Most items in one batch, and most batch items waiting at once (503 beyond).

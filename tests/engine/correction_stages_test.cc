@@ -1,12 +1,13 @@
-// The stages of the correction solver (engine/correction/*.h internals), each on a small problem
-// with a known answer; ComputeCorrection as a whole is tested in correction_test.cc.
+// The stages of the correction solver (engine/correction/*.h internals), each
+// on a small problem with a known answer; ComputeCorrection as a whole is
+// tested in correction_test.cc.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "engine/correction/correction.h"
 #include "engine/correction/legendre_coordinates.h"
@@ -20,9 +21,10 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// A linear machine (deviations = J (p - origin) exactly) on a 5 x 9 grid with a seeded Jacobian:
-// one polynomial block "P" of 3 coefficients and two scalar blocks, contacts spread over the roll
-// range [-0.2, 0.3]. Each column moves the flank by about 1 um rms per unit of correction size.
+// A linear machine (deviations = J (p - origin) exactly) on a 5 x 9 grid with a
+// seeded Jacobian: one polynomial block "P" of 3 coefficients and two scalar
+// blocks, contacts spread over the roll range [-0.2, 0.3]. Each column moves
+// the flank by about 1 um rms per unit of correction size.
 class LinearModel : public MachineModel {
  public:
   explicit LinearModel(unsigned seed) : jacobian_(kRows * kColumns, 5) {
@@ -36,16 +38,23 @@ class LinearModel : public MachineModel {
   int NumParameters() const override { return 5; }
   int GridRows() const override { return kRows; }
   int GridColumns() const override { return kColumns; }
-  std::string ParameterName(int j) const override { return "p" + std::to_string(j); }
-  std::vector<ParameterBlock> ParameterBlocks() const override {
-    return {{"P", "mm", 0, 3, true, 1e-3}, {"s1", "rad", 3, 1, false, 1e-5}, {"s2", "mm", 4, 1, false, 1e-3}};
+  std::string ParameterName(int j) const override {
+    return "p" + std::to_string(j);
   }
-  void Evaluate(const Eigen::VectorXd& parameters, bool with_jacobian, ModelEvaluation* e) const override {
+  std::vector<ParameterBlock> ParameterBlocks() const override {
+    return {{"P", "mm", 0, 3, true, 1e-3},
+            {"s1", "rad", 3, 1, false, 1e-5},
+            {"s2", "mm", 4, 1, false, 1e-3}};
+  }
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
     const int n = kRows * kColumns;
     e->deviations_um = jacobian_ * parameters;
     e->status.assign(n, PointStatus::kOk);
     e->contact_roll_rad.resize(n);
-    for (int i = 0; i < n; ++i) e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
+    for (int i = 0; i < n; ++i)
+      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
     if (with_jacobian) e->jacobian_um = jacobian_;
   }
 
@@ -66,25 +75,29 @@ TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
     bool discrepancy;
     RegularisationRule rule;
   };
-  for (const Case& c : {Case{0.5, false, RegularisationRule::kUnbiasedPredictiveRisk},
-                        Case{0.5, true, RegularisationRule::kDiscrepancyPrinciple},
-                        Case{0.0, false, RegularisationRule::kDiscrepancyPrinciple},
-                        Case{0.0, true, RegularisationRule::kDiscrepancyPrinciple},
-                        Case{-1.0, false, RegularisationRule::kGeneralisedCrossValidation},
-                        Case{-1.0, true, RegularisationRule::kGeneralisedCrossValidation}}) {
+  for (const Case& c :
+       {Case{0.5, false, RegularisationRule::kUnbiasedPredictiveRisk},
+        Case{0.5, true, RegularisationRule::kDiscrepancyPrinciple},
+        Case{0.0, false, RegularisationRule::kDiscrepancyPrinciple},
+        Case{0.0, true, RegularisationRule::kDiscrepancyPrinciple},
+        Case{-1.0, false, RegularisationRule::kGeneralisedCrossValidation},
+        Case{-1.0, true, RegularisationRule::kGeneralisedCrossValidation}}) {
     options.probe_noise_um = c.noise_um;
     options.use_discrepancy_principle = c.discrepancy;
     options.solver = CorrectionSolver::kRegularised;
-    EXPECT_EQ(ChooseRegularisationRule(options), c.rule) << c.noise_um << " " << c.discrepancy;
-    for (CorrectionSolver solver : {CorrectionSolver::kParticleSwarm, CorrectionSolver::kPlainLeastSquares}) {
+    EXPECT_EQ(ChooseRegularisationRule(options), c.rule)
+        << c.noise_um << " " << c.discrepancy;
+    for (CorrectionSolver solver : {CorrectionSolver::kParticleSwarm,
+                                    CorrectionSolver::kPlainLeastSquares}) {
       options.solver = solver;
       EXPECT_EQ(ChooseRegularisationRule(options), RegularisationRule::kNone);
     }
   }
 }
 
-// One direction sigma, b in it beta: the criteria have closed-form minimisers in the filter
-// factor, which the logarithmic grid (ratio 10^(12/192) between levels) finds to half a step.
+// One direction sigma, b in it beta: the criteria have closed-form minimisers
+// in the filter factor, which the logarithmic grid (ratio 10^(12/192) between
+// levels) finds to half a step.
 LambdaCriteria OneDirection(double sigma, double beta) {
   LambdaCriteria c;
   c.sigma = Eigen::VectorXd::Constant(1, sigma);
@@ -92,35 +105,44 @@ LambdaCriteria OneDirection(double sigma, double beta) {
   c.rank = 1;
   return c;
 }
-constexpr double kHalfGridStep = 0.5 * 12.0 / 192.0 * 2.302585093;  // in log(lambda)
+constexpr double kHalfGridStep =
+    0.5 * 12.0 / 192.0 * 2.302585093;  // in log(lambda)
 
-// UPRE: f^2 beta^2 + 2 s^2 (1 - f), f = lambda^2 / (sigma^2 + lambda^2), is smallest at
-// f = s^2 / beta^2, i.e. lambda = sigma s / sqrt(beta^2 - s^2).
+// UPRE: f^2 beta^2 + 2 s^2 (1 - f), f = lambda^2 / (sigma^2 + lambda^2), is
+// smallest at f = s^2 / beta^2, i.e. lambda = sigma s / sqrt(beta^2 - s^2).
 TEST(ChooseLambda, UnbiasedPredictiveRiskMatchesTheHandMinimiser) {
   LambdaCriteria c = OneDirection(2.0, 3.0);
   c.in_range_noise2 = 1.0;
   c.probe_noise_um = 1.0;
   c.num_rows = 10;
   const double expected = 2.0 * 1.0 / std::sqrt(9.0 - 1.0);
-  const double lambda = ChooseLambda(RegularisationRule::kUnbiasedPredictiveRisk, c, 1e-3);
+  const double lambda =
+      ChooseLambda(RegularisationRule::kUnbiasedPredictiveRisk, c, 1e-3);
   EXPECT_NEAR(std::log(lambda), std::log(expected), kHalfGridStep + 1e-12);
-  // No floor with a known noise: a noise far below b leaves lambda far below 1e-3 sigma_1.
+  // No floor with a known noise: a noise far below b leaves lambda far below
+  // 1e-3 sigma_1.
   c.in_range_noise2 = 1e-12;
-  EXPECT_LT(ChooseLambda(RegularisationRule::kUnbiasedPredictiveRisk, c, 1e-3), 1e-4);
+  EXPECT_LT(ChooseLambda(RegularisationRule::kUnbiasedPredictiveRisk, c, 1e-3),
+            1e-4);
 }
 
-// GCV: (f^2 beta^2 + R) / (m - 1 + f)^2 is smallest at f = R / (beta^2 (m - 1)).
+// GCV: (f^2 beta^2 + R) / (m - 1 + f)^2 is smallest at f = R / (beta^2 (m -
+// 1)).
 TEST(ChooseLambda, GeneralisedCrossValidationMatchesTheHandMinimiser) {
   LambdaCriteria c = OneDirection(2.0, 10.0);
   c.off_range2 = 100.0;
   c.num_rows = 11;
   const double f = 100.0 / (100.0 * 10.0);
   const double expected = 2.0 * std::sqrt(f / (1.0 - f));
-  const double lambda = ChooseLambda(RegularisationRule::kGeneralisedCrossValidation, c, 1e-3);
+  const double lambda =
+      ChooseLambda(RegularisationRule::kGeneralisedCrossValidation, c, 1e-3);
   EXPECT_NEAR(std::log(lambda), std::log(expected), kHalfGridStep + 1e-12);
-  // Nothing off the range: GCV would fit everything; the floor holds lambda at 1e-2 sigma_1.
+  // Nothing off the range: GCV would fit everything; the floor holds lambda at
+  // 1e-2 sigma_1.
   c.off_range2 = 0.0;
-  EXPECT_DOUBLE_EQ(ChooseLambda(RegularisationRule::kGeneralisedCrossValidation, c, 1e-2), 0.02);
+  EXPECT_DOUBLE_EQ(
+      ChooseLambda(RegularisationRule::kGeneralisedCrossValidation, c, 1e-2),
+      0.02);
 }
 
 TEST(ChooseLambda, DiscrepancyPrincipleHitsItsTarget) {
@@ -131,16 +153,21 @@ TEST(ChooseLambda, DiscrepancyPrincipleHitsItsTarget) {
   c.num_rows = 20;
   c.in_range_noise2 = 1.5;
   c.probe_noise_um = 0.5;
-  const double lambda = ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3);
+  const double lambda =
+      ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3);
   EXPECT_GT(lambda, 0.0);
   EXPECT_NEAR(InRangeResidual2(c, lambda), 1.5, /*tol=*/1e-9);
   // Noise above everything in range: no correction (the top of the range).
   c.in_range_noise2 = 20.0;
-  EXPECT_DOUBLE_EQ(ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3), 1e4 * 4.0);
+  EXPECT_DOUBLE_EQ(
+      ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3),
+      1e4 * 4.0);
   // Exact data: lambda at the floor.
   c.in_range_noise2 = 0.0;
   c.probe_noise_um = 0.0;
-  EXPECT_DOUBLE_EQ(ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3), 1e-3 * 4.0);
+  EXPECT_DOUBLE_EQ(
+      ChooseLambda(RegularisationRule::kDiscrepancyPrinciple, c, 1e-3),
+      1e-3 * 4.0);
   EXPECT_DOUBLE_EQ(ChooseLambda(RegularisationRule::kNone, c, 1e-3), 0.0);
 }
 
@@ -150,7 +177,8 @@ TEST(ChooseLambda, DiscrepancyPrincipleHitsItsTarget) {
 TEST(LegendreCoordinates, OrthonormalOverTheRollRange) {
   const double lo = -0.2, hi = 0.3;
   const Eigen::MatrixXd l = LegendreToMonomial(5, lo, hi);
-  // The mean over the range of column_a(phi) column_b(phi) by Simpson's rule: the identity.
+  // The mean over the range of column_a(phi) column_b(phi) by Simpson's rule:
+  // the identity.
   const int kSamples = 4001;
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(5, 5);
   for (int k = 0; k < kSamples; ++k) {
@@ -158,20 +186,25 @@ TEST(LegendreCoordinates, OrthonormalOverTheRollRange) {
     Eigen::VectorXd powers(5);
     for (int j = 0; j < 5; ++j) powers(j) = std::pow(phi, j);
     const Eigen::VectorXd values = l.transpose() * powers;
-    const double weight = (k == 0 || k == kSamples - 1) ? 1.0 : (k % 2 == 1 ? 4.0 : 2.0);
+    const double weight =
+        (k == 0 || k == kSamples - 1) ? 1.0 : (k % 2 == 1 ? 4.0 : 2.0);
     gram += weight / (3.0 * (kSamples - 1)) * values * values.transpose();
   }
-  EXPECT_LT((gram - Eigen::MatrixXd::Identity(5, 5)).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((gram - Eigen::MatrixXd::Identity(5, 5)).cwiseAbs().maxCoeff(),
+            1e-9);
   // CorrectionSize(Delta(y)) == |y| with scales, per block too.
   const LinearModel model(3);
   const std::vector<ParameterBlock> blocks = model.ParameterBlocks();
   const std::map<std::string, double> scales = {{"s2", 2.5}};
   Eigen::VectorXd y(5);
   y << 0.3, -1.2, 2.0, 0.7, -0.4;
-  const Eigen::VectorXd delta = DeltaFromCorrectionCoordinates(blocks, y, lo, hi, scales);
+  const Eigen::VectorXd delta =
+      DeltaFromCorrectionCoordinates(blocks, y, lo, hi, scales);
   EXPECT_TRUE(delta.isApprox(CoordinateMap(blocks, 5, lo, hi, scales) * y));
   std::vector<BlockCorrectionSize> sizes;
-  EXPECT_NEAR(CorrectionSize(blocks, delta, lo, hi, scales, &sizes), y.norm(), 1e-12 * y.norm());
+  EXPECT_NEAR(CorrectionSize(blocks, delta, lo, hi, scales, &sizes),
+              y.norm(),
+              1e-12 * y.norm());
   ASSERT_EQ(sizes.size(), 3u);
   EXPECT_NEAR(sizes[0].size, y.head(3).norm(), 1e-12);
   EXPECT_NEAR(sizes[2].size, 0.4, 1e-12);
@@ -194,14 +227,18 @@ TEST(FindGrossOutlier, DropsAnIsolatedSpikeButNotASharedRowMisfit) {
   EXPECT_EQ(FindGrossOutlier(residual, used, rows, columns, test), -1);
   std::vector<double> spike = residual;
   spike[2 * columns + 4] += 10.0;
-  EXPECT_EQ(FindGrossOutlier(spike, used, rows, columns, test), 2 * columns + 4);
-  // The same spike with a point missing before it: the position in `used`, not the grid index.
+  EXPECT_EQ(FindGrossOutlier(spike, used, rows, columns, test),
+            2 * columns + 4);
+  // The same spike with a point missing before it: the position in `used`, not
+  // the grid index.
   std::vector<int> fewer = used;
   std::vector<double> fewer_spike = spike;
   fewer.erase(fewer.begin() + 3);
   fewer_spike.erase(fewer_spike.begin() + 3);
-  EXPECT_EQ(FindGrossOutlier(fewer_spike, fewer, rows, columns, test), 2 * columns + 3);
-  // A misfit shared by a whole row (a relief the model cannot follow) is not an outlier.
+  EXPECT_EQ(FindGrossOutlier(fewer_spike, fewer, rows, columns, test),
+            2 * columns + 3);
+  // A misfit shared by a whole row (a relief the model cannot follow) is not an
+  // outlier.
   std::vector<double> row = residual;
   for (int c = 0; c < columns; ++c) row[3 * columns + c] += 10.0;
   EXPECT_EQ(FindGrossOutlier(row, used, rows, columns, test), -1);
@@ -213,20 +250,38 @@ TEST(FindGrossOutlier, DropsAnIsolatedSpikeButNotASharedRowMisfit) {
 TEST(SolveConvexQp, KnownAnswers) {
   const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(2, 2);
   Eigen::VectorXd y;
-  // min 1/2 |y|^2 - g'y: unconstrained y = g, or the projection on the active half-plane.
+  // min 1/2 |y|^2 - g'y: unconstrained y = g, or the projection on the active
+  // half-plane.
   Eigen::MatrixXd g_one(1, 2);
   g_one << 1.0, 1.0;
-  ASSERT_TRUE(SolveConvexQp(identity, Eigen::Vector2d(2.0, 2.0), g_one, Eigen::VectorXd::Constant(1, 10.0), &y));
+  ASSERT_TRUE(SolveConvexQp(identity,
+                            Eigen::Vector2d(2.0, 2.0),
+                            g_one,
+                            Eigen::VectorXd::Constant(1, 10.0),
+                            &y));
   EXPECT_LT((y - Eigen::Vector2d(2.0, 2.0)).norm(), 1e-12);
-  ASSERT_TRUE(SolveConvexQp(identity, Eigen::Vector2d(2.0, 2.0), g_one, Eigen::VectorXd::Constant(1, 1.0), &y));
+  ASSERT_TRUE(SolveConvexQp(identity,
+                            Eigen::Vector2d(2.0, 2.0),
+                            g_one,
+                            Eigen::VectorXd::Constant(1, 1.0),
+                            &y));
   EXPECT_LT((y - Eigen::Vector2d(0.5, 0.5)).norm(), 1e-12);
-  // Both active: y1 <= 0.2, y1 + y2 <= 1 with g = (2, 1) gives (0.2, 0.8) (multipliers 1.6, 0.2).
+  // Both active: y1 <= 0.2, y1 + y2 <= 1 with g = (2, 1) gives (0.2, 0.8)
+  // (multipliers 1.6, 0.2).
   Eigen::MatrixXd g_two(2, 2);
   g_two << 1.0, 0.0, 1.0, 1.0;
-  ASSERT_TRUE(SolveConvexQp(identity, Eigen::Vector2d(2.0, 1.0), g_two, Eigen::Vector2d(0.2, 1.0), &y));
+  ASSERT_TRUE(SolveConvexQp(identity,
+                            Eigen::Vector2d(2.0, 1.0),
+                            g_two,
+                            Eigen::Vector2d(0.2, 1.0),
+                            &y));
   EXPECT_LT((y - Eigen::Vector2d(0.2, 0.8)).norm(), 1e-12);
   // A Hessian that is not positive definite is refused.
-  EXPECT_FALSE(SolveConvexQp(-identity, Eigen::Vector2d(1.0, 1.0), g_two, Eigen::Vector2d(0.2, 1.0), &y));
+  EXPECT_FALSE(SolveConvexQp(-identity,
+                             Eigen::Vector2d(1.0, 1.0),
+                             g_two,
+                             Eigen::Vector2d(0.2, 1.0),
+                             &y));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -241,14 +296,17 @@ TEST(PrepareCorrectionProblem, AveragesTeethWithTheirNoiseShare) {
   input.target_um = Eigen::VectorXd::Constant(n, 0.5);
   std::vector<Eigen::VectorXd> teeth(3, Eigen::VectorXd::Zero(n));
   for (int t = 0; t < 3; ++t) teeth[t].setConstant(1.0 + t);  // mean 2
-  teeth[2](7) = std::numeric_limits<double>::quiet_NaN();    // point 7: two teeth, mean 1.5
+  teeth[2](7) =
+      std::numeric_limits<double>::quiet_NaN();  // point 7: two teeth, mean 1.5
   input.measured_teeth_um = teeth;
   CorrectionOptions options;
   ASSERT_EQ(ValidateCorrectionInput(options, input), "");
   CorrectionProblem problem;
   CorrectionSummary summary;
   std::string error;
-  ASSERT_TRUE(PrepareCorrectionProblem(options, input, &problem, &summary, &error)) << error;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
   EXPECT_DOUBLE_EQ(problem.error_um(0), 1.5);
   EXPECT_DOUBLE_EQ(problem.error_um(7), 1.0);
   EXPECT_EQ(problem.noise_share(0), 1.0 / 3.0);
@@ -262,26 +320,30 @@ TEST(PrepareCorrectionProblem, AveragesTeethWithTheirNoiseShare) {
   // A single grid: shares of one.
   input.measured_teeth_um.clear();
   input.measured_um = teeth[0];
-  ASSERT_TRUE(PrepareCorrectionProblem(options, input, &problem, &summary, &error)) << error;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
   EXPECT_EQ(problem.noise_share, Eigen::VectorXd::Ones(n));
   EXPECT_EQ(problem.mean_teeth_averaged, 1.0);
 }
 
-// The machine ran commanded + a hidden offset h; the state problem asks for the change that makes
-// the model reproduce the measured flank, which is h.
+// The machine ran commanded + a hidden offset h; the state problem asks for the
+// change that makes the model reproduce the measured flank, which is h.
 TEST(MachineStateProblem, RecoversAHiddenOffset) {
   const LinearModel model(9);
   const int n = model.NumPoints();
   const std::vector<ParameterBlock> blocks = model.ParameterBlocks();
   Eigen::VectorXd y_hidden(5);
   y_hidden << 2.0, -1.0, 0.5, 1.5, -0.8;
-  const Eigen::VectorXd hidden = DeltaFromCorrectionCoordinates(blocks, y_hidden, -0.2, 0.3);
+  const Eigen::VectorXd hidden =
+      DeltaFromCorrectionCoordinates(blocks, y_hidden, -0.2, 0.3);
   ModelEvaluation ran;
   model.Evaluate(hidden, false, &ran);
   CorrectionInput input;
   input.model = &model;
   input.current_parameters = Eigen::VectorXd::Zero(5);
-  input.measured_teeth_um = {ran.deviations_um, ran.deviations_um, ran.deviations_um};
+  input.measured_teeth_um = {
+      ran.deviations_um, ran.deviations_um, ran.deviations_um};
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = 0.3;
@@ -291,17 +353,21 @@ TEST(MachineStateProblem, RecoversAHiddenOffset) {
   CorrectionProblem problem, state;
   CorrectionSummary summary;
   std::string error;
-  ASSERT_TRUE(PrepareCorrectionProblem(options, input, &problem, &summary, &error)) << error;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
   ASSERT_TRUE(MachineStateProblem(problem, &state));
-  // The model's own flank (zero here) is the measurement, the measured flank the target.
+  // The model's own flank (zero here) is the measurement, the measured flank
+  // the target.
   EXPECT_LT((state.error_um + ran.deviations_um).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_DOUBLE_EQ(state.probe_noise_um, 0.3 / std::sqrt(3.0));
   EXPECT_EQ(state.noise_share, Eigen::VectorXd::Ones(n));
   EXPECT_FALSE(state.has_bounds);
   EXPECT_EQ(state.mode, CorrectionMode::kNextPart);
   EXPECT_EQ(state.rule, problem.rule);
-  // Through the pipeline (exact data, no bounds, a negligible floor on lambda): the state's size
-  // is |y_hidden| and it leaves no misfit; the answer is a change of the commanded parameters.
+  // Through the pipeline (exact data, no bounds, a negligible floor on lambda):
+  // the state's size is |y_hidden| and it leaves no misfit; the answer is a
+  // change of the commanded parameters.
   options = CorrectionOptions();
   options.probe_noise_um = 0.0;
   options.min_relative_regularisation = 1e-7;
@@ -310,9 +376,12 @@ TEST(MachineStateProblem, RecoversAHiddenOffset) {
   const CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
   EXPECT_TRUE(result.summary.machine_state_estimated);
-  EXPECT_NEAR(result.summary.machine_state_size, y_hidden.norm(), 1e-6 * y_hidden.norm());
+  EXPECT_NEAR(result.summary.machine_state_size,
+              y_hidden.norm(),
+              1e-6 * y_hidden.norm());
   EXPECT_LT(result.summary.machine_state_misfit_rms_um, 1e-6);
-  EXPECT_TRUE(result.parameters.isApprox(input.current_parameters + result.delta));
+  EXPECT_TRUE(
+      result.parameters.isApprox(input.current_parameters + result.delta));
 }
 
 }  // namespace

@@ -1,27 +1,27 @@
 #include "engine/correction/correction.h"
 
+#include <gtest/gtest.h>
+
+#include <Eigen/QR>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <random>
 
-#include <Eigen/QR>
-#include <gtest/gtest.h>
-
+#include "engine/core/units.h"
 #include "engine/grinder/flat_wheel_grinder.h"
-#include "engine/simulation/measurement_simulator.h"
 #include "engine/grinder/target_modification.h"
+#include "engine/simulation/measurement_simulator.h"
 #include "tests/engine/test_gears.h"
 #include "tests/engine/test_statistics.h"
-#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A left-hand helical gear unlike the cutter: 23 teeth, m_n 5 mm, 20 deg, beta = +25 deg,
-// b = 60 mm, R_w = 300 mm.
+// A left-hand helical gear unlike the cutter: 23 teeth, m_n 5 mm, 20 deg, beta
+// = +25 deg, b = 60 mm, R_w = 300 mm.
 GrindingSetup HelicalSetup() {
   GrindingSetup s;
   s.gear.teeth = 23;
@@ -48,26 +48,36 @@ double Rms(const Eigen::VectorXd& v) {
   return n > 0 ? std::sqrt(s / n) : 0.0;
 }
 
-// A linear machine with a designed Jacobian (a test double for MachineModel): one polynomial
-// block "P" of 3 coefficients and two scalar blocks; deviations = J (p - p0) exactly, contacts
-// spread over the roll range [-0.2, 0.3].
+// A linear machine with a designed Jacobian (a test double for MachineModel):
+// one polynomial block "P" of 3 coefficients and two scalar blocks; deviations
+// = J (p - p0) exactly, contacts spread over the roll range [-0.2, 0.3].
 class LinearTestModel : public MachineModel {
  public:
   LinearTestModel(int rows, int columns, const Eigen::MatrixXd& jacobian)
-      : rows_(rows), columns_(columns), jacobian_(jacobian), origin_(Eigen::VectorXd::Zero(5)) {}
+      : rows_(rows),
+        columns_(columns),
+        jacobian_(jacobian),
+        origin_(Eigen::VectorXd::Zero(5)) {}
   int NumParameters() const override { return 5; }
   int GridRows() const override { return rows_; }
   int GridColumns() const override { return columns_; }
-  std::string ParameterName(int j) const override { return "p" + std::to_string(j); }
-  std::vector<ParameterBlock> ParameterBlocks() const override {
-    return {{"P", "mm", 0, 3, true, 1e-3}, {"s1", "rad", 3, 1, false, 1e-5}, {"s2", "mm", 4, 1, false, 1e-3}};
+  std::string ParameterName(int j) const override {
+    return "p" + std::to_string(j);
   }
-  void Evaluate(const Eigen::VectorXd& parameters, bool with_jacobian, ModelEvaluation* e) const override {
+  std::vector<ParameterBlock> ParameterBlocks() const override {
+    return {{"P", "mm", 0, 3, true, 1e-3},
+            {"s1", "rad", 3, 1, false, 1e-5},
+            {"s2", "mm", 4, 1, false, 1e-3}};
+  }
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
     const int n = rows_ * columns_;
     e->deviations_um = jacobian_ * (parameters - origin_);
     e->status.assign(n, PointStatus::kOk);
     e->contact_roll_rad.resize(n);
-    for (int i = 0; i < n; ++i) e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
+    for (int i = 0; i < n; ++i)
+      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
     if (with_jacobian) e->jacobian_um = jacobian_;
   }
 
@@ -77,15 +87,21 @@ class LinearTestModel : public MachineModel {
   Eigen::VectorXd origin_;
 };
 
-// The published cutter (right flank) with seeded hidden machine errors: every axis up to
-// order 2, about 2 um of axis motion each over the roll range, and the wheel. Not copyable
-// (tests point input.model at grinder).
+// The published cutter (right flank) with seeded hidden machine errors: every
+// axis up to order 2, about 2 um of axis motion each over the roll range, and
+// the wheel. Not copyable (tests point input.model at grinder).
 struct CutterWithHiddenErrors {
   explicit CutterWithHiddenErrors(std::uint64_t seed)
       : setup(testing::CutterSetup()),
         grinder(setup),
         nominal(grinder.nominal().ToVector()),
-        hidden(RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, seed)) {}
+        hidden(RandomHiddenErrors(grinder,
+                                  grinder.roll_min_rad(),
+                                  grinder.roll_max_rad(),
+                                  2.0,
+                                  2,
+                                  0.4,
+                                  seed)) {}
   CutterWithHiddenErrors(const CutterWithHiddenErrors&) = delete;
   CutterWithHiddenErrors& operator=(const CutterWithHiddenErrors&) = delete;
 
@@ -108,7 +124,8 @@ TEST(CorrectionSize, EqualsTheRmsAxisMotionOverTheRollRange) {
   for (int j = 0; j < delta.size(); ++j) delta(j) = 1e-4 * gauss(rng);
   std::vector<BlockCorrectionSize> sizes;
   const double size = CorrectionSize(blocks, delta, lo, hi, {}, &sizes);
-  // Independent: the mean of (dC(phi)/s)^2 by the trapezoid rule on a fine grid.
+  // Independent: the mean of (dC(phi)/s)^2 by the trapezoid rule on a fine
+  // grid.
   double total2 = 0.0;
   for (const ParameterBlock& b : blocks) {
     double mean2 = 0.0;
@@ -117,7 +134,8 @@ TEST(CorrectionSize, EqualsTheRmsAxisMotionOverTheRollRange) {
       for (int k = 0; k < kSamples; ++k) {
         const double phi = lo + (hi - lo) * k / (kSamples - 1);
         double value = 0.0;
-        for (int c = b.num_coefficients - 1; c >= 0; --c) value = value * phi + delta(b.first_index + c);
+        for (int c = b.num_coefficients - 1; c >= 0; --c)
+          value = value * phi + delta(b.first_index + c);
         const double weight = (k == 0 || k == kSamples - 1) ? 0.5 : 1.0;
         mean2 += weight * std::pow(value / b.default_scale, 2) / (kSamples - 1);
       }
@@ -134,10 +152,14 @@ TEST(CorrectionSize, EqualsTheRmsAxisMotionOverTheRollRange) {
 TEST(CorrectionSize, CoordinatesRoundTrip) {
   const FlatWheelGrinder grinder(testing::CutterSetup());
   const std::vector<ParameterBlock> blocks = grinder.ParameterBlocks();
-  Eigen::VectorXd y = Eigen::VectorXd::LinSpaced(kNumGrinderParameters, -2.0, 3.0);
-  const Eigen::VectorXd delta = DeltaFromCorrectionCoordinates(blocks, y, -0.25, 0.13);
-  EXPECT_NEAR(CorrectionSize(blocks, delta, -0.25, 0.13), y.norm(), 1e-9 * y.norm());
-  const Eigen::VectorXd back = CorrectionCoordinates(blocks, delta, -0.25, 0.13);
+  Eigen::VectorXd y =
+      Eigen::VectorXd::LinSpaced(kNumGrinderParameters, -2.0, 3.0);
+  const Eigen::VectorXd delta =
+      DeltaFromCorrectionCoordinates(blocks, y, -0.25, 0.13);
+  EXPECT_NEAR(
+      CorrectionSize(blocks, delta, -0.25, 0.13), y.norm(), 1e-9 * y.norm());
+  const Eigen::VectorXd back =
+      CorrectionCoordinates(blocks, delta, -0.25, 0.13);
   EXPECT_LT((back - y).cwiseAbs().maxCoeff(), 1e-8);
 }
 
@@ -148,12 +170,14 @@ TEST(ComputeCorrection, BestReachableIsTheProjectionOffTheRange) {
   const int rows = 3, columns = 4, n = 12;
   std::mt19937_64 rng(11);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  // Range spanned by 3 of the 5 columns; the other two are combinations (rank 3).
+  // Range spanned by 3 of the 5 columns; the other two are combinations (rank
+  // 3).
   Eigen::MatrixXd base(n, 3);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < 3; ++j) base(i, j) = gauss(rng);
   Eigen::MatrixXd jac(n, 5);
-  jac.leftCols(3) = base * 1e3;  // per mm: 1 um of motion moves the flank by ~1 um
+  jac.leftCols(3) =
+      base * 1e3;  // per mm: 1 um of motion moves the flank by ~1 um
   jac.col(3) = (base.col(0) - base.col(1)) * 1e5;
   jac.col(4) = base.col(2) * 2e3;
   const LinearTestModel model(rows, columns, jac);
@@ -171,7 +195,8 @@ TEST(ComputeCorrection, BestReachableIsTheProjectionOffTheRange) {
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;  // exact data
-  options.min_relative_regularisation = 0.0;  // and no floor: the plain projection
+  options.min_relative_regularisation =
+      0.0;  // and no floor: the plain projection
   options.outlier_threshold = 0.0;
   const CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
@@ -185,15 +210,19 @@ TEST(ComputeCorrection, BestReachableIsTheProjectionOffTheRange) {
   EXPECT_EQ(result.summary.regularisation_level, 0.0);
 }
 
-// On the real grinder: no change of the free parameters does better than "best reachable"
-// (checked against the unregularised pseudo-inverse), and the regularised answer is close to it.
+// On the real grinder: no change of the free parameters does better than "best
+// reachable" (checked against the unregularised pseudo-inverse), and the
+// regularised answer is close to it.
 TEST(ComputeCorrection, BestReachableBoundsEverySolverOnTheCutter) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
   const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd target = EvaluateTargetModifications(
-      {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kHelixSlope, -4.0}}, grinder.grid(), setup.gear,
-      setup.flank);
+  const Eigen::VectorXd target =
+      EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0},
+                                   {ModificationKind::kHelixSlope, -4.0}},
+                                  grinder.grid(),
+                                  setup.gear,
+                                  setup.flank);
   CorrectionInput input;
   input.model = &grinder;
   input.current_parameters = nominal;
@@ -209,18 +238,22 @@ TEST(ComputeCorrection, BestReachableBoundsEverySolverOnTheCutter) {
   const CorrectionResult plain = ComputeCorrection(options, input);
   const double best = regularised.summary.best_reachable_rms_um;
   EXPECT_GT(best, 0.0);
-  // Plain least squares in the linear model reaches at most as low (it may also use the
-  // directions below min_flank_effect_um), never lower than the full-rank projection.
+  // Plain least squares in the linear model reaches at most as low (it may also
+  // use the directions below min_flank_effect_um), never lower than the
+  // full-rank projection.
   EXPECT_LE(plain.summary.linear_residual_rms_um, best + 1e-9);
   const Eigen::VectorXd e = -target;
-  const Eigen::VectorXd full = e - eval.jacobian_um * eval.jacobian_um.completeOrthogonalDecomposition().solve(e);
+  const Eigen::VectorXd full =
+      e - eval.jacobian_um *
+              eval.jacobian_um.completeOrthogonalDecomposition().solve(e);
   EXPECT_GE(plain.summary.linear_residual_rms_um, Rms(full) - 1e-6);
   EXPECT_LE(regularised.summary.linear_residual_rms_um, best + /*tol_um=*/1e-6);
   EXPECT_LE(regularised.summary.residual_rms_um, best + /*tol_um=*/0.02);
 }
 
 // ---------------------------------------------------------------------------------------------
-// Closed loop with exact measurements on four gears and targets (issue 3, "Must show": three).
+// Closed loop with exact measurements on four gears and targets (issue 3, "Must
+// show": three).
 
 struct LoopCase {
   const char* name;
@@ -239,15 +272,18 @@ std::vector<LoopCase> LoopCases() {
        42},
       {"right_hand_left_flank_tip_relief_twist",
        testing::RightHandSetup(Flank::kLeft),
-       {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic}, {ModificationKind::kFlankTwist, 4.0}},
+       {{ModificationKind::kTipRelief, 6.0, 0.3, ReliefShape::kParabolic},
+        {ModificationKind::kFlankTwist, 4.0}},
        43},
       {"helical_crownings",
        HelicalSetup(),
-       {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kLeadCrowning, 5.0}},
+       {{ModificationKind::kProfileCrowning, 3.0},
+        {ModificationKind::kLeadCrowning, 5.0}},
        45},
       {"spur_crownings",
        testing::SpurSetup(),
-       {{ModificationKind::kProfileCrowning, 3.0}, {ModificationKind::kLeadCrowning, 3.0}},
+       {{ModificationKind::kProfileCrowning, 3.0},
+        {ModificationKind::kLeadCrowning, 3.0}},
        50},
   };
 }
@@ -256,20 +292,27 @@ TEST(ComputeCorrection, NoiseFreeLoopReachesTheBestOnFourGears) {
   for (const LoopCase& c : LoopCases()) {
     const FlatWheelGrinder grinder(c.setup);
     const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-    // Hidden machine errors: every axis up to order 2 and the wheel, about 2 um of axis motion
-    // per axis over the roll range.
-    const Eigen::VectorXd hidden =
-        RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, c.hidden_seed);
-    const Eigen::VectorXd target = EvaluateTargetModifications(c.target, grinder.grid(), c.setup.gear, c.setup.flank);
+    // Hidden machine errors: every axis up to order 2 and the wheel, about 2 um
+    // of axis motion per axis over the roll range.
+    const Eigen::VectorXd hidden = RandomHiddenErrors(grinder,
+                                                      grinder.roll_min_rad(),
+                                                      grinder.roll_max_rad(),
+                                                      2.0,
+                                                      2,
+                                                      0.4,
+                                                      c.hidden_seed);
+    const Eigen::VectorXd target = EvaluateTargetModifications(
+        c.target, grinder.grid(), c.setup.gear, c.setup.flank);
     ClosedLoopOptions loop;
     loop.corrections = 3;
     loop.correction.probe_noise_um = 0.0;  // exact measurements
-    const ClosedLoopResult run = SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+    const ClosedLoopResult run =
+        SimulateClosedLoop(grinder, nominal, hidden, target, loop);
     ASSERT_TRUE(run.completed) << c.name << ": " << run.message;
     ASSERT_EQ(run.iterations.size(), 4u);
     // The best the model can still reach for that target, from the last part.
-    const SimulatedMeasurement last =
-        SimulateMeasurement(grinder, run.iterations.back().commanded_parameters, hidden, {});
+    const SimulatedMeasurement last = SimulateMeasurement(
+        grinder, run.iterations.back().commanded_parameters, hidden, {});
     CorrectionInput input;
     input.model = &grinder;
     input.current_parameters = run.iterations.back().commanded_parameters;
@@ -277,29 +320,33 @@ TEST(ComputeCorrection, NoiseFreeLoopReachesTheBestOnFourGears) {
     input.target_um = target;
     const CorrectionResult best = ComputeCorrection(loop.correction, input);
     const double final_rms = run.iterations.back().true_rms_um;
-    EXPECT_LE(final_rms, best.summary.best_reachable_rms_um + /*tol_um=*/0.05) << c.name;
+    EXPECT_LE(final_rms, best.summary.best_reachable_rms_um + /*tol_um=*/0.05)
+        << c.name;
     EXPECT_LT(final_rms, 0.25 * run.iterations.front().true_rms_um) << c.name;
-    // Never into the null space: every correction moves the axes by tens of um at most.
+    // Never into the null space: every correction moves the axes by tens of um
+    // at most.
     for (const ClosedLoopIteration& it : run.iterations) {
       if (it.corrected) {
-        EXPECT_LT(it.correction.correction_size, 100.0) << c.name << " part " << it.part;
+        EXPECT_LT(it.correction.correction_size, 100.0)
+            << c.name << " part " << it.part;
       }
     }
   }
 }
 
-// With probe noise sigma = 0.5 um, after two corrections the true flank error is at most the
-// least-squares noise floor sqrt(r^2 + sigma^2 chi^2_k(0.99) / N) for at least 95 of 100 seeds,
-// on four gears and targets. The solver is the real one (machine-state estimate, exact model,
-// Ceres refinement); only the noise seed changes. The right-hand gear is given 10 um of
-// parabolic root relief here; with the tip relief and twist of the noise-free test it met the
-// floor on 92-96 of 100 seeds (BENCHMARKS.md, "Noise floor"): most of that target is out of
-// reach (1.53 of 8.2 um), and the part of it that leaks into the reachable directions as the
-// machine state moves adds to the noise.
+// With probe noise sigma = 0.5 um, after two corrections the true flank error
+// is at most the least-squares noise floor sqrt(r^2 + sigma^2 chi^2_k(0.99) /
+// N) for at least 95 of 100 seeds, on four gears and targets. The solver is the
+// real one (machine-state estimate, exact model, Ceres refinement); only the
+// noise seed changes. The right-hand gear is given 10 um of parabolic root
+// relief here; with the tip relief and twist of the noise-free test it met the
+// floor on 92-96 of 100 seeds (BENCHMARKS.md, "Noise floor"): most of that
+// target is out of reach (1.53 of 8.2 um), and the part of it that leaks into
+// the reachable directions as the machine state moves adds to the noise.
 //
-// Under ASan/UBSan (ten times slower; 9 minutes for 400 loops) the same loops run for 10 seeds
-// and 9 of them must stay within the floor: that build checks memory and undefined behaviour,
-// the Release suite checks the statistics.
+// Under ASan/UBSan (ten times slower; 9 minutes for 400 loops) the same loops
+// run for 10 seeds and 9 of them must stay within the floor: that build checks
+// memory and undefined behaviour, the Release suite checks the statistics.
 #ifdef GEARLOOP_SANITIZED_BUILD
 constexpr int kNoiseSeeds = 10;
 constexpr int kNoiseSeedsWithinFloor = 9;
@@ -311,17 +358,26 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
   const double sigma_um = 0.5;
   std::vector<LoopCase> cases = LoopCases();
   cases[1].name = "right_hand_left_flank_root_relief";
-  cases[1].target = {{ModificationKind::kRootRelief, 10.0, 0.3, ReliefShape::kParabolic}};
+  cases[1].target = {
+      {ModificationKind::kRootRelief, 10.0, 0.3, ReliefShape::kParabolic}};
   cases[1].hidden_seed = 49;
   for (const LoopCase& c : cases) {
     const FlatWheelGrinder grinder(c.setup);
     const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-    const Eigen::VectorXd hidden =
-        RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, c.hidden_seed);
-    const Eigen::VectorXd target = EvaluateTargetModifications(c.target, grinder.grid(), c.setup.gear, c.setup.flank);
+    const Eigen::VectorXd hidden = RandomHiddenErrors(grinder,
+                                                      grinder.roll_min_rad(),
+                                                      grinder.roll_max_rad(),
+                                                      2.0,
+                                                      2,
+                                                      0.4,
+                                                      c.hidden_seed);
+    const Eigen::VectorXd target = EvaluateTargetModifications(
+        c.target, grinder.grid(), c.setup.gear, c.setup.flank);
     const int n = grinder.grid().NumPoints();
-    // r: the best reachable residual of the true (noise-free) error of the first part.
-    const SimulatedMeasurement truth = SimulateMeasurement(grinder, nominal, hidden, {});
+    // r: the best reachable residual of the true (noise-free) error of the
+    // first part.
+    const SimulatedMeasurement truth =
+        SimulateMeasurement(grinder, nominal, hidden, {});
     CorrectionOptions exact;
     exact.probe_noise_um = 0.0;
     CorrectionInput input;
@@ -329,7 +385,8 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
     input.current_parameters = nominal;
     input.measured_um = truth.measured_um;
     input.target_um = target;
-    const double r = ComputeCorrection(exact, input).summary.best_reachable_rms_um;
+    const double r =
+        ComputeCorrection(exact, input).summary.best_reachable_rms_um;
 
     int within = 0;
     for (int seed = 1; seed <= kNoiseSeeds; ++seed) {
@@ -338,100 +395,132 @@ TEST(ComputeCorrection, NoisyLoopStaysWithinTheNoiseFloorOnFourGears) {
       loop.measurement.probe_noise_um = sigma_um;
       loop.measurement.seed = 1000 + 2 * seed;
       loop.correction.probe_noise_um = sigma_um;
-      const ClosedLoopResult run = SimulateClosedLoop(grinder, nominal, hidden, target, loop);
-      ASSERT_TRUE(run.completed) << c.name << " seed " << seed << ": " << run.message;
+      const ClosedLoopResult run =
+          SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+      ASSERT_TRUE(run.completed)
+          << c.name << " seed " << seed << ": " << run.message;
       const int k = run.iterations[1].correction.rank;
-      if (run.iterations.back().true_rms_um <= testing::NoiseFloorUm(r, sigma_um, k, n)) ++within;
+      if (run.iterations.back().true_rms_um <=
+          testing::NoiseFloorUm(r, sigma_um, k, n))
+        ++within;
     }
     RecordProperty(std::string("seeds_within_noise_floor_") + c.name, within);
-    EXPECT_GE(within, kNoiseSeedsWithinFloor) << c.name << ": " << within << " of " << kNoiseSeeds;
+    EXPECT_GE(within, kNoiseSeedsWithinFloor)
+        << c.name << ": " << within << " of " << kNoiseSeeds;
   }
 }
 
-// The cutter with hidden errors (every axis up to order 2 and the wheel) measured with 0.5 um of
-// probe noise, to be corrected toward the involute. Not copyable: input.model points at grinder.
+// The cutter with hidden errors (every axis up to order 2 and the wheel)
+// measured with 0.5 um of probe noise, to be corrected toward the involute. Not
+// copyable: input.model points at grinder.
 struct NoisyCutterMeasurement : CutterWithHiddenErrors {
-  explicit NoisyCutterMeasurement(std::uint64_t seed) : CutterWithHiddenErrors(seed) {
+  explicit NoisyCutterMeasurement(std::uint64_t seed)
+      : CutterWithHiddenErrors(seed) {
     MeasurementSimulationOptions cmm;
     cmm.probe_noise_um = 0.5;
     cmm.seed = seed;
     input.model = &grinder;
     input.current_parameters = nominal;
-    input.measured_um = SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
+    input.measured_um =
+        SimulateMeasurement(grinder, nominal, hidden, cmm).measured_um;
     input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
   }
   CorrectionInput input;
 };
 
-// Unknown probe noise (the default): generalised cross-validation picks lambda; it corrects the
-// machine errors without chasing the noise into weak directions.
+// Unknown probe noise (the default): generalised cross-validation picks lambda;
+// it corrects the machine errors without chasing the noise into weak
+// directions.
 TEST(ComputeCorrection, UnknownNoiseUsesGeneralisedCrossValidation) {
   const NoisyCutterMeasurement c(21);
   const CorrectionOptions options;  // probe_noise_um < 0: unknown
   const CorrectionResult result = ComputeCorrection(options, c.input);
-  ASSERT_EQ(result.summary.status, CorrectionStatus::kConverged) << result.summary.message;
-  EXPECT_EQ(result.summary.rule, RegularisationRule::kGeneralisedCrossValidation);
+  ASSERT_EQ(result.summary.status, CorrectionStatus::kConverged)
+      << result.summary.message;
+  EXPECT_EQ(result.summary.rule,
+            RegularisationRule::kGeneralisedCrossValidation);
   EXPECT_GT(result.summary.regularisation_level, 0.0);
   EXPECT_LT(result.summary.effective_dof, result.summary.rank);
-  // The fit leaves about the noise: neither the raw error nor an exact fit of the noise.
+  // The fit leaves about the noise: neither the raw error nor an exact fit of
+  // the noise.
   EXPECT_GT(result.summary.residual_rms_um, 0.2);
   EXPECT_LT(result.summary.residual_rms_um, 0.6);
-  const SimulatedMeasurement next = SimulateMeasurement(c.grinder, result.parameters, c.hidden, {});
+  const SimulatedMeasurement next =
+      SimulateMeasurement(c.grinder, result.parameters, c.hidden, {});
   EXPECT_LT(Rms(next.true_deviations_um),
-            0.25 * Rms(SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).true_deviations_um));
+            0.25 * Rms(SimulateMeasurement(c.grinder, c.nominal, c.hidden, {})
+                           .true_deviations_um));
 }
 
-// A known probe noise: the unbiased predictive risk estimator by default, the discrepancy
-// principle on request; both reported. The discrepancy principle leaves at least as much misfit.
-TEST(ComputeCorrection, KnownNoiseUsesThePredictiveRiskOrOnRequestTheDiscrepancyPrinciple) {
+// A known probe noise: the unbiased predictive risk estimator by default, the
+// discrepancy principle on request; both reported. The discrepancy principle
+// leaves at least as much misfit.
+TEST(ComputeCorrection,
+     KnownNoiseUsesThePredictiveRiskOrOnRequestTheDiscrepancyPrinciple) {
   const NoisyCutterMeasurement c(22);
   CorrectionOptions options;
   options.probe_noise_um = 0.5;
   const CorrectionResult upre = ComputeCorrection(options, c.input);
-  ASSERT_EQ(upre.summary.status, CorrectionStatus::kConverged) << upre.summary.message;
+  ASSERT_EQ(upre.summary.status, CorrectionStatus::kConverged)
+      << upre.summary.message;
   EXPECT_EQ(upre.summary.rule, RegularisationRule::kUnbiasedPredictiveRisk);
   EXPECT_STREQ(RegularisationRuleName(upre.summary.rule), "upre");
   options.use_discrepancy_principle = true;
   const CorrectionResult dp = ComputeCorrection(options, c.input);
-  ASSERT_EQ(dp.summary.status, CorrectionStatus::kConverged) << dp.summary.message;
+  ASSERT_EQ(dp.summary.status, CorrectionStatus::kConverged)
+      << dp.summary.message;
   EXPECT_EQ(dp.summary.rule, RegularisationRule::kDiscrepancyPrinciple);
   EXPECT_GE(dp.summary.regularisation_level, upre.summary.regularisation_level);
-  EXPECT_GE(dp.summary.linear_residual_rms_um, upre.summary.linear_residual_rms_um - 1e-9);
+  EXPECT_GE(dp.summary.linear_residual_rms_um,
+            upre.summary.linear_residual_rms_um - 1e-9);
 }
 
-// The machine runs commanded + hidden errors. Linearising at the estimated real state rather
-// than at the commanded point makes one correction enough where the hidden errors are large
-// (16.9 um initial error on the helical gear): with exact data the first corrected part is
-// within 0.05 um of the best reachable; linearised at the commanded point it is not.
+// The machine runs commanded + hidden errors. Linearising at the estimated real
+// state rather than at the commanded point makes one correction enough where
+// the hidden errors are large (16.9 um initial error on the helical gear): with
+// exact data the first corrected part is within 0.05 um of the best reachable;
+// linearised at the commanded point it is not.
 TEST(ComputeCorrection, MachineStateEstimateMakesOneCorrectionEnough) {
   const GrindingSetup setup = HelicalSetup();
   const FlatWheelGrinder grinder(setup);
   const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 46);
-  const Eigen::VectorXd target = EvaluateTargetModifications(
-      {{ModificationKind::kProfileSlope, 4.0}, {ModificationKind::kHelixSlope, -3.0}, {ModificationKind::kProfileCrowning, 2.0}},
-      grinder.grid(), setup.gear, setup.flank);
+  const Eigen::VectorXd hidden = RandomHiddenErrors(
+      grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.4, 46);
+  const Eigen::VectorXd target =
+      EvaluateTargetModifications({{ModificationKind::kProfileSlope, 4.0},
+                                   {ModificationKind::kHelixSlope, -3.0},
+                                   {ModificationKind::kProfileCrowning, 2.0}},
+                                  grinder.grid(),
+                                  setup.gear,
+                                  setup.flank);
   CorrectionInput input;
   input.model = &grinder;
   input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.measured_um =
+      SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
   input.target_um = target;
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
   const CorrectionResult with_state = ComputeCorrection(options, input);
-  ASSERT_TRUE(with_state.summary.IsSolutionUsable()) << with_state.summary.message;
+  ASSERT_TRUE(with_state.summary.IsSolutionUsable())
+      << with_state.summary.message;
   EXPECT_TRUE(with_state.summary.machine_state_estimated);
   EXPECT_GT(with_state.summary.machine_state_size, 1.0);
   options.estimate_machine_state = false;
   const CorrectionResult at_commanded = ComputeCorrection(options, input);
-  ASSERT_TRUE(at_commanded.summary.IsSolutionUsable()) << at_commanded.summary.message;
+  ASSERT_TRUE(at_commanded.summary.IsSolutionUsable())
+      << at_commanded.summary.message;
   EXPECT_FALSE(at_commanded.summary.machine_state_estimated);
 
   const double best = with_state.summary.best_reachable_rms_um;
-  const double next_with_state = Rms(SimulateMeasurement(grinder, with_state.parameters, hidden, {}).true_deviations_um - target);
+  const double next_with_state =
+      Rms(SimulateMeasurement(grinder, with_state.parameters, hidden, {})
+              .true_deviations_um -
+          target);
   const double next_at_commanded =
-      Rms(SimulateMeasurement(grinder, at_commanded.parameters, hidden, {}).true_deviations_um - target);
+      Rms(SimulateMeasurement(grinder, at_commanded.parameters, hidden, {})
+              .true_deviations_um -
+          target);
   EXPECT_LE(next_with_state, best + /*tol_um=*/0.05);
   EXPECT_GT(next_at_commanded, best + 0.2);
   // The answer is a change of the commanded parameters.
@@ -443,34 +532,44 @@ TEST(ComputeCorrection, MachineStateEstimateMakesOneCorrectionEnough) {
 
 TEST(ComputeCorrection, ReworkNeverPredictsAddedMaterial) {
   const CutterWithHiddenErrors c(5);
-  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {});
+  const SimulatedMeasurement part =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, {});
   CorrectionInput input;
   input.model = &c.grinder;
   input.current_parameters = c.nominal;
   input.measured_um = part.measured_um;
-  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, c.grinder.grid(),
-                                                c.setup.gear, c.setup.flank);
+  input.target_um =
+      EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}},
+                                  c.grinder.grid(),
+                                  c.setup.gear,
+                                  c.setup.flank);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
-  // The part has too little material at some points, so the unconstrained answer adds some.
+  // The part has too little material at some points, so the unconstrained
+  // answer adds some.
   const CorrectionResult next_part = ComputeCorrection(options, input);
   ASSERT_TRUE(next_part.summary.IsSolutionUsable());
   ASSERT_GT(next_part.summary.max_added_material_um, 0.5);
   options.mode = CorrectionMode::kRework;
   const CorrectionResult rework = ComputeCorrection(options, input);
-  ASSERT_EQ(rework.summary.status, CorrectionStatus::kConverged) << rework.summary.message;
+  ASSERT_EQ(rework.summary.status, CorrectionStatus::kConverged)
+      << rework.summary.message;
   EXPECT_LE(rework.summary.max_added_material_um, options.rework_tolerance_um);
-  // Independently: the exact model at the new settings against the current ones.
+  // Independently: the exact model at the new settings against the current
+  // ones.
   ModelEvaluation before, after;
   c.grinder.Evaluate(c.nominal, false, &before);
   c.grinder.Evaluate(rework.parameters, false, &after);
   for (int i = 0; i < c.grinder.grid().NumPoints(); ++i) {
     ASSERT_EQ(after.status[i], PointStatus::kOk);
-    EXPECT_LE(after.deviations_um(i) - before.deviations_um(i), /*tol_um=*/1e-6) << "point " << i;
+    EXPECT_LE(after.deviations_um(i) - before.deviations_um(i), /*tol_um=*/1e-6)
+        << "point " << i;
   }
-  // It still corrects: the error is smaller than before, though not as small as next-part.
+  // It still corrects: the error is smaller than before, though not as small as
+  // next-part.
   EXPECT_LT(rework.summary.residual_rms_um, rework.summary.initial_rms_um);
-  EXPECT_GE(rework.summary.residual_rms_um, next_part.summary.residual_rms_um - 1e-9);
+  EXPECT_GE(rework.summary.residual_rms_um,
+            next_part.summary.residual_rms_um - 1e-9);
 }
 
 TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
@@ -478,18 +577,24 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
   CorrectionInput input;
   input.model = &c.grinder;
   input.current_parameters = c.nominal;
-  input.measured_um = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
+  input.measured_um =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
   input.target_um = Eigen::VectorXd::Zero(c.grinder.grid().NumPoints());
   CorrectionOptions options;
-  // The published cutter case: only C up to order 6, the other axes order 0; no wheel change.
+  // The published cutter case: only C up to order 6, the other axes order 0; no
+  // wheel change.
   options.default_max_order = 0;
-  options.max_order = {{"C", 6}, {"cone_angle", -1}, {"parabola_coefficient", -1}, {"parabola_vertex", -1}};
+  options.max_order = {{"C", 6},
+                       {"cone_angle", -1},
+                       {"parabola_coefficient", -1},
+                       {"parabola_vertex", -1}};
   const CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
   EXPECT_EQ(result.summary.num_free_parameters, 5 + 7);
   for (int j = 0; j < kNumGrinderParameters; ++j) {
-    const bool free = (j < kNumAxisCoefficients && j % kCoefficientsPerAxis == 0) ||
-                      (j >= ParameterIndex(Axis::kC, 0) && j <= ParameterIndex(Axis::kC, 6));
+    const bool free =
+        (j < kNumAxisCoefficients && j % kCoefficientsPerAxis == 0) ||
+        (j >= ParameterIndex(Axis::kC, 0) && j <= ParameterIndex(Axis::kC, 6));
     if (!free) {
       EXPECT_EQ(result.delta(j), 0.0) << GrinderParameterName(j);
     }
@@ -498,19 +603,21 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
   EXPECT_LT(result.summary.residual_rms_um, result.summary.initial_rms_um);
   // An unknown block name is invalid input, reported, not thrown.
   options.max_order = {{"W", 2}};
-  EXPECT_EQ(ComputeCorrection(options, input).summary.status, CorrectionStatus::kInvalidInput);
+  EXPECT_EQ(ComputeCorrection(options, input).summary.status,
+            CorrectionStatus::kInvalidInput);
 }
 
 TEST(ComputeCorrection, BoundsAreRespected) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
   const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 3.0, 1, 0.4, 8);
+  const Eigen::VectorXd hidden = RandomHiddenErrors(
+      grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 3.0, 1, 0.4, 8);
   CorrectionInput input;
   input.model = &grinder;
   input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.measured_um =
+      SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
   input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
@@ -519,8 +626,10 @@ TEST(ComputeCorrection, BoundsAreRespected) {
   ASSERT_GT(std::abs(free.delta(c0)), 1e-6);
   // Allow C0 only a fifth of the change it wanted.
   const double limit = 0.2 * std::abs(free.delta(c0));
-  options.lower_delta = Eigen::VectorXd::Constant(kNumGrinderParameters, -std::numeric_limits<double>::infinity());
-  options.upper_delta = Eigen::VectorXd::Constant(kNumGrinderParameters, std::numeric_limits<double>::infinity());
+  options.lower_delta = Eigen::VectorXd::Constant(
+      kNumGrinderParameters, -std::numeric_limits<double>::infinity());
+  options.upper_delta = Eigen::VectorXd::Constant(
+      kNumGrinderParameters, std::numeric_limits<double>::infinity());
   options.lower_delta(c0) = -limit;
   options.upper_delta(c0) = limit;
   const CorrectionResult bounded = ComputeCorrection(options, input);
@@ -529,7 +638,8 @@ TEST(ComputeCorrection, BoundsAreRespected) {
   EXPECT_LT(bounded.summary.residual_rms_um, bounded.summary.initial_rms_um);
   // Bounds the wrong way round are invalid input.
   options.lower_delta(c0) = 1.0;
-  EXPECT_EQ(ComputeCorrection(options, input).summary.status, CorrectionStatus::kInvalidInput);
+  EXPECT_EQ(ComputeCorrection(options, input).summary.status,
+            CorrectionStatus::kInvalidInput);
 }
 
 TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
@@ -537,10 +647,12 @@ TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 0.3;
   cmm.seed = 4;
-  const SimulatedMeasurement clean = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
+  const SimulatedMeasurement clean =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   cmm.outlier_points = {12};
   cmm.outlier_size_um = 25.0;
-  const SimulatedMeasurement dirty = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
+  const SimulatedMeasurement dirty =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   ASSERT_EQ(dirty.outlier_indices, std::vector<int>{12});
   CorrectionInput input;
   input.model = &c.grinder;
@@ -556,32 +668,42 @@ TEST(ComputeCorrection, GrossOutlierIsDetectedAndReported) {
   ASSERT_TRUE(from_dirty.summary.IsSolutionUsable());
   EXPECT_EQ(from_dirty.summary.outlier_indices, std::vector<int>{12});
   EXPECT_EQ(from_dirty.summary.num_points_used, 44);
-  // The outlier is not silently used: the correction matches the clean one closely.
-  EXPECT_LT(CorrectionSize(c.grinder.ParameterBlocks(), from_dirty.delta - from_clean.delta,
-                           from_clean.summary.roll_min_rad, from_clean.summary.roll_max_rad),
+  // The outlier is not silently used: the correction matches the clean one
+  // closely.
+  EXPECT_LT(CorrectionSize(c.grinder.ParameterBlocks(),
+                           from_dirty.delta - from_clean.delta,
+                           from_clean.summary.roll_min_rad,
+                           from_clean.summary.roll_max_rad),
             0.2 * from_clean.summary.correction_size);
 }
 
-// Sharp reliefs leave a misfit along a row or a column that no correction removes: that is the
-// best reachable residual, not a set of outliers.
+// Sharp reliefs leave a misfit along a row or a column that no correction
+// removes: that is the best reachable residual, not a set of outliers.
 TEST(ComputeCorrection, ReliefTheModelCannotFollowIsNotAnOutlier) {
-  for (const GrindingSetup& setup : {testing::CutterSetup(), testing::RightHandSetup(Flank::kLeft)}) {
+  for (const GrindingSetup& setup :
+       {testing::CutterSetup(), testing::RightHandSetup(Flank::kLeft)}) {
     const FlatWheelGrinder grinder(setup);
     for (const TargetModification& relief :
          {TargetModification{ModificationKind::kTipRelief, 20.0, 0.25},
           TargetModification{ModificationKind::kEndRelief, 15.0, 0.25},
-          TargetModification{ModificationKind::kRootRelief, 10.0, 0.25, ReliefShape::kParabolic}}) {
+          TargetModification{ModificationKind::kRootRelief,
+                             10.0,
+                             0.25,
+                             ReliefShape::kParabolic}}) {
       CorrectionInput input;
       input.model = &grinder;
       input.current_parameters = grinder.nominal().ToVector();
       input.measured_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
-      input.target_um = EvaluateTargetModifications({relief}, grinder.grid(), setup.gear, setup.flank);
+      input.target_um = EvaluateTargetModifications(
+          {relief}, grinder.grid(), setup.gear, setup.flank);
       CorrectionOptions options;
       options.probe_noise_um = 0.0;
       const CorrectionResult result = ComputeCorrection(options, input);
       ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
-      EXPECT_GT(result.summary.best_reachable_rms_um, 1.0) << ModificationKindName(relief.kind);
-      EXPECT_TRUE(result.summary.outlier_indices.empty()) << ModificationKindName(relief.kind);
+      EXPECT_GT(result.summary.best_reachable_rms_um, 1.0)
+          << ModificationKindName(relief.kind);
+      EXPECT_TRUE(result.summary.outlier_indices.empty())
+          << ModificationKindName(relief.kind);
     }
   }
 }
@@ -590,11 +712,12 @@ TEST(ComputeCorrection, MissingPointsAreHonoured) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
   const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 10);
+  const Eigen::VectorXd hidden = RandomHiddenErrors(
+      grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 10);
   MeasurementSimulationOptions cmm;
   cmm.missing_points = {0, 8, 22, 40};
-  const SimulatedMeasurement part = SimulateMeasurement(grinder, nominal, hidden, cmm);
+  const SimulatedMeasurement part =
+      SimulateMeasurement(grinder, nominal, hidden, cmm);
   CorrectionInput input;
   input.model = &grinder;
   input.current_parameters = nominal;
@@ -610,8 +733,10 @@ TEST(ComputeCorrection, MissingPointsAreHonoured) {
     EXPECT_TRUE(std::isnan(result.predicted_residual_um(i)));
     EXPECT_TRUE(std::isfinite(result.predicted_change_um(i)));
   }
-  // The true error of the next part is small at the missing points too (the model fills them).
-  const SimulatedMeasurement next = SimulateMeasurement(grinder, result.parameters, hidden, {});
+  // The true error of the next part is small at the missing points too (the
+  // model fills them).
+  const SimulatedMeasurement next =
+      SimulateMeasurement(grinder, result.parameters, hidden, {});
   EXPECT_LT(Rms(next.true_deviations_um), 0.2 * Rms(part.true_deviations_um));
 }
 
@@ -630,14 +755,16 @@ TEST(AverageTeeth, MeanOfTheDeliveredValues) {
   EXPECT_EQ(counts(2), 2);
 }
 
-// Several teeth: the mean is corrected, and the discrepancy principle sees sigma / sqrt(teeth).
+// Several teeth: the mean is corrected, and the discrepancy principle sees
+// sigma / sqrt(teeth).
 TEST(ComputeCorrection, SeveralTeethActLikeTheirMeanWithReducedNoise) {
   const CutterWithHiddenErrors c(31);
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 1.0;
   cmm.teeth = 4;
   cmm.seed = 31;
-  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
+  const SimulatedMeasurement part =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   ASSERT_EQ(part.teeth_um.size(), 4u);
   CorrectionInput teeth;
   teeth.model = &c.grinder;
@@ -652,25 +779,30 @@ TEST(ComputeCorrection, SeveralTeethActLikeTheirMeanWithReducedNoise) {
   mean.measured_um = AverageTeeth(part.teeth_um);
   options.probe_noise_um = 0.5;
   const CorrectionResult from_mean = ComputeCorrection(options, mean);
-  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable()) << from_teeth.summary.message;
-  EXPECT_NEAR(from_teeth.summary.regularisation_level, from_mean.summary.regularisation_level,
+  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable())
+      << from_teeth.summary.message;
+  EXPECT_NEAR(from_teeth.summary.regularisation_level,
+              from_mean.summary.regularisation_level,
               1e-9 * from_mean.summary.regularisation_level);
   EXPECT_LT((from_teeth.delta - from_mean.delta).cwiseAbs().maxCoeff(), 1e-12);
   // A tooth of the wrong size is invalid input.
   teeth.measured_teeth_um.push_back(Eigen::VectorXd::Zero(3));
-  EXPECT_EQ(ComputeCorrection(options, teeth).summary.status, CorrectionStatus::kInvalidInput);
+  EXPECT_EQ(ComputeCorrection(options, teeth).summary.status,
+            CorrectionStatus::kInvalidInput);
 }
 
-// Three measured teeth given as teeth carry a third of the noise variance per point; the same
-// data given as one averaged grid does not know that. The predictive risk then regularises the
-// teeth less: a smaller lambda (LAYOUT.md step 3).
+// Three measured teeth given as teeth carry a third of the noise variance per
+// point; the same data given as one averaged grid does not know that. The
+// predictive risk then regularises the teeth less: a smaller lambda (LAYOUT.md
+// step 3).
 TEST(ComputeCorrection, ThreeTeethReportASmallerLambdaThanTheirMeanAsOneGrid) {
   const CutterWithHiddenErrors c(33);
   MeasurementSimulationOptions cmm;
   cmm.probe_noise_um = 0.5;
   cmm.teeth = 3;
   cmm.seed = 33;
-  const SimulatedMeasurement part = SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
+  const SimulatedMeasurement part =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, cmm);
   CorrectionInput teeth;
   teeth.model = &c.grinder;
   teeth.current_parameters = c.nominal;
@@ -683,12 +815,17 @@ TEST(ComputeCorrection, ThreeTeethReportASmallerLambdaThanTheirMeanAsOneGrid) {
   options.probe_noise_um = 0.5;
   const CorrectionResult from_teeth = ComputeCorrection(options, teeth);
   const CorrectionResult from_one_grid = ComputeCorrection(options, one_grid);
-  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable()) << from_teeth.summary.message;
-  ASSERT_TRUE(from_one_grid.summary.IsSolutionUsable()) << from_one_grid.summary.message;
-  EXPECT_EQ(from_teeth.summary.rule, RegularisationRule::kUnbiasedPredictiveRisk);
+  ASSERT_TRUE(from_teeth.summary.IsSolutionUsable())
+      << from_teeth.summary.message;
+  ASSERT_TRUE(from_one_grid.summary.IsSolutionUsable())
+      << from_one_grid.summary.message;
+  EXPECT_EQ(from_teeth.summary.rule,
+            RegularisationRule::kUnbiasedPredictiveRisk);
   EXPECT_GT(from_teeth.summary.regularisation_level, 0.0);
-  EXPECT_LT(from_teeth.summary.regularisation_level, from_one_grid.summary.regularisation_level);
-  EXPECT_GE(from_teeth.summary.effective_dof, from_one_grid.summary.effective_dof);
+  EXPECT_LT(from_teeth.summary.regularisation_level,
+            from_one_grid.summary.regularisation_level);
+  EXPECT_GE(from_teeth.summary.effective_dof,
+            from_one_grid.summary.effective_dof);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -698,16 +835,18 @@ TEST(ComputeCorrection, ParticleSwarmIsSeededAndStaysInItsBox) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
   const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-  const Eigen::VectorXd hidden =
-      RandomHiddenErrors(grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 12);
+  const Eigen::VectorXd hidden = RandomHiddenErrors(
+      grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 1, 0.4, 12);
   CorrectionInput input;
   input.model = &grinder;
   input.current_parameters = nominal;
-  input.measured_um = SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
+  input.measured_um =
+      SimulateMeasurement(grinder, nominal, hidden, {}).measured_um;
   input.target_um = Eigen::VectorXd::Zero(grinder.grid().NumPoints());
   CorrectionOptions options;
   options.solver = CorrectionSolver::kParticleSwarm;
-  options.pso_generations = 40;  // the published 200 are exercised by the benchmark
+  options.pso_generations =
+      40;  // the published 200 are exercised by the benchmark
   const CorrectionResult a = ComputeCorrection(options, input);
   const CorrectionResult b = ComputeCorrection(options, input);
   ASSERT_TRUE(a.summary.IsSolutionUsable()) << a.summary.message;
@@ -715,7 +854,8 @@ TEST(ComputeCorrection, ParticleSwarmIsSeededAndStaysInItsBox) {
   EXPECT_EQ(a.summary.iterations, 40);
   for (int j = 0; j < kNumGrinderParameters; ++j) {
     const double box = j == kConeAngleIndex ? 0.02 * kPi / 180.0 : 0.02;
-    EXPECT_LE(std::abs(a.delta(j)), box * (1.0 + 1e-12)) << GrinderParameterName(j);
+    EXPECT_LE(std::abs(a.delta(j)), box * (1.0 + 1e-12))
+        << GrinderParameterName(j);
   }
   options.pso_seed = 99;
   const CorrectionResult c = ComputeCorrection(options, input);
@@ -727,9 +867,13 @@ TEST(ComputeCorrection, PlainLeastSquaresWandersIntoTheNullSpace) {
   CorrectionInput input;
   input.model = &c.grinder;
   input.current_parameters = c.nominal;
-  input.measured_um = SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
-  input.target_um = EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}}, c.grinder.grid(),
-                                                c.setup.gear, c.setup.flank);
+  input.measured_um =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
+  input.target_um =
+      EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 3.0}},
+                                  c.grinder.grid(),
+                                  c.setup.gear,
+                                  c.setup.flank);
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
   const CorrectionResult regularised = ComputeCorrection(options, input);
@@ -738,7 +882,8 @@ TEST(ComputeCorrection, PlainLeastSquaresWandersIntoTheNullSpace) {
   ASSERT_TRUE(regularised.summary.IsSolutionUsable());
   EXPECT_EQ(plain.summary.rule, RegularisationRule::kNone);
   // MODEL.md §5: the minimum-norm answer in raw units moves the axes far more.
-  EXPECT_GT(plain.summary.correction_size, 10.0 * regularised.summary.correction_size);
+  EXPECT_GT(plain.summary.correction_size,
+            10.0 * regularised.summary.correction_size);
 }
 
 TEST(ComputeCorrection, InvalidInputIsReportedNotThrown) {

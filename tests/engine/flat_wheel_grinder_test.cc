@@ -1,14 +1,14 @@
 #include "engine/grinder/flat_wheel_grinder.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "tests/engine/test_gears.h"
 #include "engine/core/units.h"
+#include "tests/engine/test_gears.h"
 
 namespace gearloop {
 namespace {
@@ -20,7 +20,8 @@ using testing::SpurSetup;
 
 // MODEL.md / issue 2: nominal settings generate the exact involute helicoid.
 constexpr double kExactInvoluteTolUm = 1e-6;
-// Issue 2: every column of S agrees with central differences of the exact model.
+// Issue 2: every column of S agrees with central differences of the exact
+// model.
 constexpr double kFiniteDifferenceRelTol = 1e-5;
 
 struct NamedSetup {
@@ -57,7 +58,8 @@ TEST(FlatWheelGrinder, NominalSettingsGenerateExactInvoluteHelicoid) {
   for (const NamedSetup& c : ExactInvoluteCases()) {
     SCOPED_TRACE(c.name);
     ValidationIssue issue;
-    ASSERT_TRUE(ValidateSetup(c.setup, &issue)) << issue.field << ": " << issue.message;
+    ASSERT_TRUE(ValidateSetup(c.setup, &issue))
+        << issue.field << ": " << issue.message;
     const FlatWheelGrinder grinder(c.setup);
     ModelEvaluation eval;
     grinder.Evaluate(grinder.nominal().ToVector(), false, &eval);
@@ -65,7 +67,8 @@ TEST(FlatWheelGrinder, NominalSettingsGenerateExactInvoluteHelicoid) {
     EXPECT_TRUE(eval.AllReached()) << eval.NumReached() << " of 45 reached";
     for (int i = 0; i < 45; ++i) {
       if (eval.status[i] != PointStatus::kOk) continue;
-      EXPECT_LT(std::abs(eval.deviations_um(i)), kExactInvoluteTolUm) << "point " << i;
+      EXPECT_LT(std::abs(eval.deviations_um(i)), kExactInvoluteTolUm)
+          << "point " << i;
     }
   }
 }
@@ -90,20 +93,29 @@ TEST(FlatWheelGrinder, ContactSatisfiesMeshingEquationAndLiesOnTheFlank) {
     ASSERT_EQ(contact.status, PointStatus::kOk);
     EXPECT_LE(contact.iterations, 10);
     double meshing = 1.0;
-    const Eigen::Vector3d r1 =
-        grinder.SurfacePoint(settings, contact.wheel_u_mm, contact.wheel_phi_rad, contact.roll_rad, &meshing);
-    // The wheel point lies on the flank normal through the grid point, at distance lambda.
-    EXPECT_LT((r1 - point.position_mm - contact.deviation_mm * point.normal).norm(), 1e-10);
+    const Eigen::Vector3d r1 = grinder.SurfacePoint(settings,
+                                                    contact.wheel_u_mm,
+                                                    contact.wheel_phi_rad,
+                                                    contact.roll_rad,
+                                                    &meshing);
+    // The wheel point lies on the flank normal through the grid point, at
+    // distance lambda.
+    EXPECT_LT(
+        (r1 - point.position_mm - contact.deviation_mm * point.normal).norm(),
+        1e-10);
     // Meshing function relative to |N| |v| ~ R_w (R_w + r_j).
     EXPECT_LT(std::abs(meshing) / (300.0 * 350.0), 1e-12);
   }
 }
 
-// Central differences of the exact model (the five-point central formula, truncation error
-// O(h^4)), with steps chosen per parameter so that each moves the wheel by about 10 nm at the
-// ends of the roll range used: the pressure-angle and helix axes are strongly nonlinear.
-Eigen::MatrixXd CentralDifferences(const FlatWheelGrinder& grinder, const Eigen::VectorXd& zeta) {
-  const double roll_extent = std::max(std::abs(grinder.roll_min_rad()), std::abs(grinder.roll_max_rad()));
+// Central differences of the exact model (the five-point central formula,
+// truncation error O(h^4)), with steps chosen per parameter so that each moves
+// the wheel by about 10 nm at the ends of the roll range used: the
+// pressure-angle and helix axes are strongly nonlinear.
+Eigen::MatrixXd CentralDifferences(const FlatWheelGrinder& grinder,
+                                   const Eigen::VectorXd& zeta) {
+  const double roll_extent = std::max(std::abs(grinder.roll_min_rad()),
+                                      std::abs(grinder.roll_max_rad()));
   const double r_j = grinder.setup().gear.PitchRadiusMm();
   const double motion_mm = 1e-5;
   Eigen::MatrixXd fd(45, 45);
@@ -112,7 +124,8 @@ Eigen::MatrixXd CentralDifferences(const FlatWheelGrinder& grinder, const Eigen:
     if (j < kNumAxisCoefficients) {
       const int axis = j / kCoefficientsPerAxis;
       const int order = j % kCoefficientsPerAxis;
-      step = (axis < 3 ? motion_mm : motion_mm / r_j) / std::pow(roll_extent, order);
+      step = (axis < 3 ? motion_mm : motion_mm / r_j) /
+             std::pow(roll_extent, order);
     } else if (j == kConeAngleIndex) {
       step = motion_mm / grinder.setup().wheel.radius_mm;
     } else if (j == kParabolaCoefficientIndex) {
@@ -129,12 +142,15 @@ Eigen::MatrixXd CentralDifferences(const FlatWheelGrinder& grinder, const Eigen:
       grinder.Evaluate(shifted, false, &e);
       deviations[s] = e.deviations_um;
     }
-    fd.col(j) = (deviations[0] - 8.0 * deviations[1] + 8.0 * deviations[2] - deviations[3]) / (12.0 * step);
+    fd.col(j) = (deviations[0] - 8.0 * deviations[1] + 8.0 * deviations[2] -
+                 deviations[3]) /
+                (12.0 * step);
   }
   return fd;
 }
 
-void ExpectJacobianMatchesCentralDifferences(const FlatWheelGrinder& grinder, const Eigen::VectorXd& zeta) {
+void ExpectJacobianMatchesCentralDifferences(const FlatWheelGrinder& grinder,
+                                             const Eigen::VectorXd& zeta) {
   ModelEvaluation eval;
   grinder.Evaluate(zeta, true, &eval);
   ASSERT_TRUE(eval.AllReached());
@@ -145,7 +161,8 @@ void ExpectJacobianMatchesCentralDifferences(const FlatWheelGrinder& grinder, co
     const double tolerance = kFiniteDifferenceRelTol * column_size + 1e-9;
     for (int i = 0; i < 45; ++i) {
       EXPECT_NEAR(eval.jacobian_um(i, j), fd(i, j), tolerance)
-          << "row " << i << " column " << j << " (" << GrinderParameterName(j) << ")";
+          << "row " << i << " column " << j << " (" << GrinderParameterName(j)
+          << ")";
     }
   }
 }
@@ -154,13 +171,14 @@ TEST(FlatWheelGrinder, SensitivityMatchesCentralDifferencesAtNominal) {
   for (Flank flank : {Flank::kRight, Flank::kLeft}) {
     SCOPED_TRACE(flank == Flank::kRight ? "right" : "left");
     const FlatWheelGrinder grinder(CutterSetup(flank));
-    ExpectJacobianMatchesCentralDifferences(grinder, grinder.nominal().ToVector());
+    ExpectJacobianMatchesCentralDifferences(grinder,
+                                            grinder.nominal().ToVector());
   }
 }
 
 TEST(FlatWheelGrinder, SensitivityMatchesCentralDifferencesAwayFromNominal) {
-  // Every parameter away from its nominal value (fixed seed), with machine constants and a
-  // traversing wheel, so that no term of the chain is idle.
+  // Every parameter away from its nominal value (fixed seed), with machine
+  // constants and a traversing wheel, so that no term of the chain is idle.
   for (Flank flank : {Flank::kRight, Flank::kLeft}) {
     SCOPED_TRACE(flank == Flank::kRight ? "right" : "left");
     GrindingSetup setup = RightHandSetup(flank);
@@ -191,17 +209,20 @@ TEST(FlatWheelGrinder, ConeAngleRemovesMaterialInProportionToDistanceFromRim) {
     const EnvelopeContact contact = grinder.SolveContact(settings, point);
     ASSERT_EQ(contact.status, PointStatus::kOk);
     const double expected_mm = -contact.wheel_u_mm * cone_rad;
-    // First order in theta_w: the rest is of relative order theta_w and the profile slope.
-    EXPECT_NEAR(contact.deviation_mm, expected_mm, 2e-3 * std::abs(expected_mm)) << "point " << point.row << ","
-                                                                                  << point.column;
+    // First order in theta_w: the rest is of relative order theta_w and the
+    // profile slope.
+    EXPECT_NEAR(contact.deviation_mm, expected_mm, 2e-3 * std::abs(expected_mm))
+        << "point " << point.row << "," << point.column;
     EXPECT_LT(contact.deviation_mm, 0.0);
   }
 }
 
-// MODEL.md §3: the same wheel profile on the left flank of gear beta and on the right flank of
-// gear -beta gives identical grids, row for row and column for column.
+// MODEL.md §3: the same wheel profile on the left flank of gear beta and on the
+// right flank of gear -beta gives identical grids, row for row and column for
+// column.
 TEST(FlatWheelGrinder, LeftFlankMirrorsRightFlankOfOppositeHelix) {
-  for (GrindingSetup left : {CutterSetup(Flank::kLeft), RightHandSetup(Flank::kLeft)}) {
+  for (GrindingSetup left :
+       {CutterSetup(Flank::kLeft), RightHandSetup(Flank::kLeft)}) {
     left.machine.k1_mm = 40.0;
     left.machine.k2_mm = -15.0;
     GrindingSetup right = left;
@@ -221,45 +242,54 @@ TEST(FlatWheelGrinder, LeftFlankMirrorsRightFlankOfOppositeHelix) {
     right_grinder.Evaluate(right_settings.ToVector(), true, &right_eval);
     ASSERT_TRUE(left_eval.AllReached());
     ASSERT_TRUE(right_eval.AllReached());
-    EXPECT_GT(left_eval.deviations_um.cwiseAbs().maxCoeff(), 1.0);  // the profile does something
+    EXPECT_GT(left_eval.deviations_um.cwiseAbs().maxCoeff(),
+              1.0);  // the profile does something
     for (int i = 0; i < 45; ++i) {
-      EXPECT_NEAR(left_eval.deviations_um(i), right_eval.deviations_um(i), 1e-7) << "point " << i;
+      EXPECT_NEAR(left_eval.deviations_um(i), right_eval.deviations_um(i), 1e-7)
+          << "point " << i;
     }
     // The wheel-profile sensitivities are the same too.
     for (int j = kNumAxisCoefficients; j < kNumGrinderParameters; ++j) {
-      EXPECT_LT((left_eval.jacobian_um.col(j) - right_eval.jacobian_um.col(j)).norm(),
-                1e-6 * (1.0 + right_eval.jacobian_um.col(j).norm()))
+      EXPECT_LT(
+          (left_eval.jacobian_um.col(j) - right_eval.jacobian_um.col(j)).norm(),
+          1e-6 * (1.0 + right_eval.jacobian_um.col(j).norm()))
           << GrinderParameterName(j);
     }
   }
 }
 
 TEST(FlatWheelGrinder, MirroredAxisMotionsGiveTheSameGrid) {
-  // The mapping stated in engine/grinder/flat_wheel_grinder.h: X_L(phi) = X_R(-phi), Y_L(phi) = Y_R(-phi),
-  // Z_L(phi) = -Z_R(-phi), A, B, C_L(phi) = -A, -B, -C_R(-phi).
+  // The mapping stated in engine/grinder/flat_wheel_grinder.h: X_L(phi) =
+  // X_R(-phi), Y_L(phi) = Y_R(-phi), Z_L(phi) = -Z_R(-phi), A, B, C_L(phi) =
+  // -A, -B, -C_R(-phi).
   GrindingSetup right = CutterSetup(Flank::kRight);
   right.gear.helix_angle_rad = -right.gear.helix_angle_rad;
   GrindingSetup left = CutterSetup(Flank::kLeft);
   const FlatWheelGrinder right_grinder(right);
   const FlatWheelGrinder left_grinder(left);
   MachineSettings right_settings = right_grinder.nominal();
-  right_settings.axes[0][1] += 3e-3;   // X drift
-  right_settings.axes[2][2] += 5e-3;   // Z parabola
-  right_settings.axes[3][1] += 4e-5;   // A drift
-  right_settings.axes[5][3] += 1e-4;   // C cubic
+  right_settings.axes[0][1] += 3e-3;  // X drift
+  right_settings.axes[2][2] += 5e-3;  // Z parabola
+  right_settings.axes[3][1] += 4e-5;  // A drift
+  right_settings.axes[5][3] += 1e-4;  // C cubic
   MachineSettings left_settings;
   const double sign[kNumAxes] = {1.0, 1.0, -1.0, -1.0, -1.0, -1.0};
   for (int i = 0; i < kNumAxes; ++i) {
     for (int k = 0; k < kCoefficientsPerAxis; ++k) {
-      left_settings.axes[i][k] = sign[i] * right_settings.axes[i][k] * (k % 2 == 0 ? 1.0 : -1.0);
+      left_settings.axes[i][k] =
+          sign[i] * right_settings.axes[i][k] * (k % 2 == 0 ? 1.0 : -1.0);
     }
   }
-  // The nominal right/left settings must map onto each other exactly (checks NominalSettings).
+  // The nominal right/left settings must map onto each other exactly (checks
+  // NominalSettings).
   MachineSettings mapped_nominal;
   for (int i = 0; i < kNumAxes; ++i) {
     for (int k = 0; k < kCoefficientsPerAxis; ++k) {
-      mapped_nominal.axes[i][k] = sign[i] * right_grinder.nominal().axes[i][k] * (k % 2 == 0 ? 1.0 : -1.0);
-      EXPECT_NEAR(mapped_nominal.axes[i][k], left_grinder.nominal().axes[i][k], 1e-12) << i << "," << k;
+      mapped_nominal.axes[i][k] = sign[i] * right_grinder.nominal().axes[i][k] *
+                                  (k % 2 == 0 ? 1.0 : -1.0);
+      EXPECT_NEAR(
+          mapped_nominal.axes[i][k], left_grinder.nominal().axes[i][k], 1e-12)
+          << i << "," << k;
     }
   }
   ModelEvaluation right_eval, left_eval;
@@ -268,13 +298,15 @@ TEST(FlatWheelGrinder, MirroredAxisMotionsGiveTheSameGrid) {
   EXPECT_GT(right_eval.deviations_um.cwiseAbs().maxCoeff(), 1.0);
   for (int i = 0; i < 45; ++i) {
     ASSERT_EQ(right_eval.status[i], left_eval.status[i]);
-    EXPECT_NEAR(right_eval.deviations_um(i), left_eval.deviations_um(i), 1e-7) << "point " << i;
+    EXPECT_NEAR(right_eval.deviations_um(i), left_eval.deviations_um(i), 1e-7)
+        << "point " << i;
   }
 }
 
 TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
-  // A wide spur gear on a small fixed wheel: the rim rises toward the face ends by about
-  // s^2 / (2 R_w), so the root corners are lost, the middle column is not.
+  // A wide spur gear on a small fixed wheel: the rim rises toward the face ends
+  // by about s^2 / (2 R_w), so the root corners are lost, the middle column is
+  // not.
   GrindingSetup setup = SpurSetup();
   setup.gear.face_width_mm = 160.0;
   setup.wheel.radius_mm = 60.0;
@@ -289,7 +321,8 @@ TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
   EXPECT_EQ(eval.status[0], PointStatus::kNotReached);  // root row, x = -b/2
   EXPECT_EQ(eval.status[8], PointStatus::kNotReached);  // root row, x = +b/2
   EXPECT_LT(eval.NumReached(), 45);
-  for (int row = 0; row < 5; ++row) EXPECT_EQ(eval.status[row * 9 + 4], PointStatus::kOk) << "row " << row;
+  for (int row = 0; row < 5; ++row)
+    EXPECT_EQ(eval.status[row * 9 + 4], PointStatus::kOk) << "row " << row;
   for (int i = 0; i < 45; ++i) {
     if (eval.status[i] == PointStatus::kOk) {
       EXPECT_LT(std::abs(eval.deviations_um(i)), kExactInvoluteTolUm);
@@ -302,14 +335,16 @@ TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
 }
 
 TEST(FlatWheelGrinder, FarBranchesOfTheEnvelopeAreNotReportedAsNumbers) {
-  // Absurd settings (a correction gone wrong): the wheel 10 mm deeper (3.4 mm into the flank) and the work axis
-  // running 30 % fast. Whatever Newton finds there is never a number millimetres off.
+  // Absurd settings (a correction gone wrong): the wheel 10 mm deeper (3.4 mm
+  // into the flank) and the work axis running 30 % fast. Whatever Newton finds
+  // there is never a number millimetres off.
   const FlatWheelGrinder grinder(SpurSetup());
   MachineSettings settings = grinder.nominal();
   settings.axes[static_cast<int>(Axis::kY)][0] -= 10.0;
   ModelEvaluation eval;
   grinder.Evaluate(settings.ToVector(), false, &eval);
-  for (int i = 0; i < 45; ++i) EXPECT_NE(eval.status[i], PointStatus::kOk) << "point " << i;
+  for (int i = 0; i < 45; ++i)
+    EXPECT_NE(eval.status[i], PointStatus::kOk) << "point " << i;
   settings = grinder.nominal();
   settings.axes[static_cast<int>(Axis::kC)][1] = 1.3;
   grinder.Evaluate(settings.ToVector(), false, &eval);
@@ -325,10 +360,12 @@ TEST(FlatWheelGrinder, ParameterBlocksCoverEveryParameterOnce) {
   const FlatWheelGrinder grinder(CutterSetup());
   std::vector<int> seen(grinder.NumParameters(), 0);
   for (const ParameterBlock& block : grinder.ParameterBlocks()) {
-    for (int k = 0; k < block.num_coefficients; ++k) ++seen[block.first_index + k];
+    for (int k = 0; k < block.num_coefficients; ++k)
+      ++seen[block.first_index + k];
     EXPECT_GT(block.default_scale, 0.0) << block.name;
   }
-  for (int j = 0; j < grinder.NumParameters(); ++j) EXPECT_EQ(seen[j], 1) << grinder.ParameterName(j);
+  for (int j = 0; j < grinder.NumParameters(); ++j)
+    EXPECT_EQ(seen[j], 1) << grinder.ParameterName(j);
   EXPECT_EQ(grinder.ParameterName(0), "X0");
   EXPECT_EQ(grinder.ParameterName(41), "C6");
   EXPECT_EQ(grinder.ParameterName(42), "cone_angle");
@@ -337,7 +374,8 @@ TEST(FlatWheelGrinder, ParameterBlocksCoverEveryParameterOnce) {
 TEST(MachineSettings, VectorRoundTripAndPolynomials) {
   MachineSettings s;
   for (int i = 0; i < kNumAxes; ++i) {
-    for (int k = 0; k < kCoefficientsPerAxis; ++k) s.axes[i][k] = 0.1 * i + 0.01 * k + 1.0;
+    for (int k = 0; k < kCoefficientsPerAxis; ++k)
+      s.axes[i][k] = 0.1 * i + 0.01 * k + 1.0;
   }
   s.wheel = {0.001, 2e-5, 3.0};
   const MachineSettings back = MachineSettings::FromVector(s.ToVector());
@@ -353,7 +391,8 @@ TEST(MachineSettings, VectorRoundTripAndPolynomials) {
 }
 
 TEST(MachineSettings, NominalRightFlankMatchesModelFormulas) {
-  // MODEL.md §2 evaluated by hand for the cutter: s_y = R_w cos a - r_j + r_f, s_z = pi m/4 - s_y tan a.
+  // MODEL.md §2 evaluated by hand for the cutter: s_y = R_w cos a - r_j + r_f,
+  // s_z = pi m/4 - s_y tan a.
   const GrindingSetup setup = CutterSetup();
   const MachineSettings s = NominalSettings(setup);
   const double r_j = setup.gear.PitchRadiusMm();
@@ -366,7 +405,8 @@ TEST(MachineSettings, NominalRightFlankMatchesModelFormulas) {
   EXPECT_NEAR(s.axes[3][0], Deg(20), 1e-15);
   EXPECT_NEAR(s.axes[4][0], Deg(15), 1e-15);
   EXPECT_EQ(s.axes[5][1], 1.0);
-  // The published nominal settings of the same cutter (Jiang 2015, Table 4, cut to 4 decimals).
+  // The published nominal settings of the same cutter (Jiang 2015, Table 4, cut
+  // to 4 decimals).
   EXPECT_NEAR(s.axes[0][0], 29.0319, 1e-4);
   EXPECT_NEAR(s.axes[1][0], 436.0493, 1e-4);
   EXPECT_NEAR(s.axes[2][0], 108.3485, 1e-4);

@@ -4,16 +4,17 @@
 
 #include <cmath>
 
-#include "engine/grinder/grinding_setup.h"
 #include "engine/core/units.h"
+#include "engine/grinder/grinding_setup.h"
 
 namespace gearloop {
 namespace testing {
 
 inline double Deg(double degrees) { return degrees * kPi / 180.0; }
 
-// The plunge-shaving cutter of the published example (Jiang 2015, Table 1): 37 teeth, m_n 6 mm,
-// 20 deg, helix 15 deg LEFT hand (beta = +15 deg), b = 78 mm, R_w = 350 mm, K1 = K2 = 0, fixed wheel.
+// The plunge-shaving cutter of the published example (Jiang 2015, Table 1): 37
+// teeth, m_n 6 mm, 20 deg, helix 15 deg LEFT hand (beta = +15 deg), b = 78 mm,
+// R_w = 350 mm, K1 = K2 = 0, fixed wheel.
 inline GrindingSetup CutterSetup(Flank flank = Flank::kRight) {
   GrindingSetup s;
   s.gear.teeth = 37;
@@ -43,8 +44,8 @@ inline GrindingSetup SpurSetup(Flank flank = Flank::kRight) {
   return s;
 }
 
-// A right-hand helical gear: 31 teeth, m_n 3 mm, 17.5 deg, helix 22 deg right hand
-// (beta = -22 deg), b = 50 mm, R_w = 300 mm.
+// A right-hand helical gear: 31 teeth, m_n 3 mm, 17.5 deg, helix 22 deg right
+// hand (beta = -22 deg), b = 50 mm, R_w = 300 mm.
 inline GrindingSetup RightHandSetup(Flank flank = Flank::kRight) {
   GrindingSetup s;
   s.gear.teeth = 31;

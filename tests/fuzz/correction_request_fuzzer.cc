@@ -1,31 +1,35 @@
-// tests/fuzz/correction_request_fuzzer.cc: libFuzzer target for the server's request parsing and
-// validation (issue 7). The input is an HTTP body as the services of POST /api/v1/corrections and
-// POST /api/v1/evaluate receive it; it runs through the same codec calls, without the network,
-// the model and the solve:
+// tests/fuzz/correction_request_fuzzer.cc: libFuzzer target for the server's
+// request parsing and validation (issue 7). The input is an HTTP body as the
+// services of POST /api/v1/corrections and POST /api/v1/evaluate receive it; it
+// runs through the same codec calls, without the network, the model and the
+// solve:
 //
-//   ParseJsonBody -> ParseGrindingSetup -> ParseCorrectionRequest   (corrections, replays, batch items)
-//   ParseJsonBody -> ParseGrindingSetup -> ParseMachineSettings   (nominal, evaluate, sensitivity)
+//   ParseJsonBody -> ParseGrindingSetup -> ParseCorrectionRequest (corrections,
+//   replays, batch items) ParseJsonBody -> ParseGrindingSetup ->
+//   ParseMachineSettings   (nominal, evaluate, sensitivity)
 //
-// Besides the sanitizers' own findings it checks the codec's contract: a refusal is a 400 or a
-// 422 with a code from the closed list and an error body that renders; an accepted request has
-// grids of the grid's size, finite targets and options that pass IsValid.
+// Besides the sanitizers' own findings it checks the codec's contract: a
+// refusal is a 400 or a 422 with a code from the closed list and an error body
+// that renders; an accepted request has grids of the grid's size, finite
+// targets and options that pass IsValid.
 //
-//   build-fuzz/tests/fuzz/correction_request_fuzzer -max_total_time=60 tests/fuzz/corpus/correction_request
+//   build-fuzz/tests/fuzz/correction_request_fuzzer -max_total_time=60
+//   tests/fuzz/corpus/correction_request
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "server/codec/correction_codec.h"
 #include "server/codec/grinder_codec.h"
 
 namespace {
 
-// Aborts (a libFuzzer crash with the input saved) when `condition` does not hold.
+// Aborts (a libFuzzer crash with the input saved) when `condition` does not
+// hold.
 void Check(bool condition, const char* what) {
   if (!condition) {
     std::fprintf(stderr, "contract violated: %s\n", what);
@@ -34,13 +38,16 @@ void Check(bool condition, const char* what) {
 }
 
 void CheckRefusal(const gearloop::ApiError& error) {
-  Check(error.status == 400 || error.status == 422, "a refusal is a 400 or a 422");
-  Check(error.code == "invalid_json" || error.code == "invalid_request" || error.code == "invalid_value",
+  Check(error.status == 400 || error.status == 422,
+        "a refusal is a 400 or a 422");
+  Check(error.code == "invalid_json" || error.code == "invalid_request" ||
+            error.code == "invalid_value",
         "the error code is one of the codec's");
   Check(!error.message.empty(), "a refusal says why");
-  // As the server renders it (gearloop_server.cc: invalid UTF-8 replaced, never thrown).
-  const std::string rendered =
-      gearloop::ErrorBody(error).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  // As the server renders it (gearloop_server.cc: invalid UTF-8 replaced, never
+  // thrown).
+  const std::string rendered = gearloop::ErrorBody(error).dump(
+      -1, ' ', false, nlohmann::json::error_handler_t::replace);
   Check(!rendered.empty(), "the error body renders");
 }
 
@@ -60,19 +67,27 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   gearloop::CorrectionRequest request;
   error = gearloop::ApiError();
   if (gearloop::ParseGrindingSetup(body, &correction_setup, &error) &&
-      gearloop::ParseCorrectionRequest(body, correction_setup.grid.profile_points, correction_setup.grid.lead_points,
-                                       /*target_modifications_allowed=*/true, &request, &error)) {
+      gearloop::ParseCorrectionRequest(body,
+                                       correction_setup.grid.profile_points,
+                                       correction_setup.grid.lead_points,
+                                       /*target_modifications_allowed=*/true,
+                                       &request,
+                                       &error)) {
     const int rows = correction_setup.grid.profile_points;
     const int columns = correction_setup.grid.lead_points;
     const Eigen::Index points = static_cast<Eigen::Index>(rows) * columns;
     Check(rows > 0 && columns > 0, "a positive grid");
-    Check(request.measured_teeth_um.empty() ? request.measured_um.size() == points : request.measured_um.size() == 0,
+    Check(request.measured_teeth_um.empty()
+              ? request.measured_um.size() == points
+              : request.measured_um.size() == 0,
           "one measured grid of the grid's size, or teeth");
-    for (const Eigen::VectorXd& tooth : request.measured_teeth_um) Check(tooth.size() == points, "teeth of the grid's size");
+    for (const Eigen::VectorXd& tooth : request.measured_teeth_um)
+      Check(tooth.size() == points, "teeth of the grid's size");
     Check(request.target_um.size() == points, "target of the grid's size");
     Check(request.target_um.allFinite(), "a finite target");
     for (Eigen::Index i = 0; i < request.measured_um.size(); ++i) {
-      Check(!std::isinf(request.measured_um[i]), "no infinite measured point (NaN marks a missing one)");
+      Check(!std::isinf(request.measured_um[i]),
+            "no infinite measured point (NaN marks a missing one)");
     }
     std::string message;
     Check(request.options.IsValid(&message), "accepted options are valid");
@@ -85,7 +100,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   error = gearloop::ApiError();
   if (gearloop::ParseGrindingSetup(body, &setup, &error)) {
     if (body.contains("settings") && !body.at("settings").is_null() &&
-        !gearloop::ParseMachineSettings(body.at("settings"), "settings", &settings, &error)) {
+        !gearloop::ParseMachineSettings(
+            body.at("settings"), "settings", &settings, &error)) {
       CheckRefusal(error);
     }
   } else {

@@ -1,13 +1,16 @@
-// tests/fuzz/csv_grid_fuzzer.cc: libFuzzer target for the CSV grid import of the command-line
-// client (clients/cli/csv_grid.h, issue 7). The first two bytes choose the expected shape and
-// whether missing points are allowed; the rest is the file's text.
+// tests/fuzz/csv_grid_fuzzer.cc: libFuzzer target for the CSV grid import of
+// the command-line client (clients/cli/csv_grid.h, issue 7). The first two
+// bytes choose the expected shape and whether missing points are allowed; the
+// rest is the file's text.
 //
-// Besides the sanitizers' own findings it checks the parser's contract: a refusal names a line
-// (or says why not) and renders; an accepted grid has the expected shape, only finite values, no
-// missing point when they are not allowed, and survives FormatCsvGrid -> ParseCsvGrid unchanged
-// (FORMATS.md promises the shortest round-trip form), with and without the header line.
+// Besides the sanitizers' own findings it checks the parser's contract: a
+// refusal names a line (or says why not) and renders; an accepted grid has the
+// expected shape, only finite values, no missing point when they are not
+// allowed, and survives FormatCsvGrid -> ParseCsvGrid unchanged (FORMATS.md
+// promises the shortest round-trip form), with and without the header line.
 //
-//   build-fuzz/tests/fuzz/csv_grid_fuzzer -max_total_time=60 tests/fuzz/corpus/csv_grid
+//   build-fuzz/tests/fuzz/csv_grid_fuzzer -max_total_time=60
+//   tests/fuzz/corpus/csv_grid
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -31,8 +34,9 @@ void Check(bool condition, const char* what) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   gearloop::CsvGridOptions options;
   if (size >= 2) {
-    // Byte 0: rows 1..8 (low 3 bits) and allow_missing (bit 3); byte 1: columns 1..16. The
-    // seeds (make_corpus.py) carry the two bytes of their grid's shape: "\x0c\x08" is 5 x 9.
+    // Byte 0: rows 1..8 (low 3 bits) and allow_missing (bit 3); byte 1:
+    // columns 1..16. The seeds (make_corpus.py) carry the two bytes of their
+    // grid's shape: "\x0c\x08" is 5 x 9.
     options.rows = 1 + (data[0] & 0x07);
     options.allow_missing = (data[0] & 0x08) != 0;
     options.columns = 1 + (data[1] & 0x0f);
@@ -48,8 +52,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     Check(!error.ToString().empty(), "the error renders");
     return 0;
   }
-  Check(grid.rows == options.rows && grid.columns == options.columns, "the expected shape");
-  Check(grid.values.size() == static_cast<size_t>(grid.rows) * grid.columns, "rows x columns values");
+  Check(grid.rows == options.rows && grid.columns == options.columns,
+        "the expected shape");
+  Check(grid.values.size() == static_cast<size_t>(grid.rows) * grid.columns,
+        "rows x columns values");
   for (const auto& value : grid.values) {
     if (value) {
       Check(std::isfinite(*value), "only finite values");
@@ -59,9 +65,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   for (bool header : {false, true}) {
     gearloop::CsvGrid again;
-    Check(gearloop::ParseCsvGrid(gearloop::FormatCsvGrid(grid, header), options, &again, &error),
+    Check(gearloop::ParseCsvGrid(
+              gearloop::FormatCsvGrid(grid, header), options, &again, &error),
           "a formatted grid parses");
-    Check(again.rows == grid.rows && again.columns == grid.columns && again.values == grid.values,
+    Check(again.rows == grid.rows && again.columns == grid.columns &&
+              again.values == grid.values,
           "the round trip keeps every value");
   }
   return 0;

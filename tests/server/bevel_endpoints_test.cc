@@ -1,16 +1,17 @@
-// Spiral-bevel pinion endpoints against a real server (issue 6): conversion of the published
-// cradle summary, evaluation of free-form motions, the axis-error table, and a bevel correction
-// job stored, listed, fetched and replayed that recovers hidden axis errors.
+// Spiral-bevel pinion endpoints against a real server (issue 6): conversion of
+// the published cradle summary, evaluation of free-form motions, the axis-error
+// table, and a bevel correction job stored, listed, fetched and replayed that
+// recovers hidden axis errors.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-
+#include "engine/core/units.h"
 #include "server/http/gearloop_server.h"
 #include "tests/server/server_test_util.h"
-#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -24,7 +25,9 @@ struct Answer {
   nlohmann::json body;
 };
 
-nlohmann::json PublishedJob(const std::string& side) { return {{"side", side}, {"published", true}}; }
+nlohmann::json PublishedJob(const std::string& side) {
+  return {{"side", side}, {"published", true}};
+}
 
 double GridRms(const nlohmann::json& grid) {
   double sum = 0.0;
@@ -66,7 +69,8 @@ class BevelEndpointsTest : public ::testing::Test {
     return answer;
   }
 
-  // The converted (nominal) motion of a side, with hidden errors added to some coefficients.
+  // The converted (nominal) motion of a side, with hidden errors added to some
+  // coefficients.
   nlohmann::json WithHiddenErrors(nlohmann::json motion) {
     motion["A_rad"][0] = motion["A_rad"][0].get<double>() + 0.004 * kPi / 180.0;
     motion["B_rad"][0] = motion["B_rad"][0].get<double>() - 0.003 * kPi / 180.0;
@@ -81,8 +85,10 @@ class BevelEndpointsTest : public ::testing::Test {
   std::unique_ptr<httplib::Client> client_;
 };
 
-TEST_F(BevelEndpointsTest, ConvertsThePublishedConvexSummaryWithinATenthOfAMicrometre) {
-  const Answer a = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
+TEST_F(BevelEndpointsTest,
+       ConvertsThePublishedConvexSummaryWithinATenthOfAMicrometre) {
+  const Answer a =
+      Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
   ASSERT_EQ(a.status, 200) << a.body.dump();
   EXPECT_EQ(a.body["degree"], 5);
   EXPECT_EQ(a.body["motion"]["A_rad"].size(), 6u);
@@ -90,29 +96,35 @@ TEST_F(BevelEndpointsTest, ConvertsThePublishedConvexSummaryWithinATenthOfAMicro
   EXPECT_LT(a.body["flank_distance"]["max_um"].get<double>(), 0.1);
   EXPECT_EQ(a.body["flank_distance"]["points_found"], 45);
   EXPECT_LT(a.body["exact"]["max_rotation_difference"].get<double>(), 1e-12);
-  EXPECT_LT(a.body["exact"]["max_translation_difference_mm"].get<double>(), 1e-9);
+  EXPECT_LT(a.body["exact"]["max_translation_difference_mm"].get<double>(),
+            1e-9);
   ASSERT_EQ(a.body["fit_residual"].size(), 6u);
   EXPECT_EQ(a.body["fit_residual"][0]["axis"], "A");
   EXPECT_TRUE(a.body["fit_residual"][0].contains("max_rad"));
   EXPECT_TRUE(a.body["fit_residual"][2].contains("max_mm"));
   EXPECT_EQ(a.body["points"].size(), 45u);
   // The summary comes back in degrees: Q = 104 deg 56'.
-  EXPECT_NEAR(a.body["job"]["machine"]["cradle_angle_deg"].get<double>(), 104.0 + 56.0 / 60.0, 1e-9);
+  EXPECT_NEAR(a.body["job"]["machine"]["cradle_angle_deg"].get<double>(),
+              104.0 + 56.0 / 60.0,
+              1e-9);
 }
 
 TEST_F(BevelEndpointsTest, ChoosesTheDegreeForAFlankTolerance) {
   const Answer a = Post("/api/v1/bevel/conversions",
-                        {{"job", PublishedJob("concave")}, {"options", {{"max_flank_distance_um", 0.1}}}});
+                        {{"job", PublishedJob("concave")},
+                         {"options", {{"max_flank_distance_um", 0.1}}}});
   ASSERT_EQ(a.status, 200) << a.body.dump();
   EXPECT_EQ(a.body["degree"], 4);
   EXPECT_LT(a.body["flank_distance"]["max_um"].get<double>(), 0.1);
 }
 
 TEST_F(BevelEndpointsTest, EvaluatesTheConvertedMotionAsTheCradleFlank) {
-  const Answer conversion = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
+  const Answer conversion =
+      Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}});
   ASSERT_EQ(conversion.status, 200);
-  const Answer a =
-      Post("/api/v1/bevel/evaluate", {{"job", PublishedJob("convex")}, {"motion", conversion.body["motion"]}});
+  const Answer a = Post(
+      "/api/v1/bevel/evaluate",
+      {{"job", PublishedJob("convex")}, {"motion", conversion.body["motion"]}});
   ASSERT_EQ(a.status, 200) << a.body.dump();
   ASSERT_EQ(a.body["deviations_um"].size(), 5u);
   ASSERT_EQ(a.body["deviations_um"][0].size(), 9u);
@@ -122,14 +134,18 @@ TEST_F(BevelEndpointsTest, EvaluatesTheConvertedMotionAsTheCradleFlank) {
   // A 0.01 mm Z offset moves the flank by about 4.23 um (10 um sin 25 deg).
   nlohmann::json shifted = conversion.body["motion"];
   shifted["Z_mm"][0] = shifted["Z_mm"][0].get<double>() + 0.01;
-  const Answer b = Post("/api/v1/bevel/evaluate", {{"job", PublishedJob("convex")}, {"motion", shifted}});
+  const Answer b = Post("/api/v1/bevel/evaluate",
+                        {{"job", PublishedJob("convex")}, {"motion", shifted}});
   ASSERT_EQ(b.status, 200);
-  EXPECT_NEAR(std::fabs(b.body["deviations_um"][2][4].get<double>()), 4.23, 0.05);
+  EXPECT_NEAR(
+      std::fabs(b.body["deviations_um"][2][4].get<double>()), 4.23, 0.05);
 }
 
 TEST_F(BevelEndpointsTest, RanksTheSwingAxisFirstInTheAxisErrorTable) {
-  const Answer a = Post("/api/v1/bevel/axis-sensitivity",
-                        {{"job", PublishedJob("convex")}, {"errors", {{"linear_error_mm", 0.01}, {"angular_error_deg", 0.01}}}});
+  const Answer a = Post(
+      "/api/v1/bevel/axis-sensitivity",
+      {{"job", PublishedJob("convex")},
+       {"errors", {{"linear_error_mm", 0.01}, {"angular_error_deg", 0.01}}}});
   ASSERT_EQ(a.status, 200) << a.body.dump();
   ASSERT_EQ(a.body["offsets"].size(), 5u);
   EXPECT_EQ(a.body["offset_ranking"][0], "B");
@@ -162,17 +178,29 @@ TEST_F(BevelEndpointsTest, RefusesBadBevelRequestsNamingTheField) {
   a = Post("/api/v1/bevel/conversions", {{"job", {{"side", "convex"}}}});
   EXPECT_EQ(a.status, 400);
   EXPECT_EQ(a.body["error"]["field"], "job.cutter.point_radius_mm");
-  a = Post("/api/v1/bevel/conversions", {{"job", PublishedJob("convex")}, {"options", {{"polynomial_degree", 20}}}});
+  a = Post("/api/v1/bevel/conversions",
+           {{"job", PublishedJob("convex")},
+            {"options", {{"polynomial_degree", 20}}}});
   EXPECT_EQ(a.status, 422);
   EXPECT_EQ(a.body["error"]["field"], "options.polynomial_degree");
   a = Post("/api/v1/bevel/evaluate",
-           {{"job", PublishedJob("convex")}, {"motion", {{"A_rad", {0, 1}}, {"B_rad", {0}}, {"X_mm", {0, 0}}, {"Y_mm", {0, 0}}, {"Z_mm", {0, 0}}}}});
+           {{"job", PublishedJob("convex")},
+            {"motion",
+             {{"A_rad", {0, 1}},
+              {"B_rad", {0}},
+              {"X_mm", {0, 0}},
+              {"Y_mm", {0, 0}},
+              {"Z_mm", {0, 0}}}}});
   EXPECT_EQ(a.status, 400);
   EXPECT_EQ(a.body["error"]["field"], "motion.B_rad");
-  a = Post("/api/v1/bevel/axis-sensitivity", {{"job", PublishedJob("convex")}, {"errors", {{"linear_error_mm", 0}}}});
+  a = Post(
+      "/api/v1/bevel/axis-sensitivity",
+      {{"job", PublishedJob("convex")}, {"errors", {{"linear_error_mm", 0}}}});
   EXPECT_EQ(a.status, 422);
   EXPECT_EQ(a.body["error"]["field"], "errors.linear_error_mm");
-  nlohmann::json correction = {{"machine", {{"kind", "free-form-bevel-generator"}}}, {"job", PublishedJob("convex")}};
+  nlohmann::json correction = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", PublishedJob("convex")}};
   a = Post("/api/v1/corrections", correction);
   EXPECT_EQ(a.status, 400);
   EXPECT_EQ(a.body["error"]["field"], "measurement");
@@ -182,29 +210,35 @@ TEST_F(BevelEndpointsTest, RefusesBadBevelRequestsNamingTheField) {
   EXPECT_EQ(Get("/api/v1/corrections").body["total"], 0);
 }
 
-TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) {
+TEST_F(BevelEndpointsTest,
+       CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) {
   const nlohmann::json job = PublishedJob("convex");
   const Answer conversion = Post("/api/v1/bevel/conversions", {{"job", job}});
   ASSERT_EQ(conversion.status, 200);
   const nlohmann::json nominal = conversion.body["motion"];
-  // The machine runs the commanded motion with hidden axis errors; the CMM measures the result.
-  const Answer measured = Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", WithHiddenErrors(nominal)}});
+  // The machine runs the commanded motion with hidden axis errors; the CMM
+  // measures the result.
+  const Answer measured =
+      Post("/api/v1/bevel/evaluate",
+           {{"job", job}, {"motion", WithHiddenErrors(nominal)}});
   ASSERT_EQ(measured.status, 200);
   const double initial_rms = GridRms(measured.body["deviations_um"]);
   EXPECT_GT(initial_rms, 1.0);
 
-  const nlohmann::json request = {{"machine", {{"kind", "free-form-bevel-generator"}}},
-                                  {"job", job},
-                                  {"motion", nominal},
-                                  {"measurement", {{"deviations_um", measured.body["deviations_um"]}}},
-                                  {"options", {{"default_max_order", 2}}}};
+  const nlohmann::json request = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", job},
+      {"motion", nominal},
+      {"measurement", {{"deviations_um", measured.body["deviations_um"]}}},
+      {"options", {{"default_max_order", 2}}}};
   const Answer created = Post("/api/v1/corrections", request);
   ASSERT_EQ(created.status, 201) << created.body.dump();
-  EXPECT_EQ(created.body["result"]["machine_kind"], "free-form-bevel-generator");
+  EXPECT_EQ(created.body["result"]["machine_kind"],
+            "free-form-bevel-generator");
   EXPECT_LT(created.body["result"]["residual_rms_um"].get<double>(), 0.05);
   const int64_t id = created.body["id"].get<int64_t>();
-  // The result carries the grids it used and the axis motion over the cradle roll range:
-  // dX(t) = sum_k delta_X_mm[k] t^k, in um.
+  // The result carries the grids it used and the axis motion over the cradle
+  // roll range: dX(t) = sum_k delta_X_mm[k] t^k, in um.
   const nlohmann::json& result = created.body["result"];
   EXPECT_EQ(result["measured_um"], measured.body["deviations_um"]);
   EXPECT_EQ(result["target_um"].size(), measured.body["deviations_um"].size());
@@ -214,24 +248,31 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
     const double t = motion["roll_rad"][i].get<double>();
     double expected_um = 0.0;
     for (size_t k = 0; k < result["delta"]["X_mm"].size(); ++k) {
-      expected_um += 1e3 * result["delta"]["X_mm"][k].get<double>() * std::pow(t, k);
+      expected_um +=
+          1e3 * result["delta"]["X_mm"][k].get<double>() * std::pow(t, k);
     }
-    EXPECT_NEAR(motion["axes"]["X"]["change_um"][i].get<double>(), expected_um, 1e-9 * (1.0 + std::fabs(expected_um)));
+    EXPECT_NEAR(motion["axes"]["X"]["change_um"][i].get<double>(),
+                expected_um,
+                1e-9 * (1.0 + std::fabs(expected_um)));
   }
   EXPECT_TRUE(motion["axes"]["B"].contains("rms_urad"));
 
-  // Cut again with the corrected motion on the same erring machine: the flank is back.
+  // Cut again with the corrected motion on the same erring machine: the flank
+  // is back.
   nlohmann::json corrected = created.body["result"]["motion"];
   nlohmann::json delta = created.body["result"]["delta"];
   nlohmann::json actual = WithHiddenErrors(nominal);
   for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
     for (size_t k = 0; k < actual[axis].size(); ++k) {
-      actual[axis][k] = actual[axis][k].get<double>() + delta[axis][k].get<double>();
-      EXPECT_NEAR(corrected[axis][k].get<double>(), nominal[axis][k].get<double>() + delta[axis][k].get<double>(),
+      actual[axis][k] =
+          actual[axis][k].get<double>() + delta[axis][k].get<double>();
+      EXPECT_NEAR(corrected[axis][k].get<double>(),
+                  nominal[axis][k].get<double>() + delta[axis][k].get<double>(),
                   1e-9);
     }
   }
-  const Answer recut = Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", actual}});
+  const Answer recut =
+      Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", actual}});
   ASSERT_EQ(recut.status, 200);
   EXPECT_LT(GridRms(recut.body["deviations_um"]), 0.05 * initial_rms);
 
@@ -240,7 +281,8 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   ASSERT_EQ(fetched.status, 200);
   EXPECT_EQ(fetched.body["flank"], "convex");
   EXPECT_EQ(fetched.body["machine_kind"], "free-form-bevel-generator");
-  EXPECT_EQ(fetched.body["request"]["machine"]["kind"], "free-form-bevel-generator");
+  EXPECT_EQ(fetched.body["request"]["machine"]["kind"],
+            "free-form-bevel-generator");
   const Answer list = Get("/api/v1/corrections");
   ASSERT_EQ(list.status, 200);
   EXPECT_EQ(list.body["total"], 1);
@@ -248,8 +290,9 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
   EXPECT_EQ(Get("/api/v1/corrections?flank=convex").body["total"], 1);
   EXPECT_EQ(Get("/api/v1/corrections?flank=concave").body["total"], 0);
 
-  const Answer replay = Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
-                             {{"options", {{"solver", "lsq-plain"}}}});
+  const Answer replay =
+      Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
+           {{"options", {{"solver", "lsq-plain"}}}});
   ASSERT_EQ(replay.status, 201) << replay.body.dump();
   EXPECT_EQ(replay.body["parent_job_id"], id);
   EXPECT_EQ(replay.body["result"]["solver"], "lsq-plain");
@@ -258,21 +301,29 @@ TEST_F(BevelEndpointsTest, CorrectionRecoversHiddenAxisErrorsStoredAndReplayed) 
 
 TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
   const nlohmann::json job = PublishedJob("concave");
-  const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
-                                   {"job", job},
-                                   {"hidden_errors", {{"B_rad", {-0.003 * kPi / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
-                                   {"noise_um", 0.2},
-                                   {"seed", 5}};
+  const nlohmann::json scenario = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", job},
+      {"hidden_errors",
+       {{"B_rad", {-0.003 * kPi / 180.0}},
+        {"X_mm", {0.008}},
+        {"Y_mm", {0.0, -0.02}}}},
+      {"noise_um", 0.2},
+      {"seed", 5}};
   const Answer cmm = Post("/api/v1/simulations/measurement", scenario);
   ASSERT_EQ(cmm.status, 200) << cmm.body.dump();
   EXPECT_EQ(cmm.body["machine_kind"], "free-form-bevel-generator");
   const double true_rms = GridRms(cmm.body["true_deviations_um"]);
   EXPECT_GT(true_rms, 1.0);
-  EXPECT_GT(std::fabs(GridRms(cmm.body["measurement"]["deviations_um"]) - true_rms), 1e-6);  // noise added
-  const Answer created = Post("/api/v1/corrections", {{"machine", {{"kind", "free-form-bevel-generator"}}},
-                                                       {"job", job},
-                                                       {"measurement", cmm.body["measurement"]},
-                                                       {"options", {{"default_max_order", 2}, {"probe_noise_um", 0.2}}}});
+  EXPECT_GT(
+      std::fabs(GridRms(cmm.body["measurement"]["deviations_um"]) - true_rms),
+      1e-6);  // noise added
+  const Answer created =
+      Post("/api/v1/corrections",
+           {{"machine", {{"kind", "free-form-bevel-generator"}}},
+            {"job", job},
+            {"measurement", cmm.body["measurement"]},
+            {"options", {{"default_max_order", 2}, {"probe_noise_um", 0.2}}}});
   ASSERT_EQ(created.status, 201) << created.body.dump();
   // The same erring machine cuts the next pinion with the corrected motion.
   nlohmann::json next = scenario;
@@ -293,14 +344,18 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
 }
 
 TEST_F(BevelEndpointsTest, ClosedLoopConvergesAndStoresReplayableJobs) {
-  const nlohmann::json scenario = {{"machine", {{"kind", "free-form-bevel-generator"}}},
-                                   {"job", PublishedJob("concave")},
-                                   {"hidden_errors", {{"B_rad", {-0.003 * kPi / 180.0}}, {"X_mm", {0.008}}, {"Y_mm", {0.0, -0.02}}}},
-                                   {"noise_um", 0.2},
-                                   {"seed", 11},
-                                   {"corrections", 2},
-                                   {"options", {{"default_max_order", 2}}},
-                                   {"store", true}};
+  const nlohmann::json scenario = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", PublishedJob("concave")},
+      {"hidden_errors",
+       {{"B_rad", {-0.003 * kPi / 180.0}},
+        {"X_mm", {0.008}},
+        {"Y_mm", {0.0, -0.02}}}},
+      {"noise_um", 0.2},
+      {"seed", 11},
+      {"corrections", 2},
+      {"options", {{"default_max_order", 2}}},
+      {"store", true}};
   const Answer loop = Post("/api/v1/simulations/closed-loop", scenario);
   ASSERT_EQ(loop.status, 200) << loop.body.dump();
   ASSERT_EQ(loop.body["iterations"].size(), 3u);
@@ -309,26 +364,39 @@ TEST_F(BevelEndpointsTest, ClosedLoopConvergesAndStoresReplayableJobs) {
   const double last = loop.body["iterations"][2]["true_rms_um"].get<double>();
   EXPECT_GT(first, 1.0);
   EXPECT_LT(last, 0.1 * first);
-  const int64_t second_job = loop.body["iterations"][1]["job_id"].get<int64_t>();
-  const Answer fetched = Get("/api/v1/corrections/" + std::to_string(second_job));
+  const int64_t second_job =
+      loop.body["iterations"][1]["job_id"].get<int64_t>();
+  const Answer fetched =
+      Get("/api/v1/corrections/" + std::to_string(second_job));
   ASSERT_EQ(fetched.status, 200);
   EXPECT_EQ(fetched.body["machine_kind"], "free-form-bevel-generator");
-  EXPECT_EQ(fetched.body["settings_source_job_id"], loop.body["iterations"][0]["job_id"]);
-  // The stored round has the grids and the axis motion of any bevel correction: A, B in urad,
-  // X, Y, Z in um over the cradle roll range, no wheel parameters.
+  EXPECT_EQ(fetched.body["settings_source_job_id"],
+            loop.body["iterations"][0]["job_id"]);
+  // The stored round has the grids and the axis motion of any bevel correction:
+  // A, B in urad, X, Y, Z in um over the cradle roll range, no wheel
+  // parameters.
   const nlohmann::json& stored = fetched.body["result"];
-  for (const char* key : {"predicted_residual_um", "predicted_change_um", "measured_um", "target_um"}) {
-    EXPECT_TRUE(stored.contains(key) && stored[key].is_array() && !stored[key].empty()) << key;
+  for (const char* key : {"predicted_residual_um",
+                          "predicted_change_um",
+                          "measured_um",
+                          "target_um"}) {
+    EXPECT_TRUE(stored.contains(key) && stored[key].is_array() &&
+                !stored[key].empty())
+        << key;
   }
   ASSERT_TRUE(stored.contains("axis_motion"));
-  EXPECT_EQ(stored["axis_motion"], loop.body["iterations"][1]["correction"]["axis_motion"]);
+  EXPECT_EQ(stored["axis_motion"],
+            loop.body["iterations"][1]["correction"]["axis_motion"]);
   EXPECT_EQ(stored["axis_motion"]["axes"]["A"]["change_urad"].size(), 9u);
   EXPECT_EQ(stored["axis_motion"]["axes"]["X"]["change_um"].size(), 9u);
   EXPECT_TRUE(stored["axis_motion"]["wheel"].empty());
-  const Answer replay = Post("/api/v1/corrections/" + std::to_string(second_job) + "/replay", nlohmann::json::object());
+  const Answer replay =
+      Post("/api/v1/corrections/" + std::to_string(second_job) + "/replay",
+           nlohmann::json::object());
   ASSERT_EQ(replay.status, 201) << replay.body.dump();
   EXPECT_NEAR(replay.body["result"]["residual_rms_um"].get<double>(),
-              fetched.body["result"]["residual_rms_um"].get<double>(), 1e-6);
+              fetched.body["result"]["residual_rms_um"].get<double>(),
+              1e-6);
 }
 
 }  // namespace

@@ -1,25 +1,25 @@
-// End-to-end tests of the HTTP server: the real server on an ephemeral loopback port with a
-// real SQLite temp file, spoken to with httplib::Client. Every endpoint, the error cases, restart
-// persistence, replay and settings lineage, a batch of 200 items, access control.
+// End-to-end tests of the HTTP server: the real server on an ephemeral loopback
+// port with a real SQLite temp file, spoken to with httplib::Client. Every
+// endpoint, the error cases, restart persistence, replay and settings lineage,
+// a batch of 200 items, access control.
 #include "server/http/gearloop_server.h"
 
 #include <gtest/gtest.h>
+#include <openssl/sha.h>
 
 #include <chrono>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <openssl/sha.h>
-
+#include "engine/core/units.h"
 #include "server/demo_seed.h"
 #include "storage/job_repository.h"
 #include "tests/server/server_test_util.h"
-#include "engine/core/units.h"
 
 namespace gearloop {
 namespace {
@@ -35,12 +35,17 @@ struct Answer {
   std::string location;
 };
 
-Answer Send(httplib::Client& client, const std::string& method, const std::string& path,
-            const std::string& body = "", const httplib::Headers& headers = {}) {
+Answer Send(httplib::Client& client,
+            const std::string& method,
+            const std::string& path,
+            const std::string& body = "",
+            const httplib::Headers& headers = {}) {
   auto send = [&]() -> httplib::Result {
     if (method == "GET") return client.Get(path.c_str(), headers);
-    if (method == "POST") return client.Post(path.c_str(), headers, body, "application/json");
-    if (method == "PUT") return client.Put(path.c_str(), headers, body, "application/json");
+    if (method == "POST")
+      return client.Post(path.c_str(), headers, body, "application/json");
+    if (method == "PUT")
+      return client.Put(path.c_str(), headers, body, "application/json");
     return client.Delete(path.c_str(), headers);
   };
   httplib::Result result = send();
@@ -52,7 +57,9 @@ Answer Send(httplib::Client& client, const std::string& method, const std::strin
   return answer;
 }
 
-Answer Post(httplib::Client& client, const std::string& path, const nlohmann::json& body) {
+Answer Post(httplib::Client& client,
+            const std::string& path,
+            const nlohmann::json& body) {
   return Send(client, "POST", path, body.dump());
 }
 
@@ -71,10 +78,12 @@ class GearloopServerTest : public ::testing::Test {
   // A simulated CMM measurement of a part ground with hidden machine errors.
   nlohmann::json Measurement(int seed = 9) {
     nlohmann::json request = DefaultSetup();
-    request["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+    request["random_hidden_errors"] = {
+        {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
     request["noise_um"] = 0.3;
     request["seed"] = seed;
-    const Answer answer = Post(*client_, "/api/v1/simulations/measurement", request);
+    const Answer answer =
+        Post(*client_, "/api/v1/simulations/measurement", request);
     EXPECT_EQ(answer.status, 200) << answer.body.dump();
     return answer.body["measurement"];
   }
@@ -107,7 +116,8 @@ TEST_F(GearloopServerTest, ServesTheDashboardPages) {
   auto page = client_->Get("/");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
-  EXPECT_NE(page->get_header_value("Content-Type").find("text/html"), std::string::npos);
+  EXPECT_NE(page->get_header_value("Content-Type").find("text/html"),
+            std::string::npos);
   auto script = client_->Get("/static/app.js");
   ASSERT_TRUE(script);
   EXPECT_EQ(script->status, 200);
@@ -122,9 +132,10 @@ TEST_F(GearloopServerTest, ServesTheDashboardPages) {
 TEST_F(GearloopServerTest, ExposesPrometheusMetricsByRouteAndStatus) {
   Send(*client_, "GET", "/healthz");
   Send(*client_, "GET", "/no/such/path");
-  // cpp-httplib's logger (where requests are counted) runs just after the answer is written,
-  // and each request came on its own connection (worker thread): give both a moment to be
-  // counted, in whichever order their loggers ran.
+  // cpp-httplib's logger (where requests are counted) runs just after the
+  // answer is written, and each request came on its own connection (worker
+  // thread): give both a moment to be counted, in whichever order their loggers
+  // ran.
   auto counted_both = [](const httplib::Result& r) {
     return r && r->body.find("status=\"404\"") != std::string::npos &&
            r->body.find("route=\"GET /healthz\"") != std::string::npos;
@@ -136,14 +147,22 @@ TEST_F(GearloopServerTest, ExposesPrometheusMetricsByRouteAndStatus) {
   }
   ASSERT_TRUE(result);
   EXPECT_EQ(result->status, 200);
-  EXPECT_NE(result->get_header_value("Content-Type").find("text/plain"), std::string::npos);
+  EXPECT_NE(result->get_header_value("Content-Type").find("text/plain"),
+            std::string::npos);
   const std::string& text = result->body;
-  EXPECT_NE(text.find("gearloop_http_requests_total{route=\"GET /healthz\",status=\"200\"} 1"), std::string::npos)
+  EXPECT_NE(text.find("gearloop_http_requests_total{route=\"GET "
+                      "/healthz\",status=\"200\"} 1"),
+            std::string::npos)
       << text;
-  EXPECT_NE(text.find("gearloop_http_requests_total{route=\"unmatched\",status=\"404\"} 1"), std::string::npos);
-  EXPECT_NE(text.find("gearloop_http_request_duration_seconds_count "), std::string::npos);
+  EXPECT_NE(
+      text.find(
+          "gearloop_http_requests_total{route=\"unmatched\",status=\"404\"} 1"),
+      std::string::npos);
+  EXPECT_NE(text.find("gearloop_http_request_duration_seconds_count "),
+            std::string::npos);
   EXPECT_NE(text.find("gearloop_jobs_stored 0"), std::string::npos);
-  EXPECT_NE(text.find("gearloop_solver_duration_seconds_count 0"), std::string::npos);
+  EXPECT_NE(text.find("gearloop_solver_duration_seconds_count 0"),
+            std::string::npos);
 }
 
 TEST_F(GearloopServerTest, NominalGivesSettingsOfModelSection2) {
@@ -151,13 +170,20 @@ TEST_F(GearloopServerTest, NominalGivesSettingsOfModelSection2) {
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   const nlohmann::json& axes = answer.body["settings"]["axes"];
   EXPECT_NEAR(axes["A"][0].get<double>(), 20.0 * kPi / 180.0, 1e-12);
-  EXPECT_NEAR(axes["B"][0].get<double>(), 15.0 * kPi / 180.0, 1e-12);  // left hand: beta > 0
-  EXPECT_NEAR(axes["C"][1].get<double>(), 1.0, 1e-12);                  // C0 = phi1
+  EXPECT_NEAR(axes["B"][0].get<double>(),
+              15.0 * kPi / 180.0,
+              1e-12);                                   // left hand: beta > 0
+  EXPECT_NEAR(axes["C"][1].get<double>(), 1.0, 1e-12);  // C0 = phi1
   // Y0 = r_j + s_y with s_y = R_w cos(alpha_n) - r_j + r_f (MODEL.md §2).
-  EXPECT_NEAR(axes["Y"][0].get<double>(), 350.0 * std::cos(20.0 * kPi / 180.0) + 107.1569, 1e-9);
+  EXPECT_NEAR(axes["Y"][0].get<double>(),
+              350.0 * std::cos(20.0 * kPi / 180.0) + 107.1569,
+              1e-9);
   EXPECT_EQ(axes["X"].size(), 7u);
-  EXPECT_NEAR(answer.body["pitch_radius_mm"].get<double>(), 37 * 6 / (2 * std::cos(15.0 * kPi / 180.0)), 1e-9);
-  EXPECT_DOUBLE_EQ(answer.body["settings"]["wheel"]["cone_angle_deg"].get<double>(), 0.0);
+  EXPECT_NEAR(answer.body["pitch_radius_mm"].get<double>(),
+              37 * 6 / (2 * std::cos(15.0 * kPi / 180.0)),
+              1e-9);
+  EXPECT_DOUBLE_EQ(
+      answer.body["settings"]["wheel"]["cone_angle_deg"].get<double>(), 0.0);
 }
 
 TEST_F(GearloopServerTest, EvaluatesNominalAsTheInvoluteWithPointsAndNormals) {
@@ -167,7 +193,8 @@ TEST_F(GearloopServerTest, EvaluatesNominalAsTheInvoluteWithPointsAndNormals) {
   ASSERT_EQ(grid.size(), 5u);
   for (const nlohmann::json& row : grid) {
     ASSERT_EQ(row.size(), 9u);
-    for (const nlohmann::json& value : row) EXPECT_NEAR(value.get<double>(), 0.0, /*tol_um=*/1e-6);
+    for (const nlohmann::json& value : row)
+      EXPECT_NEAR(value.get<double>(), 0.0, /*tol_um=*/1e-6);
   }
   EXPECT_TRUE(answer.body["not_reached"].empty());
   ASSERT_EQ(answer.body["points"].size(), 45u);
@@ -182,14 +209,16 @@ TEST_F(GearloopServerTest, EvaluatesNominalAsTheInvoluteWithPointsAndNormals) {
 
 TEST_F(GearloopServerTest, EvaluatesAConedWheelAsMaterialRemoved) {
   nlohmann::json request = DefaultSetup();
-  request["settings"] = Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
+  request["settings"] =
+      Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
   request["settings"]["wheel"]["cone_angle_deg"] = 0.05;
   const Answer answer = Post(*client_, "/api/v1/evaluate", request);
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   double most_negative = 0.0;
   for (const nlohmann::json& row : answer.body["deviations_um"]) {
     for (const nlohmann::json& value : row) {
-      if (value.is_number()) most_negative = std::min(most_negative, value.get<double>());
+      if (value.is_number())
+        most_negative = std::min(most_negative, value.get<double>());
     }
   }
   // lambda ~ -u_w theta_w: millimetres of u_w times ~1e-3 rad is micrometres.
@@ -203,7 +232,8 @@ TEST_F(GearloopServerTest, SensitivityQuotesTheConeColumnPerDegree) {
   ASSERT_EQ(s.body["matrix"][0].size(), 45u);
   EXPECT_EQ(s.body["parameters"][42], "cone_angle");
   EXPECT_EQ(s.body["units"][42], "um/deg");
-  // MODEL.md §5: about 13 singular values above 1e-6 of the largest; 16-17 normalised.
+  // MODEL.md §5: about 13 singular values above 1e-6 of the largest; 16-17
+  // normalised.
   EXPECT_GE(s.body["rank"].get<int>(), 11);
   EXPECT_LE(s.body["rank"].get<int>(), 15);
   EXPECT_GE(s.body["normalised"]["rank"].get<int>(), 15);
@@ -212,12 +242,15 @@ TEST_F(GearloopServerTest, SensitivityQuotesTheConeColumnPerDegree) {
 
   // A cone angle of 0.01 deg moves point i by about S[i][42] * 0.01.
   nlohmann::json request = DefaultSetup();
-  request["settings"] = Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
+  request["settings"] =
+      Post(*client_, "/api/v1/nominal", DefaultSetup()).body["settings"];
   request["settings"]["wheel"]["cone_angle_deg"] = 0.01;
   const Answer e = Post(*client_, "/api/v1/evaluate", request);
   ASSERT_EQ(e.status, 200);
   double largest = 0.0;
-  for (int i = 0; i < 45; ++i) largest = std::max(largest, std::fabs(s.body["matrix"][i][42].get<double>() * 0.01));
+  for (int i = 0; i < 45; ++i)
+    largest = std::max(largest,
+                       std::fabs(s.body["matrix"][i][42].get<double>() * 0.01));
   ASSERT_GT(largest, 0.1);
   for (int i = 0; i < 45; ++i) {
     const double predicted = s.body["matrix"][i][42].get<double>() * 0.01;
@@ -226,7 +259,8 @@ TEST_F(GearloopServerTest, SensitivityQuotesTheConeColumnPerDegree) {
   }
 }
 
-TEST_F(GearloopServerTest, HonoursTheRegularisationRuleAndTheMachineStateOptions) {
+TEST_F(GearloopServerTest,
+       HonoursTheRegularisationRuleAndTheMachineStateOptions) {
   nlohmann::json request = CorrectionRequest();
   request["options"]["regularisation_rule"] = "discrepancy-principle";
   request["options"]["estimate_machine_state"] = false;
@@ -245,20 +279,33 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   const int64_t id = created.body["id"];
   EXPECT_EQ(created.location, "/api/v1/corrections/" + std::to_string(id));
   const nlohmann::json& result = created.body["result"];
-  for (const char* key : {"settings", "delta", "predicted_residual_um", "residual_rms_um", "residual_max_um",
-                          "best_reachable_rms_um", "rank", "condition_number", "regularisation", "solver", "status",
-                          "iterations", "elapsed_ms"}) {
+  for (const char* key : {"settings",
+                          "delta",
+                          "predicted_residual_um",
+                          "residual_rms_um",
+                          "residual_max_um",
+                          "best_reachable_rms_um",
+                          "rank",
+                          "condition_number",
+                          "regularisation",
+                          "solver",
+                          "status",
+                          "iterations",
+                          "elapsed_ms"}) {
     EXPECT_TRUE(result.contains(key)) << key;
   }
   EXPECT_EQ(result["settings"]["axes"]["X"].size(), 7u);
   EXPECT_EQ(result["predicted_residual_um"].size(), 5u);
-  EXPECT_TRUE(result["status"] == "converged" || result["status"] == "not_converged");
+  EXPECT_TRUE(result["status"] == "converged" ||
+              result["status"] == "not_converged");
   EXPECT_EQ(result["solver"], "regularised");
-  // A known probe noise: the unbiased predictive risk picks the level, at the estimated state.
+  // A known probe noise: the unbiased predictive risk picks the level, at the
+  // estimated state.
   EXPECT_EQ(result["regularisation"]["rule"], "upre");
   EXPECT_EQ(result["machine_state"]["estimated"], true);
   EXPECT_GT(result["machine_state"]["size"].get<double>(), 0.0);
-  // The correction brings the flank close to the best the model can reach (3 um hidden errors).
+  // The correction brings the flank close to the best the model can reach (3 um
+  // hidden errors).
   EXPECT_LT(result["residual_rms_um"].get<double>(), 1.0);
 
   const Answer stored = Send(*client_, "GET", created.location);
@@ -274,28 +321,40 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   EXPECT_TRUE(stored.body["parent_job_id"].is_null());
 
   httplib::Result metrics = client_->Get("/metrics");
-  for (int i = 0; i < 100 && metrics && metrics->body.find("status=\"201\"") == std::string::npos; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // counted just after answering
+  for (int i = 0; i < 100 && metrics &&
+                  metrics->body.find("status=\"201\"") == std::string::npos;
+       ++i) {
+    std::this_thread::sleep_for(
+        std::chrono::milliseconds(10));  // counted just after answering
     metrics = client_->Get("/metrics");
   }
   ASSERT_TRUE(metrics);
   EXPECT_NE(metrics->body.find("gearloop_jobs_stored 1"), std::string::npos);
-  EXPECT_NE(metrics->body.find("gearloop_solver_duration_seconds_count 1"), std::string::npos);
-  EXPECT_NE(metrics->body.find("route=\"POST /api/v1/corrections\",status=\"201\""), std::string::npos);
+  EXPECT_NE(metrics->body.find("gearloop_solver_duration_seconds_count 1"),
+            std::string::npos);
+  EXPECT_NE(
+      metrics->body.find("route=\"POST /api/v1/corrections\",status=\"201\""),
+      std::string::npos);
 }
 
-// The axis motion of a correction: dC(phi1) = sum_k delta_k phi1^k at 9 roll angles over the
-// summary's roll range, recomputed here from the answer's own delta and roll angles.
+// The axis motion of a correction: dC(phi1) = sum_k delta_k phi1^k at 9 roll
+// angles over the summary's roll range, recomputed here from the answer's own
+// delta and roll angles.
 TEST_F(GearloopServerTest, ReportsTheAxisMotionOfACorrection) {
-  const Answer created = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  const Answer created =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest());
   ASSERT_EQ(created.status, 201) << created.body.dump();
   const nlohmann::json& result = created.body["result"];
   ASSERT_TRUE(result.contains("axis_motion"));
   const nlohmann::json& motion = result["axis_motion"];
   ASSERT_EQ(motion["roll_rad"].size(), 9u);
   const double deg = kPi / 180.0;
-  EXPECT_NEAR(motion["roll_rad"][0].get<double>(), result["roll_range_deg"][0].get<double>() * deg, 1e-12);
-  EXPECT_NEAR(motion["roll_rad"][8].get<double>(), result["roll_range_deg"][1].get<double>() * deg, 1e-12);
+  EXPECT_NEAR(motion["roll_rad"][0].get<double>(),
+              result["roll_range_deg"][0].get<double>() * deg,
+              1e-12);
+  EXPECT_NEAR(motion["roll_rad"][8].get<double>(),
+              result["roll_range_deg"][1].get<double>() * deg,
+              1e-12);
   for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
     const bool linear = std::string("XYZ").find(axis[0]) != std::string::npos;
     const std::string unit = linear ? "_um" : "_urad";
@@ -308,38 +367,57 @@ TEST_F(GearloopServerTest, ReportsTheAxisMotionOfACorrection) {
     for (int i = 0; i < 9; ++i) {
       const double phi = motion["roll_rad"][i].get<double>();
       double expected = 0.0;
-      for (size_t k = 0; k < coefficients.size(); ++k) expected += coefficients[k].get<double>() * std::pow(phi, k);
+      for (size_t k = 0; k < coefficients.size(); ++k)
+        expected += coefficients[k].get<double>() * std::pow(phi, k);
       expected *= factor;
       const double reported = m["change" + unit][i].get<double>();
-      EXPECT_NEAR(reported, expected, 1e-9 * (1.0 + std::fabs(expected))) << axis << " sample " << i;
+      EXPECT_NEAR(reported, expected, 1e-9 * (1.0 + std::fabs(expected)))
+          << axis << " sample " << i;
       largest = std::max(largest, std::fabs(reported));
     }
-    EXPECT_GE(m["max_abs" + unit].get<double>(), largest * (1.0 - 1e-12)) << axis;
-    EXPECT_LE(m["rms" + unit].get<double>(), m["max_abs" + unit].get<double>() * (1.0 + 1e-12)) << axis;
+    EXPECT_GE(m["max_abs" + unit].get<double>(), largest * (1.0 - 1e-12))
+        << axis;
+    EXPECT_LE(m["rms" + unit].get<double>(),
+              m["max_abs" + unit].get<double>() * (1.0 + 1e-12))
+        << axis;
   }
-  // The hidden errors are 3 um of axis motion: the correction moves the axes by microns, not mm.
+  // The hidden errors are 3 um of axis motion: the correction moves the axes by
+  // microns, not mm.
   EXPECT_LT(motion["axes"]["X"]["max_abs_um"].get<double>(), 100.0);
-  EXPECT_GT(motion["axes"]["X"]["max_abs_um"].get<double>() + motion["axes"]["Y"]["max_abs_um"].get<double>() +
+  EXPECT_GT(motion["axes"]["X"]["max_abs_um"].get<double>() +
+                motion["axes"]["Y"]["max_abs_um"].get<double>() +
                 motion["axes"]["Z"]["max_abs_um"].get<double>(),
             0.1);
   const double cone_rad = motion["wheel"]["cone_angle_rad"].get<double>();
-  EXPECT_NEAR(cone_rad, result["delta"]["wheel"]["cone_angle_deg"].get<double>() * deg, 1e-15);
-  EXPECT_EQ(motion["wheel"]["parabola_vertex_mm"], result["delta"]["wheel"]["parabola_vertex_mm"]);
-  EXPECT_EQ(motion["wheel"]["parabola_coefficient_per_mm"], result["delta"]["wheel"]["parabola_coefficient_per_mm"]);
+  EXPECT_NEAR(cone_rad,
+              result["delta"]["wheel"]["cone_angle_deg"].get<double>() * deg,
+              1e-15);
+  EXPECT_EQ(motion["wheel"]["parabola_vertex_mm"],
+            result["delta"]["wheel"]["parabola_vertex_mm"]);
+  EXPECT_EQ(motion["wheel"]["parabola_coefficient_per_mm"],
+            result["delta"]["wheel"]["parabola_coefficient_per_mm"]);
 
   // Stored and replayed alike.
-  EXPECT_EQ(Send(*client_, "GET", created.location).body["result"]["axis_motion"], motion);
+  EXPECT_EQ(
+      Send(*client_, "GET", created.location).body["result"]["axis_motion"],
+      motion);
   const Answer replay =
-      Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(created.body["id"].get<int64_t>()) + "/replay", "");
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" +
+               std::to_string(created.body["id"].get<int64_t>()) + "/replay",
+           "");
   ASSERT_EQ(replay.status, 201);
   EXPECT_EQ(replay.body["result"]["axis_motion"]["roll_rad"].size(), 9u);
 }
 
-// The measured and target grids travel with the result, so a client need not rebuild them.
+// The measured and target grids travel with the result, so a client need not
+// rebuild them.
 TEST_F(GearloopServerTest, ResultCarriesTheMeasuredAndTargetGrids) {
   nlohmann::json request = CorrectionRequest();
   request["measurement"]["deviations_um"][1][3] = nullptr;  // not delivered
-  request["target"] = {{"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 4.0}}}}};
+  request["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 4.0}}}}};
   const Answer created = Post(*client_, "/api/v1/corrections", request);
   ASSERT_EQ(created.status, 201) << created.body.dump();
   const nlohmann::json& result = created.body["result"];
@@ -347,7 +425,8 @@ TEST_F(GearloopServerTest, ResultCarriesTheMeasuredAndTargetGrids) {
   ASSERT_TRUE(result.contains("target_um"));
   EXPECT_EQ(result["measured_um"], request["measurement"]["deviations_um"]);
   ASSERT_EQ(result["target_um"].size(), 5u);
-  // Lead crowning C_b: -C_b eta^2, 0 mid-face and -C_b at both ends of each row.
+  // Lead crowning C_b: -C_b eta^2, 0 mid-face and -C_b at both ends of each
+  // row.
   for (int r = 0; r < 5; ++r) {
     ASSERT_EQ(result["target_um"][r].size(), 9u);
     EXPECT_NEAR(result["target_um"][r][4].get<double>(), 0.0, 1e-9);
@@ -365,11 +444,14 @@ TEST_F(GearloopServerTest, ResultCarriesTheMeasuredAndTargetGrids) {
         continue;
       }
       EXPECT_NEAR(residual.get<double>(),
-                  m.get<double>() - result["target_um"][r][c].get<double>() + change.get<double>(), 1e-9);
+                  m.get<double>() - result["target_um"][r][c].get<double>() +
+                      change.get<double>(),
+                  1e-9);
     }
   }
   EXPECT_TRUE(result["measured_um"][1][3].is_null());
-  EXPECT_EQ(Send(*client_, "GET", created.location).body["result"]["target_um"], result["target_um"]);
+  EXPECT_EQ(Send(*client_, "GET", created.location).body["result"]["target_um"],
+            result["target_um"]);
 
   // Several teeth: the grid the solver used is their point-by-point mean.
   nlohmann::json teeth = CorrectionRequest();
@@ -386,7 +468,8 @@ TEST_F(GearloopServerTest, ResultCarriesTheMeasuredAndTargetGrids) {
   EXPECT_NEAR(mean[2][5].get<double>(), first[2][5].get<double>() + 0.5, 1e-12);
   EXPECT_NEAR(mean[0][0].get<double>(), first[0][0].get<double>(), 1e-12);
   for (const auto& row : averaged.body["result"]["target_um"]) {
-    for (const auto& v : row) EXPECT_EQ(v.get<double>(), 0.0);  // no target: the involute
+    for (const auto& v : row)
+      EXPECT_EQ(v.get<double>(), 0.0);  // no target: the involute
   }
 }
 
@@ -405,7 +488,8 @@ TEST_F(GearloopServerTest, StoresANonConvergedValidSolveWithItsStatus) {
 TEST_F(GearloopServerTest, ListsHistoryNewestFirstWithPagingAndFilters) {
   const nlohmann::json request = CorrectionRequest();
   std::vector<int64_t> ids;
-  for (int i = 0; i < 3; ++i) ids.push_back(Post(*client_, "/api/v1/corrections", request).body["id"]);
+  for (int i = 0; i < 3; ++i)
+    ids.push_back(Post(*client_, "/api/v1/corrections", request).body["id"]);
   nlohmann::json left = request;
   left["flank"] = "left";
   left.erase("measurement");
@@ -421,12 +505,22 @@ TEST_F(GearloopServerTest, ListsHistoryNewestFirstWithPagingAndFilters) {
   page = Send(*client_, "GET", "/api/v1/corrections?limit=2&offset=2");
   EXPECT_EQ(page.body["jobs"][1]["id"], ids[0]);
 
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?flank=left").body["total"], 1);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=37&module_mm=6").body["total"], 4);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=38").body["total"], 0);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?created_from=2000-01-01&created_to=2999-01-01").body["total"],
+  EXPECT_EQ(
+      Send(*client_, "GET", "/api/v1/corrections?flank=left").body["total"], 1);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=37&module_mm=6")
+                .body["total"],
             4);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?created_to=2000-01-01").body["total"], 0);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?teeth=38").body["total"],
+            0);
+  EXPECT_EQ(
+      Send(*client_,
+           "GET",
+           "/api/v1/corrections?created_from=2000-01-01&created_to=2999-01-01")
+          .body["total"],
+      4);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections?created_to=2000-01-01")
+                .body["total"],
+            0);
 
   Answer bad = Send(*client_, "GET", "/api/v1/corrections?limit=abc");
   EXPECT_EQ(bad.status, 400);
@@ -462,62 +556,149 @@ TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
       {"empty body", corrections, "", 400, "invalid_json", ""},
       {"array body", corrections, "[1,2]", 400, "invalid_request", ""},
       {"NaN", corrections, "{\"gear\": NaN}", 400, "invalid_json", ""},
-      {"teeth as string", corrections, edited([](nlohmann::json* j) { (*j)["gear"]["teeth"] = "many"; }), 400,
-       "invalid_request", "gear.teeth"},
-      {"no measurement", corrections, edited([](nlohmann::json* j) { j->erase("measurement"); }), 400,
-       "invalid_request", "measurement"},
-      {"short row", corrections,
-       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][2] = {1.0, 2.0}; }), 400,
-       "invalid_request", "measurement.deviations_um[2]"},
-      {"string entry", corrections,
-       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][2][7] = "x"; }), 400, "invalid_request",
-       "measurement.deviations_um[2][7]"},
-      {"impossible gear", corrections,
-       edited([](nlohmann::json* j) { (*j)["gear"]["normal_pressure_angle_deg"] = 50; }), 422, "invalid_value",
-       "gear.normal_pressure_angle_deg"},
-      {"tip inside root", corrections, edited([](nlohmann::json* j) { (*j)["gear"]["tip_radius_mm"] = 90; }), 422,
-       "invalid_value", "gear.tip_radius_mm"},
-      {"range wrong way", corrections,
-       edited([](nlohmann::json* j) { (*j)["grid"]["lead_range"] = {0.4, -0.4}; }), 422, "invalid_value",
-       "grid.lead_range[1]"},
-      {"huge deviation", corrections,
-       edited([](nlohmann::json* j) { (*j)["measurement"]["deviations_um"][0][0] = 1e300; }), 422, "invalid_value",
-       "measurement.deviations_um[0][0]"},
-      {"unknown solver", corrections, edited([](nlohmann::json* j) { (*j)["options"]["solver"] = "magic"; }), 422,
-       "invalid_value", "options.solver"},
-      {"negative noise", corrections, edited([](nlohmann::json* j) { (*j)["options"]["probe_noise_um"] = -1; }), 422,
-       "invalid_value", "options.probe_noise_um"},
-      {"unknown regularisation rule", corrections,
-       edited([](nlohmann::json* j) { (*j)["options"]["regularisation_rule"] = "l-curve"; }), 422, "invalid_value",
-       "options.regularisation_rule"},
-      {"machine state as a string", corrections,
-       edited([](nlohmann::json* j) { (*j)["options"]["estimate_machine_state"] = "yes"; }), 400, "invalid_request",
-       "options.estimate_machine_state"},
-      {"no outlier fraction left", corrections,
-       edited([](nlohmann::json* j) { (*j)["options"]["max_outlier_fraction"] = 1.5; }), 422, "invalid_value",
-       "options"},
-      {"unknown source job", corrections, edited([](nlohmann::json* j) { (*j)["settings_source_job_id"] = 999; }),
-       422, "invalid_value", "settings_source_job_id"},
-      {"unknown modification", corrections,
+      {"teeth as string",
+       corrections,
+       edited([](nlohmann::json* j) { (*j)["gear"]["teeth"] = "many"; }),
+       400,
+       "invalid_request",
+       "gear.teeth"},
+      {"no measurement",
+       corrections,
+       edited([](nlohmann::json* j) { j->erase("measurement"); }),
+       400,
+       "invalid_request",
+       "measurement"},
+      {"short row",
+       corrections,
        edited([](nlohmann::json* j) {
-         (*j)["target"] = {{"modifications", {{{"kind", "wobble"}, {"amount_um", 1}}}}};
+         (*j)["measurement"]["deviations_um"][2] = {1.0, 2.0};
        }),
-       422, "invalid_value", "target.modifications[0].kind"},
-      {"deep nesting", corrections, std::string(5000, '[') + std::string(5000, ']'), 400, "invalid_json", ""},
-      {"sql-looking flank", "/api/v1/evaluate",
-       edited([](nlohmann::json* j) { (*j)["flank"] = "right'; DROP TABLE jobs; --"; }), 422, "invalid_value",
+       400,
+       "invalid_request",
+       "measurement.deviations_um[2]"},
+      {"string entry",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["measurement"]["deviations_um"][2][7] = "x";
+       }),
+       400,
+       "invalid_request",
+       "measurement.deviations_um[2][7]"},
+      {"impossible gear",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["gear"]["normal_pressure_angle_deg"] = 50;
+       }),
+       422,
+       "invalid_value",
+       "gear.normal_pressure_angle_deg"},
+      {"tip inside root",
+       corrections,
+       edited([](nlohmann::json* j) { (*j)["gear"]["tip_radius_mm"] = 90; }),
+       422,
+       "invalid_value",
+       "gear.tip_radius_mm"},
+      {"range wrong way",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["grid"]["lead_range"] = {0.4, -0.4};
+       }),
+       422,
+       "invalid_value",
+       "grid.lead_range[1]"},
+      {"huge deviation",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["measurement"]["deviations_um"][0][0] = 1e300;
+       }),
+       422,
+       "invalid_value",
+       "measurement.deviations_um[0][0]"},
+      {"unknown solver",
+       corrections,
+       edited([](nlohmann::json* j) { (*j)["options"]["solver"] = "magic"; }),
+       422,
+       "invalid_value",
+       "options.solver"},
+      {"negative noise",
+       corrections,
+       edited(
+           [](nlohmann::json* j) { (*j)["options"]["probe_noise_um"] = -1; }),
+       422,
+       "invalid_value",
+       "options.probe_noise_um"},
+      {"unknown regularisation rule",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["options"]["regularisation_rule"] = "l-curve";
+       }),
+       422,
+       "invalid_value",
+       "options.regularisation_rule"},
+      {"machine state as a string",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["options"]["estimate_machine_state"] = "yes";
+       }),
+       400,
+       "invalid_request",
+       "options.estimate_machine_state"},
+      {"no outlier fraction left",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["options"]["max_outlier_fraction"] = 1.5;
+       }),
+       422,
+       "invalid_value",
+       "options"},
+      {"unknown source job",
+       corrections,
+       edited([](nlohmann::json* j) { (*j)["settings_source_job_id"] = 999; }),
+       422,
+       "invalid_value",
+       "settings_source_job_id"},
+      {"unknown modification",
+       corrections,
+       edited([](nlohmann::json* j) {
+         (*j)["target"] = {
+             {"modifications", {{{"kind", "wobble"}, {"amount_um", 1}}}}};
+       }),
+       422,
+       "invalid_value",
+       "target.modifications[0].kind"},
+      {"deep nesting",
+       corrections,
+       std::string(5000, '[') + std::string(5000, ']'),
+       400,
+       "invalid_json",
+       ""},
+      {"sql-looking flank",
+       "/api/v1/evaluate",
+       edited([](nlohmann::json* j) {
+         (*j)["flank"] = "right'; DROP TABLE jobs; --";
+       }),
+       422,
+       "invalid_value",
        "flank"},
-      {"settings axis missing", "/api/v1/evaluate",
-       edited([](nlohmann::json* j) { (*j)["settings"] = {{"axes", {{"X", {1.0}}}}}; }), 400, "invalid_request",
+      {"settings axis missing",
+       "/api/v1/evaluate",
+       edited([](nlohmann::json* j) {
+         (*j)["settings"] = {{"axes", {{"X", {1.0}}}}};
+       }),
+       400,
+       "invalid_request",
        "settings.axes.Y"},
   };
   for (const ErrorCase& c : cases) {
     const Answer answer = Send(*client_, "POST", c.path, c.body);
     EXPECT_EQ(answer.status, c.status) << c.name << ": " << answer.body.dump();
-    ASSERT_TRUE(answer.body.is_object() && answer.body.contains("error")) << c.name;
+    ASSERT_TRUE(answer.body.is_object() && answer.body.contains("error"))
+        << c.name;
     EXPECT_EQ(answer.body["error"]["code"], c.code) << c.name;
-    EXPECT_EQ(answer.body["error"]["field"], c.field) << c.name << ": " << answer.body.dump();
-    EXPECT_FALSE(answer.body["error"]["message"].get<std::string>().empty()) << c.name;
+    EXPECT_EQ(answer.body["error"]["field"], c.field)
+        << c.name << ": " << answer.body.dump();
+    EXPECT_FALSE(answer.body["error"]["message"].get<std::string>().empty())
+        << c.name;
   }
   EXPECT_EQ(StoredJobs(), 0);
 }
@@ -529,7 +710,8 @@ TEST_F(GearloopServerTest, AnswersNotFoundAndMethodNotAllowedAsJson) {
   answer = Send(*client_, "GET", "/api/v1/corrections/12345");
   EXPECT_EQ(answer.status, 404);
   EXPECT_EQ(answer.body["error"]["code"], "not_found");
-  answer = Send(*client_, "GET", "/api/v1/corrections/99999999999999999999999999");
+  answer =
+      Send(*client_, "GET", "/api/v1/corrections/99999999999999999999999999");
   EXPECT_EQ(answer.status, 404);
   answer = Send(*client_, "POST", "/api/v1/corrections/77/replay", "{}");
   EXPECT_EQ(answer.status, 404);
@@ -549,18 +731,26 @@ TEST_F(GearloopServerTest, AnswersNotFoundAndMethodNotAllowedAsJson) {
   EXPECT_EQ(answer.status, 405);
 }
 
-// HEAD goes to the GET handlers in cpp-httplib, TRACE and CONNECT to none; on a path that
-// serves only POST each is a 405 with Allow and the JSON error body (empty for HEAD, which never
-// carries one, but announced as JSON with its length).
-TEST_F(GearloopServerTest, AnswersHeadAndUnroutedMethodsOnAPostOnlyPathWith405) {
-  for (const char* path : {"/api/v1/nominal", "/api/v1/evaluate", "/api/v1/sensitivity", "/api/v1/batches",
-                           "/api/v1/simulations/measurement", "/api/v1/simulations/closed-loop",
-                           "/api/v1/bevel/conversions", "/api/v1/corrections/1/replay"}) {
+// HEAD goes to the GET handlers in cpp-httplib, TRACE and CONNECT to none; on a
+// path that serves only POST each is a 405 with Allow and the JSON error body
+// (empty for HEAD, which never carries one, but announced as JSON with its
+// length).
+TEST_F(GearloopServerTest,
+       AnswersHeadAndUnroutedMethodsOnAPostOnlyPathWith405) {
+  for (const char* path : {"/api/v1/nominal",
+                           "/api/v1/evaluate",
+                           "/api/v1/sensitivity",
+                           "/api/v1/batches",
+                           "/api/v1/simulations/measurement",
+                           "/api/v1/simulations/closed-loop",
+                           "/api/v1/bevel/conversions",
+                           "/api/v1/corrections/1/replay"}) {
     auto head = client_->Head(path);
     ASSERT_TRUE(head) << path;
     EXPECT_EQ(head->status, 405) << path;
     EXPECT_EQ(head->get_header_value("Allow"), "POST") << path;
-    EXPECT_EQ(head->get_header_value("Content-Type"), "application/json") << path;
+    EXPECT_EQ(head->get_header_value("Content-Type"), "application/json")
+        << path;
     EXPECT_TRUE(head->body.empty()) << path;
 
     for (const char* method : {"TRACE", "OPTIONS"}) {
@@ -570,13 +760,17 @@ TEST_F(GearloopServerTest, AnswersHeadAndUnroutedMethodsOnAPostOnlyPathWith405) 
       auto answer = client_->send(request);
       ASSERT_TRUE(answer) << method << " " << path;
       EXPECT_EQ(answer->status, 405) << method << " " << path;
-      EXPECT_EQ(answer->get_header_value("Allow"), "POST") << method << " " << path;
+      EXPECT_EQ(answer->get_header_value("Allow"), "POST")
+          << method << " " << path;
       const nlohmann::json body = ParseBody(answer);
-      EXPECT_EQ(body["error"]["code"], "method_not_allowed") << method << " " << path << ": " << answer->body;
-      EXPECT_NE(body["error"]["message"].get<std::string>().find(method), std::string::npos);
+      EXPECT_EQ(body["error"]["code"], "method_not_allowed")
+          << method << " " << path << ": " << answer->body;
+      EXPECT_NE(body["error"]["message"].get<std::string>().find(method),
+                std::string::npos);
     }
   }
-  // A path serving both names both; HEAD where GET is served is answered as GET.
+  // A path serving both names both; HEAD where GET is served is answered as
+  // GET.
   httplib::Request trace;
   trace.method = "TRACE";
   trace.path = "/api/v1/corrections";
@@ -602,7 +796,8 @@ TEST_F(GearloopServerTest, RefusesOversizedBodiesWith413) {
   ServerOptions options;
   options.payload_max_bytes = 64 * 1024;
   StartServer(options);
-  const std::string huge = "{\"gear\": \"" + std::string(200 * 1024, 'x') + "\"}";
+  const std::string huge =
+      "{\"gear\": \"" + std::string(200 * 1024, 'x') + "\"}";
   const Answer answer = Send(*client_, "POST", "/api/v1/corrections", huge);
   EXPECT_EQ(answer.status, 413);
   EXPECT_EQ(answer.body["error"]["code"], "payload_too_large");
@@ -611,11 +806,14 @@ TEST_F(GearloopServerTest, RefusesOversizedBodiesWith413) {
 }
 
 TEST_F(GearloopServerTest, ReplayStoresALinkedJobWithChangedOptions) {
-  const Answer parent = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  const Answer parent =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest());
   ASSERT_EQ(parent.status, 201);
   const int64_t parent_id = parent.body["id"];
-  const Answer replay = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
-                             {{"options", {{"solver", "lsq-plain"}}}});
+  const Answer replay =
+      Post(*client_,
+           "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+           {{"options", {{"solver", "lsq-plain"}}}});
   ASSERT_EQ(replay.status, 201) << replay.body.dump();
   EXPECT_EQ(replay.body["kind"], "replay");
   EXPECT_EQ(replay.body["parent_job_id"], parent_id);
@@ -623,28 +821,40 @@ TEST_F(GearloopServerTest, ReplayStoresALinkedJobWithChangedOptions) {
   const Answer stored = Send(*client_, "GET", replay.location);
   EXPECT_EQ(stored.body["parent_job_id"], parent_id);
   // Same measurement, merged options.
-  EXPECT_EQ(stored.body["request"]["measurement"], Send(*client_, "GET", parent.location).body["request"]["measurement"]);
+  EXPECT_EQ(
+      stored.body["request"]["measurement"],
+      Send(*client_, "GET", parent.location).body["request"]["measurement"]);
   EXPECT_EQ(stored.body["request"]["options"]["probe_noise_um"], 0.3);
   EXPECT_EQ(stored.body["request"]["options"]["solver"], "lsq-plain");
 
   // A replay with nothing changed re-runs the same solve.
-  const Answer again = Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(parent_id) + "/replay", "");
+  const Answer again =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+           "");
   ASSERT_EQ(again.status, 201);
   EXPECT_NEAR(again.body["result"]["residual_rms_um"].get<double>(),
-              parent.body["result"]["residual_rms_um"].get<double>(), 1e-9);
+              parent.body["result"]["residual_rms_um"].get<double>(),
+              1e-9);
 
-  const Answer wrong = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
-                            {{"measurement", nlohmann::json::object()}});
+  const Answer wrong =
+      Post(*client_,
+           "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+           {{"measurement", nlohmann::json::object()}});
   EXPECT_EQ(wrong.status, 400);
   EXPECT_EQ(wrong.body["error"]["field"], "measurement");
-  const Answer bad_option = Post(*client_, "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
-                                 {{"options", {{"mode", "sideways"}}}});
+  const Answer bad_option =
+      Post(*client_,
+           "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
+           {{"options", {{"mode", "sideways"}}}});
   EXPECT_EQ(bad_option.status, 422);
   EXPECT_EQ(bad_option.body["error"]["field"], "options.mode");
 }
 
 TEST_F(GearloopServerTest, WalksTheSettingsLineageOfAGear) {
-  const Answer first = Post(*client_, "/api/v1/corrections", CorrectionRequest(1));
+  const Answer first =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest(1));
   ASSERT_EQ(first.status, 201);
   nlohmann::json second_request = CorrectionRequest(2);
   second_request["settings"] = first.body["result"]["settings"];
@@ -654,17 +864,22 @@ TEST_F(GearloopServerTest, WalksTheSettingsLineageOfAGear) {
   EXPECT_EQ(second.body["settings_source_job_id"], first.body["id"]);
   Post(*client_, "/api/v1/corrections", CorrectionRequest(3));  // unrelated
 
-  const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(second.body["id"].get<int64_t>()) +
-                                                   "/lineage");
+  const Answer lineage =
+      Send(*client_,
+           "GET",
+           "/api/v1/corrections/" +
+               std::to_string(second.body["id"].get<int64_t>()) + "/lineage");
   ASSERT_EQ(lineage.status, 200);
   ASSERT_EQ(lineage.body["jobs"].size(), 2u);
   EXPECT_EQ(lineage.body["jobs"][0]["id"], first.body["id"]);
   EXPECT_EQ(lineage.body["jobs"][1]["id"], second.body["id"]);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections/999/lineage").status, 404);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections/999/lineage").status,
+            404);
 }
 
 TEST_F(GearloopServerTest, KeepsJobsAcrossARestart) {
-  const Answer created = Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  const Answer created =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest());
   ASSERT_EQ(created.status, 201);
   client_.reset();
   StartServer();
@@ -674,8 +889,11 @@ TEST_F(GearloopServerTest, KeepsJobsAcrossARestart) {
   EXPECT_EQ(StoredJobs(), 1);
 }
 
-nlohmann::json WaitForBatch(httplib::Client& client, const std::string& location, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+nlohmann::json WaitForBatch(httplib::Client& client,
+                            const std::string& location,
+                            double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration<double>(timeout_s);
   nlohmann::json batch;
   while (std::chrono::steady_clock::now() < deadline) {
     batch = Send(client, "GET", location).body;
@@ -698,7 +916,9 @@ TEST_F(GearloopServerTest, RunsABatchOf200ItemsWhereFailedItemsFailAlone) {
   ASSERT_FALSE(accepted.location.empty());
 
   const nlohmann::json batch = WaitForBatch(*client_, accepted.location, 240.0);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   ASSERT_EQ(batch["status"], "finished") << batch.dump().substr(0, 400);
   EXPECT_EQ(batch["total"], 200);
   EXPECT_EQ(batch["done"], 190);
@@ -721,14 +941,16 @@ TEST_F(GearloopServerTest, RunsABatchOf200ItemsWhereFailedItemsFailAlone) {
   EXPECT_EQ(job.status, 200);
   EXPECT_EQ(job.body["kind"], "batch_item");
   EXPECT_EQ(StoredJobs(), 190);
-  std::printf("[ info     ] batch of 200 corrections finished in %.2f s\n", seconds);
+  std::printf("[ info     ] batch of 200 corrections finished in %.2f s\n",
+              seconds);
 }
 
 TEST_F(GearloopServerTest, RefusesMalformedBatches) {
   Answer answer = Post(*client_, "/api/v1/batches", nlohmann::json::object());
   EXPECT_EQ(answer.status, 400);
   EXPECT_EQ(answer.body["error"]["field"], "items");
-  answer = Post(*client_, "/api/v1/batches", {{"items", nlohmann::json::array()}});
+  answer =
+      Post(*client_, "/api/v1/batches", {{"items", nlohmann::json::array()}});
   EXPECT_EQ(answer.status, 422);
   answer = Post(*client_, "/api/v1/batches", {{"items", {1, 2}}});
   EXPECT_EQ(answer.status, 400);
@@ -746,7 +968,8 @@ TEST_F(GearloopServerTest, ResumesPendingBatchItemsAfterARestart) {
     batch_id = repository->CreateBatch({item, item, item});
   }
   StartServer();
-  const nlohmann::json batch = WaitForBatch(*client_, "/api/v1/batches/" + std::to_string(batch_id), 60.0);
+  const nlohmann::json batch = WaitForBatch(
+      *client_, "/api/v1/batches/" + std::to_string(batch_id), 60.0);
   EXPECT_EQ(batch["status"], "finished");
   EXPECT_EQ(batch["done"], 3);
 }
@@ -761,44 +984,61 @@ TEST_F(GearloopServerTest, SimulatesAReproducibleMeasurement) {
   nlohmann::json request = DefaultSetup();
   request["hidden_errors"] = {{"axes", {{"X", {0.002}}}}};
   request["missing_points"] = {{0, 0}, {4, 8}};
-  const Answer answer = Post(*client_, "/api/v1/simulations/measurement", request);
+  const Answer answer =
+      Post(*client_, "/api/v1/simulations/measurement", request);
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   EXPECT_TRUE(answer.body["measurement"]["deviations_um"][0][0].is_null());
   EXPECT_TRUE(answer.body["measurement"]["deviations_um"][4][8].is_null());
   EXPECT_EQ(answer.body["missing"].size(), 2u);
   request["missing_points"] = {{9, 0}};
-  EXPECT_EQ(Post(*client_, "/api/v1/simulations/measurement", request).status, 422);
+  EXPECT_EQ(Post(*client_, "/api/v1/simulations/measurement", request).status,
+            422);
 }
 
 TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
   nlohmann::json scenario = DefaultSetup();
-  scenario["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+  scenario["random_hidden_errors"] = {
+      {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
   scenario["noise_um"] = 0.2;
   scenario["seed"] = 11;
   scenario["corrections"] = 2;
-  scenario["target"] = {{"modifications", {{{"kind", "profile_crowning"}, {"amount_um", 3.0}}}}};
+  scenario["target"] = {
+      {"modifications", {{{"kind", "profile_crowning"}, {"amount_um", 3.0}}}}};
   scenario["store"] = true;
-  const Answer answer = Post(*client_, "/api/v1/simulations/closed-loop", scenario);
+  const Answer answer =
+      Post(*client_, "/api/v1/simulations/closed-loop", scenario);
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   EXPECT_TRUE(answer.body["completed"].get<bool>());
   const nlohmann::json& iterations = answer.body["iterations"];
   ASSERT_EQ(iterations.size(), 3u);
-  // The loop closes: the part after the first correction is far better than the first part.
-  EXPECT_LT(iterations[1]["true_rms_um"].get<double>(), 0.3 * iterations[0]["true_rms_um"].get<double>());
+  // The loop closes: the part after the first correction is far better than the
+  // first part.
+  EXPECT_LT(iterations[1]["true_rms_um"].get<double>(),
+            0.3 * iterations[0]["true_rms_um"].get<double>());
   ASSERT_TRUE(iterations[1].contains("job_id"));
   const int64_t last = iterations[1]["job_id"];
-  // Each stored round carries its predicted residual (and the other grids) like any correction.
+  // Each stored round carries its predicted residual (and the other grids) like
+  // any correction.
   for (int k = 0; k < 2; ++k) {
-    const Answer job = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(iterations[k]["job_id"].get<int64_t>()));
+    const Answer job =
+        Send(*client_,
+             "GET",
+             "/api/v1/corrections/" +
+                 std::to_string(iterations[k]["job_id"].get<int64_t>()));
     ASSERT_EQ(job.status, 200);
     const nlohmann::json& result = job.body["result"];
-    for (const char* key : {"predicted_residual_um", "predicted_change_um", "measured_um", "target_um"}) {
+    for (const char* key : {"predicted_residual_um",
+                            "predicted_change_um",
+                            "measured_um",
+                            "target_um"}) {
       ASSERT_TRUE(result.contains(key)) << key << " in round " << k;
       ASSERT_EQ(result[key].size(), 5u) << key;
       EXPECT_EQ(result[key][2].size(), 9u) << key;
     }
-    EXPECT_EQ(result["measured_um"], job.body["request"]["measurement"]["deviations_um"]);
-    EXPECT_EQ(result["target_um"], job.body["request"]["target"]["deviations_um"]);
+    EXPECT_EQ(result["measured_um"],
+              job.body["request"]["measurement"]["deviations_um"]);
+    EXPECT_EQ(result["target_um"],
+              job.body["request"]["target"]["deviations_um"]);
     // Its rms over the points used is the stored residual_rms_um.
     double sum2 = 0.0;
     int count = 0;
@@ -810,27 +1050,40 @@ TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
       }
     }
     ASSERT_GT(count, 40);
-    EXPECT_NEAR(std::sqrt(sum2 / count), result["residual_rms_um"].get<double>(), 1e-9);
-    // The axis motion of the step to the next part, as in the answer's iteration.
+    EXPECT_NEAR(
+        std::sqrt(sum2 / count), result["residual_rms_um"].get<double>(), 1e-9);
+    // The axis motion of the step to the next part, as in the answer's
+    // iteration.
     ASSERT_TRUE(iterations[k]["correction"].contains("axis_motion"));
-    EXPECT_EQ(result["axis_motion"], iterations[k]["correction"]["axis_motion"]);
+    EXPECT_EQ(result["axis_motion"],
+              iterations[k]["correction"]["axis_motion"]);
     EXPECT_EQ(result["axis_motion"]["roll_rad"].size(), 9u);
   }
   EXPECT_TRUE(iterations[2]["correction"].is_null());
-  const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/" + std::to_string(last) + "/lineage");
+  const Answer lineage =
+      Send(*client_,
+           "GET",
+           "/api/v1/corrections/" + std::to_string(last) + "/lineage");
   ASSERT_EQ(lineage.body["jobs"].size(), 2u);
   EXPECT_EQ(lineage.body["jobs"][0]["id"], iterations[0]["job_id"]);
   // A stored closed-loop job can be replayed like any other.
-  const Answer replay = Send(*client_, "POST", "/api/v1/corrections/" + std::to_string(last) + "/replay", "");
+  const Answer replay =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" + std::to_string(last) + "/replay",
+           "");
   EXPECT_EQ(replay.status, 201) << replay.body.dump();
 }
 
 TEST_F(GearloopServerTest, SeedsTheDemoOnceIntoAnEmptyHistory) {
   std::ostringstream out;
   ASSERT_TRUE(SeedDemo("127.0.0.1", running_->port(), "", out)) << out.str();
-  EXPECT_EQ(StoredJobs(), 5);  // correction, replay, three closed-loop corrections
-  EXPECT_NE(out.str().find("correction job #1"), std::string::npos) << out.str();
-  EXPECT_NE(out.str().find("/api/v1/corrections/5/lineage"), std::string::npos) << out.str();
+  EXPECT_EQ(StoredJobs(),
+            5);  // correction, replay, three closed-loop corrections
+  EXPECT_NE(out.str().find("correction job #1"), std::string::npos)
+      << out.str();
+  EXPECT_NE(out.str().find("/api/v1/corrections/5/lineage"), std::string::npos)
+      << out.str();
   const Answer replay = Send(*client_, "GET", "/api/v1/corrections/2");
   EXPECT_EQ(replay.body["parent_job_id"], 1);
   const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/5/lineage");
@@ -843,9 +1096,11 @@ TEST_F(GearloopServerTest, SeedsTheDemoOnceIntoAnEmptyHistory) {
 
 std::string Sha256Hex(const std::string& text) {
   unsigned char digest[SHA256_DIGEST_LENGTH];
-  SHA256(reinterpret_cast<const unsigned char*>(text.data()), text.size(), digest);
+  SHA256(
+      reinterpret_cast<const unsigned char*>(text.data()), text.size(), digest);
   char hex[2 * SHA256_DIGEST_LENGTH + 1];
-  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
+  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i)
+    std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
   return hex;
 }
 
@@ -868,15 +1123,20 @@ TEST_F(GearloopServerTest, ChecksBearerTokensAndRoles) {
   Answer answer = Send(*client_, "POST", "/api/v1/corrections", request.dump());
   EXPECT_EQ(answer.status, 401);
   EXPECT_EQ(answer.body["error"]["code"], "unauthorized");
-  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), stranger);
+  answer =
+      Send(*client_, "POST", "/api/v1/corrections", request.dump(), stranger);
   EXPECT_EQ(answer.status, 401);
-  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), reader);
+  answer =
+      Send(*client_, "POST", "/api/v1/corrections", request.dump(), reader);
   EXPECT_EQ(answer.status, 403);
   EXPECT_EQ(answer.body["error"]["code"], "forbidden");
-  answer = Send(*client_, "POST", "/api/v1/corrections", request.dump(), writer);
+  answer =
+      Send(*client_, "POST", "/api/v1/corrections", request.dump(), writer);
   EXPECT_EQ(answer.status, 201);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", reader).status, 200);
-  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", writer).status, 200);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", reader).status,
+            200);
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections", "", writer).status,
+            200);
   EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections").status, 401);
   // Liveness and metrics stay open for the monitoring.
   EXPECT_EQ(Send(*client_, "GET", "/healthz").status, 200);

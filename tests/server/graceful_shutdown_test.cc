@@ -1,5 +1,6 @@
-// The gearloop-server binary under SIGTERM: requests in flight are answered, the process exits
-// 0, and every job it acknowledged (201) is in the database when it starts again.
+// The gearloop-server binary under SIGTERM: requests in flight are answered,
+// the process exits 0, and every job it acknowledged (201) is in the database
+// when it starts again.
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -48,8 +49,14 @@ class ServerProcess {
     pid_ = fork();
     if (pid_ == 0) {
       const std::string port_text = std::to_string(port);
-      execl(GEARLOOP_SERVER_BINARY, GEARLOOP_SERVER_BINARY, "--port", port_text.c_str(), "--db", db.c_str(),
-            "--quiet", static_cast<char*>(nullptr));
+      execl(GEARLOOP_SERVER_BINARY,
+            GEARLOOP_SERVER_BINARY,
+            "--port",
+            port_text.c_str(),
+            "--db",
+            db.c_str(),
+            "--quiet",
+            static_cast<char*>(nullptr));
       _exit(127);
     }
   }
@@ -72,7 +79,8 @@ class ServerProcess {
   void Kill() { kill(pid_, SIGKILL); }
   // The exit status, or -1 when the process is still running after `timeout_s`.
   int WaitExit(double timeout_s) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::duration<double>(timeout_s);
     while (std::chrono::steady_clock::now() < deadline) {
       int status = 0;
       if (waitpid(pid_, &status, WNOHANG) == pid_) {
@@ -97,13 +105,16 @@ nlohmann::json CorrectionRequest(int port) {
   request["random_hidden_errors"] = {{"block_size", 3.0}, {"seed", 4}};
   request["noise_um"] = 0.3;
   nlohmann::json correction = DefaultSetup();
-  correction["measurement"] = ParseBody(client.Post("/api/v1/simulations/measurement", request.dump(),
-                                                    "application/json"))["measurement"];
+  correction["measurement"] =
+      ParseBody(client.Post("/api/v1/simulations/measurement",
+                            request.dump(),
+                            "application/json"))["measurement"];
   return correction;
 }
 
-// A sustained write load: `num_clients` clients post the same correction in a loop until Stop()
-// or until the server stops answering, and collect the ids of the jobs acknowledged with 201.
+// A sustained write load: `num_clients` clients post the same correction in a
+// loop until Stop() or until the server stops answering, and collect the ids of
+// the jobs acknowledged with 201.
 class CorrectionLoad {
  public:
   CorrectionLoad(int port, const std::string& body, int num_clients) {
@@ -112,7 +123,8 @@ class CorrectionLoad {
         httplib::Client client("127.0.0.1", port);
         client.set_read_timeout(30, 0);
         while (!stop_) {
-          auto result = client.Post("/api/v1/corrections", body, "application/json");
+          auto result =
+              client.Post("/api/v1/corrections", body, "application/json");
           if (!result) break;  // the server is gone
           if (result->status == 201) {
             std::lock_guard<std::mutex> lock(mutex_);
@@ -150,8 +162,9 @@ TEST(GracefulShutdown, AnswersInFlightRequestsAndExitsCleanly) {
   TempPath db;
   ServerProcess server(db.path(), FreePort());
   ASSERT_TRUE(server.WaitReady());
-  // A closed loop of 8 corrections on a fine grid takes a while: ~0.5 s in the Release build,
-  // tens of seconds under ASan on a busy machine (hence the long read timeout).
+  // A closed loop of 8 corrections on a fine grid takes a while: ~0.5 s in the
+  // Release build, tens of seconds under ASan on a busy machine (hence the long
+  // read timeout).
   nlohmann::json scenario = DefaultSetup();
   scenario["grid"] = {{"profile_points", 20}, {"lead_points", 30}};
   scenario["random_hidden_errors"] = {{"block_size", 3.0}, {"seed", 4}};
@@ -161,7 +174,8 @@ TEST(GracefulShutdown, AnswersInFlightRequestsAndExitsCleanly) {
   std::thread slow([&] {
     httplib::Client client("127.0.0.1", server.port());
     client.set_read_timeout(300, 0);
-    auto result = client.Post("/api/v1/simulations/closed-loop", scenario.dump(), "application/json");
+    auto result = client.Post(
+        "/api/v1/simulations/closed-loop", scenario.dump(), "application/json");
     status = result ? result->status : -1;
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(150));
@@ -169,12 +183,15 @@ TEST(GracefulShutdown, AnswersInFlightRequestsAndExitsCleanly) {
   server.Terminate();
   slow.join();
   const double answered_after_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - stop_time).count();
+      std::chrono::duration<double, std::milli>(
+          std::chrono::steady_clock::now() - stop_time)
+          .count();
   EXPECT_EQ(status.load(), 200);
   // The answer came after the signal: the request really was in flight.
   EXPECT_GT(answered_after_ms, 1.0);
   EXPECT_EQ(server.WaitExit(30.0), 0);
-  std::printf("[ info     ] in-flight request answered %.0f ms after SIGTERM\n", answered_after_ms);
+  std::printf("[ info     ] in-flight request answered %.0f ms after SIGTERM\n",
+              answered_after_ms);
   // Nothing listens any more.
   httplib::Client client("127.0.0.1", server.port());
   EXPECT_FALSE(client.Get("/healthz"));
@@ -187,7 +204,8 @@ TEST(GracefulShutdown, LosesNoAcknowledgedJobUnderLoad) {
   {
     ServerProcess server(db.path(), port);
     ASSERT_TRUE(server.WaitReady());
-    CorrectionLoad load(port, CorrectionRequest(port).dump(), /*num_clients=*/4);
+    CorrectionLoad load(
+        port, CorrectionRequest(port).dump(), /*num_clients=*/4);
     std::this_thread::sleep_for(std::chrono::milliseconds(400));
     server.Terminate();
     EXPECT_EQ(server.WaitExit(30.0), 0);
@@ -195,13 +213,15 @@ TEST(GracefulShutdown, LosesNoAcknowledgedJobUnderLoad) {
   }
   ASSERT_FALSE(acknowledged.empty());
   std::unique_ptr<JobRepository> repository = OpenJobRepository(db.path());
-  for (int64_t id : acknowledged) EXPECT_TRUE(repository->JobExists(id)) << "job " << id;
+  for (int64_t id : acknowledged)
+    EXPECT_TRUE(repository->JobExists(id)) << "job " << id;
   EXPECT_EQ(repository->IntegrityCheck(), "ok");
-  std::printf("[ info     ] %zu acknowledged jobs, all stored\n", acknowledged.size());
+  std::printf("[ info     ] %zu acknowledged jobs, all stored\n",
+              acknowledged.size());
 }
 
-// Issue 7's crash test: SIGKILL in the middle of a sustained write load, restart, and every
-// acknowledged job is there and the database is intact.
+// Issue 7's crash test: SIGKILL in the middle of a sustained write load,
+// restart, and every acknowledged job is there and the database is intact.
 TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
   TempPath db;
   const int port = FreePort();
@@ -209,12 +229,16 @@ TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
   {
     ServerProcess server(db.path(), port);
     ASSERT_TRUE(server.WaitReady());
-    CorrectionLoad load(port, CorrectionRequest(port).dump(), /*num_clients=*/4);
-    // Kill once the load is sustained: at least 500 ms and 20 acknowledged jobs (an ASan build
-    // of the server needs longer than 500 ms for its first answers; scripts/test runs both).
+    CorrectionLoad load(
+        port, CorrectionRequest(port).dump(), /*num_clients=*/4);
+    // Kill once the load is sustained: at least 500 ms and 20 acknowledged jobs
+    // (an ASan build of the server needs longer than 500 ms for its first
+    // answers; scripts/test runs both).
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (std::chrono::steady_clock::now() < deadline && load.NumAcknowledged() < 20) {
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < deadline &&
+           load.NumAcknowledged() < 20) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     server.Kill();
@@ -222,12 +246,14 @@ TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
     acknowledged = load.Stop();
   }
   ASSERT_FALSE(acknowledged.empty());
-  // Restart the server on the same file: it opens, and every acknowledged job is served.
+  // Restart the server on the same file: it opens, and every acknowledged job
+  // is served.
   ServerProcess restarted(db.path(), port);
   ASSERT_TRUE(restarted.WaitReady());
   httplib::Client client("127.0.0.1", port);
   for (int64_t id : acknowledged) {
-    auto result = client.Get(("/api/v1/corrections/" + std::to_string(id)).c_str());
+    auto result =
+        client.Get(("/api/v1/corrections/" + std::to_string(id)).c_str());
     ASSERT_TRUE(result);
     EXPECT_EQ(result->status, 200) << "job " << id;
   }
@@ -235,7 +261,10 @@ TEST(CrashSafety, KeepsEveryAcknowledgedJobAfterSigkill) {
   EXPECT_EQ(restarted.WaitExit(30.0), 0);
   std::unique_ptr<JobRepository> repository = OpenJobRepository(db.path());
   EXPECT_EQ(repository->IntegrityCheck(), "ok");
-  std::printf("[ info     ] killed under load: %zu acknowledged jobs, all stored after restart\n", acknowledged.size());
+  std::printf(
+      "[ info     ] killed under load: %zu acknowledged jobs, all stored after "
+      "restart\n",
+      acknowledged.size());
 }
 
 }  // namespace

@@ -1,16 +1,15 @@
-// Tests of the JSON codec: API names and units in, engine names and units out, and errors that
-// name the field with the API's own path.
-#include "server/codec/grinder_codec.h"
-
+// Tests of the JSON codec: API names and units in, engine names and units out,
+// and errors that name the field with the API's own path.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <functional>
-#include <vector>
 #include <string>
+#include <vector>
 
-#include "engine/grinder/grinder_settings.h"
 #include "engine/core/units.h"
+#include "engine/grinder/grinder_settings.h"
+#include "server/codec/grinder_codec.h"
 
 namespace gearloop {
 namespace {
@@ -29,7 +28,8 @@ nlohmann::json DefaultRequest() {
 TEST(ParseGrindingSetup, ConvertsDegreesAndHandToSignedRadians) {
   GrindingSetup setup;
   ApiError error;
-  ASSERT_TRUE(ParseGrindingSetup(DefaultRequest(), &setup, &error)) << error.message;
+  ASSERT_TRUE(ParseGrindingSetup(DefaultRequest(), &setup, &error))
+      << error.message;
   EXPECT_EQ(setup.gear.teeth, 37);
   EXPECT_NEAR(setup.gear.normal_pressure_angle_rad, 20.0 * kPi / 180.0, 1e-15);
   // Left hand is beta > 0 (MODEL.md §1).
@@ -69,31 +69,88 @@ struct BadCase {
 
 TEST(ParseGrindingSetup, NamesTheFieldOfEachError) {
   const std::vector<BadCase> cases = {
-      {"missing gear", [](nlohmann::json* j) { j->erase("gear"); }, 400, "gear"},
-      {"gear not object", [](nlohmann::json* j) { (*j)["gear"] = 3; }, 400, "gear"},
-      {"teeth string", [](nlohmann::json* j) { (*j)["gear"]["teeth"] = "37"; }, 400, "gear.teeth"},
-      {"teeth fraction", [](nlohmann::json* j) { (*j)["gear"]["teeth"] = 37.5; }, 400, "gear.teeth"},
-      {"teeth negative", [](nlohmann::json* j) { (*j)["gear"]["teeth"] = -3; }, 422, "gear.teeth"},
-      {"missing module", [](nlohmann::json* j) { (*j)["gear"].erase("normal_module_mm"); }, 400,
+      {"missing gear",
+       [](nlohmann::json* j) { j->erase("gear"); },
+       400,
+       "gear"},
+      {"gear not object",
+       [](nlohmann::json* j) { (*j)["gear"] = 3; },
+       400,
+       "gear"},
+      {"teeth string",
+       [](nlohmann::json* j) { (*j)["gear"]["teeth"] = "37"; },
+       400,
+       "gear.teeth"},
+      {"teeth fraction",
+       [](nlohmann::json* j) { (*j)["gear"]["teeth"] = 37.5; },
+       400,
+       "gear.teeth"},
+      {"teeth negative",
+       [](nlohmann::json* j) { (*j)["gear"]["teeth"] = -3; },
+       422,
+       "gear.teeth"},
+      {"missing module",
+       [](nlohmann::json* j) { (*j)["gear"].erase("normal_module_mm"); },
+       400,
        "gear.normal_module_mm"},
-      {"pressure angle 60", [](nlohmann::json* j) { (*j)["gear"]["normal_pressure_angle_deg"] = 60; }, 422,
+      {"pressure angle 60",
+       [](nlohmann::json* j) {
+         (*j)["gear"]["normal_pressure_angle_deg"] = 60;
+       },
+       422,
        "gear.normal_pressure_angle_deg"},
-      {"negative helix", [](nlohmann::json* j) { (*j)["gear"]["helix_angle_deg"] = -15; }, 422,
+      {"negative helix",
+       [](nlohmann::json* j) { (*j)["gear"]["helix_angle_deg"] = -15; },
+       422,
        "gear.helix_angle_deg"},
-      {"helix without hand", [](nlohmann::json* j) { (*j)["gear"].erase("hand"); }, 400, "gear.hand"},
-      {"bad hand", [](nlohmann::json* j) { (*j)["gear"]["hand"] = "up"; }, 422, "gear.hand"},
-      {"tip below root", [](nlohmann::json* j) { (*j)["gear"]["tip_radius_mm"] = 100; }, 422, "gear.tip_radius_mm"},
-      {"wheel missing", [](nlohmann::json* j) { j->erase("wheel"); }, 400, "wheel"},
-      {"wheel negative", [](nlohmann::json* j) { (*j)["wheel"]["radius_mm"] = -1; }, 422, "wheel.radius_mm"},
-      {"machine kind", [](nlohmann::json* j) { (*j)["machine"]["kind"] = "hob"; }, 422, "machine.kind"},
-      {"range wrong way", [](nlohmann::json* j) { (*j)["grid"]["profile_range"] = {0.9, 0.2}; }, 422,
+      {"helix without hand",
+       [](nlohmann::json* j) { (*j)["gear"].erase("hand"); },
+       400,
+       "gear.hand"},
+      {"bad hand",
+       [](nlohmann::json* j) { (*j)["gear"]["hand"] = "up"; },
+       422,
+       "gear.hand"},
+      {"tip below root",
+       [](nlohmann::json* j) { (*j)["gear"]["tip_radius_mm"] = 100; },
+       422,
+       "gear.tip_radius_mm"},
+      {"wheel missing",
+       [](nlohmann::json* j) { j->erase("wheel"); },
+       400,
+       "wheel"},
+      {"wheel negative",
+       [](nlohmann::json* j) { (*j)["wheel"]["radius_mm"] = -1; },
+       422,
+       "wheel.radius_mm"},
+      {"machine kind",
+       [](nlohmann::json* j) { (*j)["machine"]["kind"] = "hob"; },
+       422,
+       "machine.kind"},
+      {"range wrong way",
+       [](nlohmann::json* j) {
+         (*j)["grid"]["profile_range"] = {0.9, 0.2};
+       },
+       422,
        "grid.profile_range[1]"},
-      {"range one number", [](nlohmann::json* j) { (*j)["grid"]["lead_range"] = {0.1}; }, 400, "grid.lead_range"},
-      {"range entry string", [](nlohmann::json* j) { (*j)["grid"]["lead_range"] = {"a", 0.1}; }, 400,
+      {"range one number",
+       [](nlohmann::json* j) { (*j)["grid"]["lead_range"] = {0.1}; },
+       400,
+       "grid.lead_range"},
+      {"range entry string",
+       [](nlohmann::json* j) {
+         (*j)["grid"]["lead_range"] = {"a", 0.1};
+       },
+       400,
        "grid.lead_range[0]"},
-      {"one profile point", [](nlohmann::json* j) { (*j)["grid"]["profile_points"] = 1; }, 422,
+      {"one profile point",
+       [](nlohmann::json* j) { (*j)["grid"]["profile_points"] = 1; },
+       422,
        "grid.profile_points"},
-      {"bad flank", [](nlohmann::json* j) { (*j)["flank"] = "middle"; }, 422, "flank"},
+      {"bad flank",
+       [](nlohmann::json* j) { (*j)["flank"] = "middle"; },
+       422,
+       "flank"},
   };
   for (const BadCase& c : cases) {
     nlohmann::json request = DefaultRequest();
@@ -103,17 +160,20 @@ TEST(ParseGrindingSetup, NamesTheFieldOfEachError) {
     EXPECT_FALSE(ParseGrindingSetup(request, &setup, &error)) << c.name;
     EXPECT_EQ(error.status, c.status) << c.name << ": " << error.message;
     EXPECT_EQ(error.field, c.field) << c.name << ": " << error.message;
-    EXPECT_EQ(error.code, c.status == 400 ? "invalid_request" : "invalid_value") << c.name;
+    EXPECT_EQ(error.code, c.status == 400 ? "invalid_request" : "invalid_value")
+        << c.name;
     EXPECT_FALSE(error.message.empty()) << c.name;
   }
 }
 
 TEST(ApiFieldPath, MapsEngineNamesToApiNames) {
-  EXPECT_EQ(ApiFieldPath("gear.normal_pressure_angle_rad"), "gear.normal_pressure_angle_deg");
+  EXPECT_EQ(ApiFieldPath("gear.normal_pressure_angle_rad"),
+            "gear.normal_pressure_angle_deg");
   EXPECT_EQ(ApiFieldPath("gear.helix_angle_rad"), "gear.helix_angle_deg");
   EXPECT_EQ(ApiFieldPath("grid.profile_begin"), "grid.profile_range[0]");
   EXPECT_EQ(ApiFieldPath("grid.lead_end"), "grid.lead_range[1]");
-  EXPECT_EQ(ApiFieldPath("settings.wheel.cone_angle_rad"), "settings.wheel.cone_angle_deg");
+  EXPECT_EQ(ApiFieldPath("settings.wheel.cone_angle_rad"),
+            "settings.wheel.cone_angle_deg");
   EXPECT_EQ(ApiFieldPath("gear.teeth"), "gear.teeth");
 }
 
@@ -126,10 +186,13 @@ TEST(ParseJsonBody, RefusesNonJsonNonObjectsAndDeepNesting) {
   EXPECT_EQ(error.status, 400);
   EXPECT_FALSE(ParseJsonBody("[1, 2]", &body, &error));
   EXPECT_EQ(error.code, "invalid_request");
-  EXPECT_FALSE(ParseJsonBody(std::string(10000, '[') + std::string(10000, ']'), &body, &error));
+  EXPECT_FALSE(ParseJsonBody(
+      std::string(10000, '[') + std::string(10000, ']'), &body, &error));
   EXPECT_EQ(error.code, "invalid_json");
   // Brackets inside strings do not count as nesting.
-  EXPECT_TRUE(ParseJsonBody("{\"a\": \"" + std::string(100, '[') + "\"}", &body, &error)) << error.message;
+  EXPECT_TRUE(ParseJsonBody(
+      "{\"a\": \"" + std::string(100, '[') + "\"}", &body, &error))
+      << error.message;
   // 1e400 overflows a double: refused as not JSON, never turned into infinity.
   EXPECT_FALSE(ParseJsonBody("{\"a\": 1e400}", &body, &error));
   EXPECT_EQ(error.code, "invalid_json");
@@ -145,19 +208,24 @@ TEST(ParseGridValues, NamesRowAndEntryAndMarksNulls) {
   nlohmann::json grid = nlohmann::json::array();
   for (int r = 0; r < 2; ++r) grid.push_back({1.0, 2.0, 3.0});
   grid[1][2] = nullptr;
-  ASSERT_TRUE(ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error)) << error.message;
+  ASSERT_TRUE(ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error))
+      << error.message;
   EXPECT_FALSE(present[5]);
   EXPECT_TRUE(present[4]);
   EXPECT_DOUBLE_EQ(values(3), 1.0);
-  EXPECT_FALSE(ParseGridValues(grid, "m", 2, 3, false, &values, &present, &error));
+  EXPECT_FALSE(
+      ParseGridValues(grid, "m", 2, 3, false, &values, &present, &error));
   EXPECT_EQ(error.field, "m[1][2]");
   grid[1] = {1.0, 2.0};
-  EXPECT_FALSE(ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error));
+  EXPECT_FALSE(
+      ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error));
   EXPECT_EQ(error.field, "m[1]");
-  EXPECT_FALSE(ParseGridValues(grid, "m", 3, 3, true, &values, &present, &error));
+  EXPECT_FALSE(
+      ParseGridValues(grid, "m", 3, 3, true, &values, &present, &error));
   EXPECT_EQ(error.field, "m");
   grid[1] = {1.0, "x", 2.0};
-  EXPECT_FALSE(ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error));
+  EXPECT_FALSE(
+      ParseGridValues(grid, "m", 2, 3, true, &values, &present, &error));
   EXPECT_EQ(error.field, "m[1][1]");
   EXPECT_EQ(error.status, 400);
 }
@@ -165,7 +233,8 @@ TEST(ParseGridValues, NamesRowAndEntryAndMarksNulls) {
 TEST(MachineSettingsJson, RoundTripsWithConeAngleInDegrees) {
   MachineSettings settings;
   for (int i = 0; i < kNumAxes; ++i) {
-    for (int k = 0; k < kCoefficientsPerAxis; ++k) settings.axes[i][k] = 0.1 * i + 0.01 * k;
+    for (int k = 0; k < kCoefficientsPerAxis; ++k)
+      settings.axes[i][k] = 0.1 * i + 0.01 * k;
   }
   settings.wheel.cone_angle_rad = 0.5 * kPi / 180.0;
   settings.wheel.parabola_coefficient_per_mm = 1e-4;
@@ -174,7 +243,8 @@ TEST(MachineSettingsJson, RoundTripsWithConeAngleInDegrees) {
   EXPECT_NEAR(j["wheel"]["cone_angle_deg"].get<double>(), 0.5, 1e-12);
   MachineSettings back;
   ApiError error;
-  ASSERT_TRUE(ParseMachineSettings(j, "settings", &back, &error)) << error.message;
+  ASSERT_TRUE(ParseMachineSettings(j, "settings", &back, &error))
+      << error.message;
   EXPECT_EQ(back.ToVector(), settings.ToVector());
 
   nlohmann::json bad = j;

@@ -1,5 +1,6 @@
-// tests/server/server_test_util.h: a real gearloop server on an ephemeral loopback port with a
-// real SQLite temp file, and the default gear of API.md, for the server tests.
+// tests/server/server_test_util.h: a real gearloop server on an ephemeral
+// loopback port with a real SQLite temp file, and the default gear of API.md,
+// for the server tests.
 #ifndef GEARLOOP_TESTS_SERVER_SERVER_TEST_UTIL_H_
 #define GEARLOOP_TESTS_SERVER_SERVER_TEST_UTIL_H_
 
@@ -8,21 +9,22 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
-#include <nlohmann/json.hpp>
-
 #include "server/http/gearloop_server.h"
 
-// Last: <httplib.h> brings <resolv.h> whose `_res` macro breaks Eigen headers included after it.
+// Last: <httplib.h> brings <resolv.h> whose `_res` macro breaks Eigen headers
+// included after it.
 #include <httplib.h>
 
 namespace gearloop {
 namespace testing_util {
 
-// API.md's example gear: z = 37, m_n = 6, 20 deg, helix 15 deg left hand, b = 78,
-// r_a = 120.9157, r_f = 107.1569, R_w = 350, K1 = K2 = 0, traverse 0, right flank, 5 x 9 grid.
+// API.md's example gear: z = 37, m_n = 6, 20 deg, helix 15 deg left hand, b =
+// 78, r_a = 120.9157, r_f = 107.1569, R_w = 350, K1 = K2 = 0, traverse 0, right
+// flank, 5 x 9 grid.
 inline nlohmann::json DefaultSetup() {
   return nlohmann::json::parse(R"({
     "gear": {"teeth": 37, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
@@ -34,7 +36,8 @@ inline nlohmann::json DefaultSetup() {
     "flank": "right"})");
 }
 
-// A unique temp path for a SQLite file; removes it and its WAL files on destruction.
+// A unique temp path for a SQLite file; removes it and its WAL files on
+// destruction.
 class TempPath {
  public:
   explicit TempPath(const std::string& stem = "gearloop_server_test") {
@@ -47,7 +50,8 @@ class TempPath {
     std::remove(path_.c_str());
   }
   ~TempPath() {
-    for (const char* suffix : {"", "-wal", "-shm"}) std::remove((path_ + suffix).c_str());
+    for (const char* suffix : {"", "-wal", "-shm"})
+      std::remove((path_ + suffix).c_str());
   }
   const std::string& path() const { return path_; }
 

@@ -1,14 +1,15 @@
-// tests/server/services_test.cc: the services of server/services/ called directly with a built
-// httplib::Request, the real engine and a ":memory:" job history, without a socket or the HTTP
-// layer (as OSRM unit_tests/server/request_handler.cpp tests its handler).
+// tests/server/services_test.cc: the services of server/services/ called
+// directly with a built httplib::Request, the real engine and a ":memory:" job
+// history, without a socket or the HTTP layer (as OSRM
+// unit_tests/server/request_handler.cpp tests its handler).
+#include <gtest/gtest.h>
+
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "server/respond.h"
 #include "server/services/correction_service.h"
@@ -44,14 +45,19 @@ class ServicesTest : public ::testing::Test {
     context_.queued_batch_items = [this] { return queued_.size(); };
   }
 
-  using Service = void (*)(const ServiceContext&, const httplib::Request&, httplib::Response&);
+  using Service = void (*)(const ServiceContext&,
+                           const httplib::Request&,
+                           httplib::Response&);
 
-  Answer Call(Service service, const nlohmann::json& body, const std::string& path_id = "") {
+  Answer Call(Service service,
+              const nlohmann::json& body,
+              const std::string& path_id = "") {
     httplib::Request req;
     req.method = "POST";
     req.body = body.is_null() ? "" : body.dump();
     if (!path_id.empty()) {
-      // The route's regex capture, as cpp-httplib fills it (the match refers into path_).
+      // The route's regex capture, as cpp-httplib fills it (the match refers
+      // into path_).
       path_ = "/" + path_id;
       std::regex_match(path_, req.matches, std::regex(R"(/(\d+))"));
     }
@@ -64,10 +70,12 @@ class ServicesTest : public ::testing::Test {
     return answer;
   }
 
-  // A simulated CMM measurement (of `teeth` teeth) of a part ground with hidden machine errors.
+  // A simulated CMM measurement (of `teeth` teeth) of a part ground with hidden
+  // machine errors.
   nlohmann::json Measurement(int teeth) {
     nlohmann::json request = DefaultSetup();
-    request["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+    request["random_hidden_errors"] = {
+        {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
     request["noise_um"] = 0.6;
     request["seed"] = 5;
     request["teeth"] = teeth;
@@ -88,9 +96,12 @@ TEST_F(ServicesTest, CreateCorrectionStoresTheJobAndAnswersItsLocation) {
   request["options"] = {{"probe_noise_um", 0.6}};
   const Answer created = Call(CreateCorrection, request);
   ASSERT_EQ(created.status, 201) << created.body.dump();
-  EXPECT_EQ(created.location, "/api/v1/corrections/" + std::to_string(created.body["id"].get<int64_t>()));
+  EXPECT_EQ(created.location,
+            "/api/v1/corrections/" +
+                std::to_string(created.body["id"].get<int64_t>()));
   EXPECT_EQ(repository_->CountJobs(), 1);
-  const std::optional<JobRecord> job = repository_->ReadJob(created.body["id"].get<int64_t>());
+  const std::optional<JobRecord> job =
+      repository_->ReadJob(created.body["id"].get<int64_t>());
   ASSERT_TRUE(job.has_value());
   EXPECT_EQ(job->kind, "correction");
   EXPECT_EQ(job->server_version, "test");
@@ -99,9 +110,11 @@ TEST_F(ServicesTest, CreateCorrectionStoresTheJobAndAnswersItsLocation) {
   EXPECT_EQ(nlohmann::json::parse(job->result_json), created.body["result"]);
 }
 
-// The engine averages several teeth itself and knows that a mean of three readings is less noisy
-// than one, so the regularisation it chooses is weaker than for the same mean sent as one grid.
-TEST_F(ServicesTest, ThreeMeasuredTeethGetASmallerRegularisationLevelThanTheirMeanAsOneGrid) {
+// The engine averages several teeth itself and knows that a mean of three
+// readings is less noisy than one, so the regularisation it chooses is weaker
+// than for the same mean sent as one grid.
+TEST_F(ServicesTest,
+       ThreeMeasuredTeethGetASmallerRegularisationLevelThanTheirMeanAsOneGrid) {
   const nlohmann::json measured = Measurement(3);
   ASSERT_EQ(measured["teeth"].size(), 3u);
   nlohmann::json teeth = DefaultSetup();
@@ -114,14 +127,18 @@ TEST_F(ServicesTest, ThreeMeasuredTeethGetASmallerRegularisationLevelThanTheirMe
   ASSERT_EQ(from_teeth.status, 201) << from_teeth.body.dump();
   ASSERT_EQ(from_mean.status, 201) << from_mean.body.dump();
   // Both answers show the grid the solver corrected: the mean of the teeth.
-  EXPECT_EQ(from_teeth.body["result"]["measured_um"], from_mean.body["result"]["measured_um"]);
-  const double level_teeth = from_teeth.body["result"]["regularisation"]["level"].get<double>();
-  const double level_mean = from_mean.body["result"]["regularisation"]["level"].get<double>();
+  EXPECT_EQ(from_teeth.body["result"]["measured_um"],
+            from_mean.body["result"]["measured_um"]);
+  const double level_teeth =
+      from_teeth.body["result"]["regularisation"]["level"].get<double>();
+  const double level_mean =
+      from_mean.body["result"]["regularisation"]["level"].get<double>();
   EXPECT_GT(level_mean, 0.0);
   EXPECT_LT(level_teeth, level_mean);
 }
 
-TEST_F(ServicesTest, CreateCorrectionRefusesAnUnknownMachineKindAndStoresNothing) {
+TEST_F(ServicesTest,
+       CreateCorrectionRefusesAnUnknownMachineKindAndStoresNothing) {
   nlohmann::json request = DefaultSetup();
   request["machine"]["kind"] = "hobbing-machine";
   request["measurement"] = {{"deviations_um", Measurement(1)["deviations_um"]}};
@@ -132,13 +149,15 @@ TEST_F(ServicesTest, CreateCorrectionRefusesAnUnknownMachineKindAndStoresNothing
 }
 
 TEST_F(ServicesTest, BevelCorrectionRefusesInvoluteTargetModifications) {
-  const nlohmann::json bevel = {{"machine", {{"kind", "free-form-bevel-generator"}}},
-                                {"job", {{"side", "convex"}, {"published", true}}}};
+  const nlohmann::json bevel = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", {{"side", "convex"}, {"published", true}}}};
   const Answer measured = Call(SimulateMeasurement, bevel);
   ASSERT_EQ(measured.status, 200) << measured.body.dump();
   EXPECT_EQ(measured.body["machine_kind"], "free-form-bevel-generator");
   nlohmann::json request = bevel;
-  request["measurement"] = {{"deviations_um", measured.body["measurement"]["deviations_um"]}};
+  request["measurement"] = {
+      {"deviations_um", measured.body["measurement"]["deviations_um"]}};
   request["target"] = {{"modifications", nlohmann::json::array()}};
   const Answer refused = Call(CreateCorrection, request);
   EXPECT_EQ(refused.status, 422) << refused.body.dump();
@@ -146,11 +165,13 @@ TEST_F(ServicesTest, BevelCorrectionRefusesInvoluteTargetModifications) {
   EXPECT_EQ(repository_->CountJobs(), 0);
 }
 
-// A stored closed-loop job carries the grid the simulated machine measured for its part: the
-// same grid the measurement simulation gives for the same machine, commanded settings and seed.
+// A stored closed-loop job carries the grid the simulated machine measured for
+// its part: the same grid the measurement simulation gives for the same
+// machine, commanded settings and seed.
 TEST_F(ServicesTest, ClosedLoopStoresWhatTheMachineMeasuredForEachPart) {
   nlohmann::json loop = DefaultSetup();
-  loop["random_hidden_errors"] = {{"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
+  loop["random_hidden_errors"] = {
+      {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
   loop["noise_um"] = 0.3;
   loop["seed"] = 21;
   loop["corrections"] = 2;
@@ -162,7 +183,8 @@ TEST_F(ServicesTest, ClosedLoopStoresWhatTheMachineMeasuredForEachPart) {
   for (int k = 0; k < 2; ++k) {
     ASSERT_TRUE(iterations[k].contains("job_id")) << k;
     EXPECT_FALSE(iterations[k].contains("job_index"));
-    const std::optional<JobRecord> job = repository_->ReadJob(iterations[k]["job_id"].get<int64_t>());
+    const std::optional<JobRecord> job =
+        repository_->ReadJob(iterations[k]["job_id"].get<int64_t>());
     ASSERT_TRUE(job.has_value());
     EXPECT_EQ(job->kind, "closed_loop");
     const nlohmann::json stored = nlohmann::json::parse(job->request_json);
@@ -173,9 +195,13 @@ TEST_F(ServicesTest, ClosedLoopStoresWhatTheMachineMeasuredForEachPart) {
     part["seed"] = 21 + k;
     const Answer measured = Call(SimulateMeasurement, part);
     ASSERT_EQ(measured.status, 200);
-    EXPECT_EQ(stored["measurement"]["deviations_um"], measured.body["measurement"]["deviations_um"]) << k;
+    EXPECT_EQ(stored["measurement"]["deviations_um"],
+              measured.body["measurement"]["deviations_um"])
+        << k;
     // Part k was ground with the settings job k-1 computed.
-    if (k > 0) EXPECT_EQ(job->settings_source_job_id, iterations[k - 1]["job_id"].get<int64_t>());
+    if (k > 0)
+      EXPECT_EQ(job->settings_source_job_id,
+                iterations[k - 1]["job_id"].get<int64_t>());
   }
   EXPECT_FALSE(iterations[2].contains("job_id"));
 }
@@ -194,8 +220,11 @@ TEST_F(ServicesTest, BatchItemsWaitForTheQueueAndRunOneByOne) {
   const Answer accepted = Call(CreateBatch, {{"items", {item, bad}}});
   ASSERT_EQ(accepted.status, 202) << accepted.body.dump();
   ASSERT_EQ(queued_.size(), 2u);
-  for (const PendingBatchItem& pending : queued_) RunBatchItem(context_, pending);
-  const Answer batch = Call(GetBatch, nlohmann::json(), std::to_string(accepted.body["id"].get<int64_t>()));
+  for (const PendingBatchItem& pending : queued_)
+    RunBatchItem(context_, pending);
+  const Answer batch = Call(GetBatch,
+                            nlohmann::json(),
+                            std::to_string(accepted.body["id"].get<int64_t>()));
   ASSERT_EQ(batch.status, 200);
   EXPECT_EQ(batch.body["done"], 1);
   EXPECT_EQ(batch.body["failed"], 1);

@@ -1,6 +1,7 @@
-// Tests of the SQLite job history on ":memory:" and on a temporary file (COLMAP's
-// ParameterizedDatabaseTests): writes, listing with filters and paging, lineage, batches, that
-// a file keeps everything across a reopen, and that a file of release 0.1.0 migrates.
+// Tests of the SQLite job history on ":memory:" and on a temporary file
+// (COLMAP's ParameterizedDatabaseTests): writes, listing with filters and
+// paging, lineage, batches, that a file keeps everything across a reopen, and
+// that a file of release 0.1.0 migrates.
 #include "storage/job_repository.h"
 
 #include <gtest/gtest.h>
@@ -18,7 +19,9 @@
 namespace gearloop {
 namespace {
 
-JobRecord MakeJob(int teeth, const std::string& flank, const std::string& status = "converged") {
+JobRecord MakeJob(int teeth,
+                  const std::string& flank,
+                  const std::string& status = "converged") {
   JobRecord job;
   job.kind = "correction";
   job.status = status;
@@ -38,7 +41,8 @@ JobRecord MakeJob(int teeth, const std::string& flank, const std::string& status
   return job;
 }
 
-// A unique temporary file path, removed (with its WAL side files) on destruction.
+// A unique temporary file path, removed (with its WAL side files) on
+// destruction.
 class TempDatabasePath {
  public:
   TempDatabasePath() {
@@ -49,7 +53,8 @@ class TempDatabasePath {
     std::remove(path_.c_str());
   }
   ~TempDatabasePath() {
-    for (const char* suffix : {"", "-wal", "-shm"}) std::remove((path_ + suffix).c_str());
+    for (const char* suffix : {"", "-wal", "-shm"})
+      std::remove((path_ + suffix).c_str());
   }
   const std::string& path() const { return path_; }
 
@@ -157,7 +162,9 @@ TEST_P(JobRepositoryTest, RefusesLinkToMissingJobAndStoresNothing) {
 TEST_P(JobRepositoryTest, ListsNewestFirstWithPagingAndFilters) {
   std::vector<int64_t> ids;
   for (int i = 0; i < 7; ++i) {
-    JobRecord job = MakeJob(i % 2 == 0 ? 37 : 41, i < 5 ? "right" : "left", i == 3 ? "not_converged" : "converged");
+    JobRecord job = MakeJob(i % 2 == 0 ? 37 : 41,
+                            i < 5 ? "right" : "left",
+                            i == 3 ? "not_converged" : "converged");
     job.created_utc = "2026-11-" + std::to_string(10 + i) + "T12:00:00.000Z";
     ids.push_back(repo_->WriteJob(job));
   }
@@ -168,7 +175,8 @@ TEST_P(JobRepositoryTest, ListsNewestFirstWithPagingAndFilters) {
   ASSERT_EQ(page.jobs.size(), 3u);
   EXPECT_EQ(page.jobs[0].id, ids[6]);
   EXPECT_EQ(page.jobs[2].id, ids[4]);
-  EXPECT_TRUE(page.jobs[0].request_json.empty());  // listings carry no documents
+  EXPECT_TRUE(
+      page.jobs[0].request_json.empty());  // listings carry no documents
 
   filter.offset = 6;
   page = repo_->ListJobs(filter);
@@ -202,8 +210,8 @@ TEST_P(JobRepositoryTest, ListsNewestFirstWithPagingAndFilters) {
 }
 
 TEST_P(JobRepositoryTest, WalksSettingsLineageBothWays) {
-  // first -> second -> third (each ground with the previous one's settings), a replay of
-  // second (same part), and an unrelated job.
+  // first -> second -> third (each ground with the previous one's settings), a
+  // replay of second (same part), and an unrelated job.
   const int64_t first = repo_->WriteJob(MakeJob(37, "right"));
   JobRecord second_job = MakeJob(37, "right");
   second_job.settings_source_job_id = first;
@@ -219,11 +227,13 @@ TEST_P(JobRepositoryTest, WalksSettingsLineageBothWays) {
   const int64_t third = repo_->WriteJob(third_job);
 
   std::vector<int64_t> lineage_ids;
-  for (const JobRecord& job : repo_->ReadLineage(second)) lineage_ids.push_back(job.id);
+  for (const JobRecord& job : repo_->ReadLineage(second))
+    lineage_ids.push_back(job.id);
   EXPECT_EQ(lineage_ids, (std::vector<int64_t>{first, second, third}));
 
   lineage_ids.clear();
-  for (const JobRecord& job : repo_->ReadLineage(first)) lineage_ids.push_back(job.id);
+  for (const JobRecord& job : repo_->ReadLineage(first))
+    lineage_ids.push_back(job.id);
   EXPECT_EQ(lineage_ids, (std::vector<int64_t>{first, second, replay, third}));
 
   EXPECT_EQ(repo_->ReadLineage(unrelated).size(), 1u);
@@ -232,15 +242,18 @@ TEST_P(JobRepositoryTest, WalksSettingsLineageBothWays) {
 }
 
 TEST_P(JobRepositoryTest, RunsBatchBookkeeping) {
-  const int64_t batch = repo_->CreateBatch({"{\"a\":1}", "{\"a\":2}", "{\"a\":3}"});
-  std::optional<BatchRecord> record = repo_->ReadBatch(batch, /*with_items=*/true);
+  const int64_t batch =
+      repo_->CreateBatch({"{\"a\":1}", "{\"a\":2}", "{\"a\":3}"});
+  std::optional<BatchRecord> record =
+      repo_->ReadBatch(batch, /*with_items=*/true);
   ASSERT_TRUE(record.has_value());
   EXPECT_EQ(record->status, "running");
   EXPECT_EQ(record->total, 3);
   ASSERT_EQ(record->items.size(), 3u);
   EXPECT_EQ(repo_->ReadPendingBatchItems().size(), 3u);
 
-  const int64_t job_id = repo_->CompleteBatchItem(batch, 0, MakeJob(37, "right"));
+  const int64_t job_id =
+      repo_->CompleteBatchItem(batch, 0, MakeJob(37, "right"));
   BatchItemRecord error;
   error.error_status = 422;
   error.error_code = "invalid_value";
@@ -249,7 +262,8 @@ TEST_P(JobRepositoryTest, RunsBatchBookkeeping) {
   repo_->FailBatchItem(batch, 1, error);
   // An item is finished once only.
   EXPECT_THROW(repo_->FailBatchItem(batch, 1, error), StorageError);
-  EXPECT_THROW(repo_->CompleteBatchItem(batch, 0, MakeJob(37, "right")), StorageError);
+  EXPECT_THROW(repo_->CompleteBatchItem(batch, 0, MakeJob(37, "right")),
+               StorageError);
   EXPECT_EQ(repo_->CountJobs(), 1);  // the refused completion stored no job
 
   record = repo_->ReadBatch(batch, true);
@@ -290,7 +304,9 @@ TEST_P(JobRepositoryTest, AcceptsConcurrentWriters) {
 INSTANTIATE_TEST_SUITE_P(MemoryAndFile,
                          JobRepositoryTest,
                          ::testing::Values(false, true),
-                         [](const ::testing::TestParamInfo<bool>& info) { return info.param ? "File" : "Memory"; });
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                           return info.param ? "File" : "Memory";
+                         });
 
 TEST(OpenJobRepository, KeepsJobsAndBatchesAcrossReopen) {
   TempDatabasePath temp;
@@ -315,7 +331,9 @@ TEST(OpenJobRepository, RefusesADatabaseFromANewerServer) {
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version = 99;", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(
+                  db, "PRAGMA user_version = 99;", nullptr, nullptr, nullptr),
+              SQLITE_OK);
     sqlite3_close(db);
   }
   EXPECT_THROW(OpenJobRepository(temp.path()), StorageError);
@@ -327,11 +345,16 @@ TEST(OpenJobRepository, UsesWriteAheadLogWithForeignKeys) {
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
   sqlite3_stmt* statement = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode;", -1, &statement, nullptr), SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db, "PRAGMA journal_mode;", -1, &statement, nullptr),
+      SQLITE_OK);
   ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
-  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(statement, 0)), "wal");
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(statement, 0)),
+               "wal");
   sqlite3_finalize(statement);
-  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr), SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr),
+      SQLITE_OK);
   ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
   EXPECT_EQ(sqlite3_column_int(statement, 0), 2);
   sqlite3_finalize(statement);
@@ -339,8 +362,8 @@ TEST(OpenJobRepository, UsesWriteAheadLogWithForeignKeys) {
 }
 
 // The schema release 0.1.0 writes (PRAGMA user_version 1): its CreateJobTable,
-// CreateBatchTable and CreateBatchItemTable statements, verbatim. History files in the field
-// hold exactly this; never edit it.
+// CreateBatchTable and CreateBatchItemTable statements, verbatim. History files
+// in the field hold exactly this; never edit it.
 constexpr const char* kRelease010Schema =
     "CREATE TABLE IF NOT EXISTS jobs ("
     "  job_id INTEGER PRIMARY KEY AUTOINCREMENT,"
@@ -360,11 +383,14 @@ constexpr const char* kRelease010Schema =
     "  elapsed_ms REAL NOT NULL,"
     "  server_version TEXT NOT NULL,"
     "  parent_job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET NULL,"
-    "  settings_source_job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET NULL);"
-    "CREATE INDEX IF NOT EXISTS jobs_gear ON jobs(gear_teeth, gear_normal_module_mm);"
+    "  settings_source_job_id INTEGER REFERENCES jobs(job_id) ON DELETE SET "
+    "NULL);"
+    "CREATE INDEX IF NOT EXISTS jobs_gear ON jobs(gear_teeth, "
+    "gear_normal_module_mm);"
     "CREATE INDEX IF NOT EXISTS jobs_created ON jobs(created_utc);"
     "CREATE INDEX IF NOT EXISTS jobs_parent ON jobs(parent_job_id);"
-    "CREATE INDEX IF NOT EXISTS jobs_settings_source ON jobs(settings_source_job_id);"
+    "CREATE INDEX IF NOT EXISTS jobs_settings_source ON "
+    "jobs(settings_source_job_id);"
     "CREATE TABLE IF NOT EXISTS batches ("
     "  batch_id INTEGER PRIMARY KEY AUTOINCREMENT,"
     "  created_utc TEXT NOT NULL,"
@@ -374,7 +400,8 @@ constexpr const char* kRelease010Schema =
     "  done_items INTEGER NOT NULL DEFAULT 0,"
     "  failed_items INTEGER NOT NULL DEFAULT 0);"
     "CREATE TABLE IF NOT EXISTS batch_items ("
-    "  batch_id INTEGER NOT NULL REFERENCES batches(batch_id) ON DELETE CASCADE,"
+    "  batch_id INTEGER NOT NULL REFERENCES batches(batch_id) ON DELETE "
+    "CASCADE,"
     "  item_index INTEGER NOT NULL,"
     "  state TEXT NOT NULL DEFAULT 'pending',"
     "  request_json TEXT NOT NULL,"
@@ -389,15 +416,19 @@ constexpr int kRelease010UserVersion = 1;
 
 // Release 0.1.0's INSERT of a job, verbatim (no machine_kind).
 constexpr const char* kRelease010InsertJob =
-    "INSERT INTO jobs (created_utc, kind, status, gear_teeth, gear_normal_module_mm, gear_helix_angle_deg,"
-    " gear_hand, flank, request_json, result_json, residual_rms_um, best_reachable_rms_um, rank, elapsed_ms,"
+    "INSERT INTO jobs (created_utc, kind, status, gear_teeth, "
+    "gear_normal_module_mm, gear_helix_angle_deg,"
+    " gear_hand, flank, request_json, result_json, residual_rms_um, "
+    "best_reachable_rms_um, rank, elapsed_ms,"
     " server_version, parent_job_id, settings_source_job_id)"
-    " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17);";
+    " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, "
+    "?15, ?16, ?17);";
 
 void ExecRaw(sqlite3* db, const std::string& sql) {
   char* message = nullptr;
   const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
-  EXPECT_EQ(rc, SQLITE_OK) << sql << ": " << (message != nullptr ? message : "");
+  EXPECT_EQ(rc, SQLITE_OK) << sql << ": "
+                           << (message != nullptr ? message : "");
   sqlite3_free(message);
 }
 
@@ -405,7 +436,9 @@ int ReadRawUserVersion(const std::string& path) {
   sqlite3* db = nullptr;
   EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
   sqlite3_stmt* statement = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr), SQLITE_OK);
+  EXPECT_EQ(
+      sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr),
+      SQLITE_OK);
   EXPECT_EQ(sqlite3_step(statement), SQLITE_ROW);
   const int version = sqlite3_column_int(statement, 0);
   sqlite3_finalize(statement);
@@ -416,15 +449,23 @@ int ReadRawUserVersion(const std::string& path) {
 // Stores `job` the way release 0.1.0 did and returns its id.
 int64_t InsertRelease010Job(sqlite3* db, const JobRecord& job) {
   sqlite3_stmt* s = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(db, kRelease010InsertJob, -1, &s, nullptr), SQLITE_OK);
+  EXPECT_EQ(sqlite3_prepare_v2(db, kRelease010InsertJob, -1, &s, nullptr),
+            SQLITE_OK);
   const auto bind_text = [s](int index, const std::string& text) {
-    EXPECT_EQ(sqlite3_bind_text(s, index, text.c_str(), -1, SQLITE_TRANSIENT), SQLITE_OK);
+    EXPECT_EQ(sqlite3_bind_text(s, index, text.c_str(), -1, SQLITE_TRANSIENT),
+              SQLITE_OK);
   };
-  const auto bind_optional_double = [s](int index, const std::optional<double>& value) {
-    EXPECT_EQ(value ? sqlite3_bind_double(s, index, *value) : sqlite3_bind_null(s, index), SQLITE_OK);
+  const auto bind_optional_double = [s](int index,
+                                        const std::optional<double>& value) {
+    EXPECT_EQ(value ? sqlite3_bind_double(s, index, *value)
+                    : sqlite3_bind_null(s, index),
+              SQLITE_OK);
   };
-  const auto bind_optional_int64 = [s](int index, const std::optional<int64_t>& value) {
-    EXPECT_EQ(value ? sqlite3_bind_int64(s, index, *value) : sqlite3_bind_null(s, index), SQLITE_OK);
+  const auto bind_optional_int64 = [s](int index,
+                                       const std::optional<int64_t>& value) {
+    EXPECT_EQ(value ? sqlite3_bind_int64(s, index, *value)
+                    : sqlite3_bind_null(s, index),
+              SQLITE_OK);
   };
   bind_text(1, job.created_utc);
   bind_text(2, job.kind);
@@ -438,7 +479,8 @@ int64_t InsertRelease010Job(sqlite3* db, const JobRecord& job) {
   bind_text(10, job.result_json);
   bind_optional_double(11, job.residual_rms_um);
   bind_optional_double(12, job.best_reachable_rms_um);
-  bind_optional_int64(13, job.rank ? std::optional<int64_t>(*job.rank) : std::nullopt);
+  bind_optional_int64(
+      13, job.rank ? std::optional<int64_t>(*job.rank) : std::nullopt);
   EXPECT_EQ(sqlite3_bind_double(s, 14, job.elapsed_ms), SQLITE_OK);
   bind_text(15, job.server_version);
   bind_optional_int64(16, job.parent_job_id);
@@ -449,7 +491,9 @@ int64_t InsertRelease010Job(sqlite3* db, const JobRecord& job) {
 }
 
 // Every field but machine_kind; the JSON texts only when `with_documents`.
-void ExpectSameJob(const JobRecord& read, const JobRecord& expected, bool with_documents) {
+void ExpectSameJob(const JobRecord& read,
+                   const JobRecord& expected,
+                   bool with_documents) {
   SCOPED_TRACE("job " + std::to_string(expected.id));
   EXPECT_EQ(read.id, expected.id);
   EXPECT_EQ(read.created_utc, expected.created_utc);
@@ -473,9 +517,10 @@ void ExpectSameJob(const JobRecord& read, const JobRecord& expected, bool with_d
 
 TEST(OpenJobRepository, MigratesAFileOfRelease010) {
   TempDatabasePath temp;
-  // A history file as release 0.1.0 leaves it: a grinder job, a bevel job (flank convex), a
-  // bevel job ground with its settings (flank concave, no rank, no reachable figure), a
-  // grinder replay, and a batch with one done and one pending item.
+  // A history file as release 0.1.0 leaves it: a grinder job, a bevel job
+  // (flank convex), a bevel job ground with its settings (flank concave, no
+  // rank, no reachable figure), a grinder replay, and a batch with one done and
+  // one pending item.
   JobRecord grinder = MakeJob(37, "right");
   grinder.created_utc = "2026-11-20T08:00:00.000Z";
   grinder.server_version = "0.1.0";
@@ -486,7 +531,8 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
   bevel.gear_hand = "left";
   bevel.flank = "convex";
   bevel.request_json = R"({"machine":{"kind":"free-form-bevel-generator"}})";
-  bevel.result_json = R"({"machine_kind":"free-form-bevel-generator","side":"convex"})";
+  bevel.result_json =
+      R"({"machine_kind":"free-form-bevel-generator","side":"convex"})";
   bevel.residual_rms_um = 1.25;
   bevel.best_reachable_rms_um = 0.75;
   bevel.rank = 9;
@@ -506,10 +552,14 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
-    ExecRaw(db, "PRAGMA foreign_keys = ON; PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;");
+    ExecRaw(db,
+            "PRAGMA foreign_keys = ON; PRAGMA journal_mode = WAL; PRAGMA "
+            "synchronous = NORMAL;");
     ExecRaw(db, "BEGIN IMMEDIATE;");
     ExecRaw(db, kRelease010Schema);
-    ExecRaw(db, "PRAGMA user_version = " + std::to_string(kRelease010UserVersion) + ";");
+    ExecRaw(db,
+            "PRAGMA user_version = " + std::to_string(kRelease010UserVersion) +
+                ";");
     ExecRaw(db, "COMMIT;");
     grinder.id = InsertRelease010Job(db, grinder);
     bevel.id = InsertRelease010Job(db, bevel);
@@ -517,15 +567,23 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
     next_bevel.id = InsertRelease010Job(db, next_bevel);
     replay.parent_job_id = grinder.id;
     replay.id = InsertRelease010Job(db, replay);
-    ExecRaw(db,
-            "INSERT INTO batches (created_utc, total_items, status, finished_utc)"
-            " VALUES ('2026-11-21T11:00:00.000Z', 2, 'running', NULL);");
+    ExecRaw(
+        db,
+        "INSERT INTO batches (created_utc, total_items, status, finished_utc)"
+        " VALUES ('2026-11-21T11:00:00.000Z', 2, 'running', NULL);");
     batch = sqlite3_last_insert_rowid(db);
-    ExecRaw(db, "INSERT INTO batch_items (batch_id, item_index, request_json) VALUES (" + std::to_string(batch) +
-                    ", 0, '{}'), (" + std::to_string(batch) + ", 1, '{}');");
-    ExecRaw(db, "UPDATE batch_items SET state = 'done', job_id = " + std::to_string(grinder.id) +
-                    " WHERE batch_id = " + std::to_string(batch) + " AND item_index = 0;");
-    ExecRaw(db, "UPDATE batches SET done_items = 1 WHERE batch_id = " + std::to_string(batch) + ";");
+    ExecRaw(db,
+            "INSERT INTO batch_items (batch_id, item_index, request_json) "
+            "VALUES (" +
+                std::to_string(batch) + ", 0, '{}'), (" +
+                std::to_string(batch) + ", 1, '{}');");
+    ExecRaw(db,
+            "UPDATE batch_items SET state = 'done', job_id = " +
+                std::to_string(grinder.id) + " WHERE batch_id = " +
+                std::to_string(batch) + " AND item_index = 0;");
+    ExecRaw(db,
+            "UPDATE batches SET done_items = 1 WHERE batch_id = " +
+                std::to_string(batch) + ";");
     sqlite3_close(db);
   }
   ASSERT_EQ(ReadRawUserVersion(temp.path()), kRelease010UserVersion);
@@ -561,7 +619,8 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
     ASSERT_EQ(lineage.size(), 2u);
     EXPECT_EQ(lineage[1].id, next_bevel.id);
     EXPECT_EQ(lineage[1].machine_kind, "free-form-bevel-generator");
-    const std::optional<BatchRecord> record = repo->ReadBatch(batch, /*with_items=*/true);
+    const std::optional<BatchRecord> record =
+        repo->ReadBatch(batch, /*with_items=*/true);
     ASSERT_TRUE(record.has_value());
     EXPECT_EQ(record->done, 1);
     ASSERT_EQ(record->items.size(), 2u);
@@ -581,7 +640,8 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
 }
 
 TEST(OpenJobRepository, ThrowsStorageErrorForUnopenablePath) {
-  EXPECT_THROW(OpenJobRepository("/nonexistent-dir/gearloop.sqlite"), StorageError);
+  EXPECT_THROW(OpenJobRepository("/nonexistent-dir/gearloop.sqlite"),
+               StorageError);
 }
 
 TEST(CurrentUtcIso8601, HasMillisecondsAndZulu) {

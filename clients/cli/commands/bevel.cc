@@ -1,16 +1,15 @@
-// clients/cli/commands/bevel.cc: spiral-bevel pinions on the free-form generator
-// (docs/bevel-machines.md): `gearloop bevel-convert` (POST /api/v1/bevel/conversions) and
-// `gearloop bevel-closed-loop` (POST /api/v1/simulations/closed-loop).
-#include "clients/cli/commands/subcommands.h"
-
+// clients/cli/commands/bevel.cc: spiral-bevel pinions on the free-form
+// generator (docs/bevel-machines.md): `gearloop bevel-convert` (POST
+// /api/v1/bevel/conversions) and `gearloop bevel-closed-loop` (POST
+// /api/v1/simulations/closed-loop).
 #include <iomanip>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
 #include "clients/cli/command_util.h"
+#include "clients/cli/commands/subcommands.h"
 #include "clients/cli/grid_files.h"
 
 namespace gearloop {
@@ -21,30 +20,36 @@ using nlohmann::json;
 
 constexpr const char* kBevelMachineKind = "free-form-bevel-generator";
 
-// The pinion flank of a bevel command, in `body["job"]`: JOB.json when given (a bare job
-// {side, published | cutter, machine, blank, grid}, or a whole request body with a "job"
-// member, whose other members are kept), else the published pinion (Tang 2011). --side picks
-// or overrides the flank. Returns -1, or an exit code after printing the reason.
+// The pinion flank of a bevel command, in `body["job"]`: JOB.json when given (a
+// bare job {side, published | cutter, machine, blank, grid}, or a whole request
+// body with a "job" member, whose other members are kept), else the published
+// pinion (Tang 2011). --side picks or overrides the flank. Returns -1, or an
+// exit code after printing the reason.
 int ReadBevelJob(const CommandSpec& spec, const ParsedArgs& args, json* body) {
   *body = json::object();
   if (!args.positional.empty()) {
     json file;
     std::string error;
-    if (!ReadJsonFile(args.positional[0], &file, &error)) return InputError(error);
-    if (!file.is_object()) return InputError(args.positional[0] + ": the pinion job must be a JSON object");
+    if (!ReadJsonFile(args.positional[0], &file, &error))
+      return InputError(error);
+    if (!file.is_object())
+      return InputError(args.positional[0] +
+                        ": the pinion job must be a JSON object");
     if (file.contains("job")) {
       *body = file;
     } else {
       (*body)["job"] = file;
     }
-    if (!(*body)["job"].is_object()) return InputError(args.positional[0] + ": \"job\" must be a JSON object");
+    if (!(*body)["job"].is_object())
+      return InputError(args.positional[0] + ": \"job\" must be a JSON object");
   } else {
     (*body)["job"] = {{"side", "concave"}, {"published", true}};
   }
   if (args.Has("--side")) {
     const std::string side = args.Value("--side");
     if (side != "convex" && side != "concave") {
-      std::cerr << "gearloop " << spec.name << ": --side takes convex or concave\n";
+      std::cerr << "gearloop " << spec.name
+                << ": --side takes convex or concave\n";
       return kExitUsage;
     }
     (*body)["job"]["side"] = side;
@@ -52,9 +57,9 @@ int ReadBevelJob(const CommandSpec& spec, const ParsedArgs& args, json* body) {
   return -1;
 }
 
-// --degree N and --max-flank-distance-um X into the request's options. Both may be given: the
-// server refuses that and names the field. Returns -1, or the usage exit code after printing
-// the reason.
+// --degree N and --max-flank-distance-um X into the request's options. Both may
+// be given: the server refuses that and names the field. Returns -1, or the
+// usage exit code after printing the reason.
 int ApplyConversionOptions(const ParsedArgs& args, json* body) {
   if (args.Has("--degree")) {
     long long degree = 0;
@@ -62,26 +67,30 @@ int ApplyConversionOptions(const ParsedArgs& args, json* body) {
       std::cerr << "gearloop bevel-convert: --degree takes an integer\n";
       return kExitUsage;
     }
-    if (!body->contains("options") || !(*body)["options"].is_object()) (*body)["options"] = json::object();
+    if (!body->contains("options") || !(*body)["options"].is_object())
+      (*body)["options"] = json::object();
     (*body)["options"]["polynomial_degree"] = degree;
   }
   if (args.Has("--max-flank-distance-um")) {
     double tolerance_um = 0.0;
     if (!ParseNumber(args.Value("--max-flank-distance-um"), &tolerance_um)) {
-      std::cerr << "gearloop bevel-convert: --max-flank-distance-um takes a number of um\n";
+      std::cerr << "gearloop bevel-convert: --max-flank-distance-um takes a "
+                   "number of um\n";
       return kExitUsage;
     }
-    if (!body->contains("options") || !(*body)["options"].is_object()) (*body)["options"] = json::object();
+    if (!body->contains("options") || !(*body)["options"].is_object())
+      (*body)["options"] = json::object();
     (*body)["options"]["max_flank_distance_um"] = tolerance_um;
   }
   return -1;
 }
 
-// The largest and rms |fit - exact| of each axis polynomial. The server gives rad or mm (the
-// unit is in the key); a person reads urad and um.
+// The largest and rms |fit - exact| of each axis polynomial. The server gives
+// rad or mm (the unit is in the key); a person reads urad and um.
 void PrintFitResidual(const json& answer) {
   std::cout << "fit residual |fit - exact| per axis\n"
-            << std::left << std::setw(6) << "axis" << std::right << std::setw(12) << "max" << std::setw(12) << "rms"
+            << std::left << std::setw(6) << "axis" << std::right
+            << std::setw(12) << "max" << std::setw(12) << "rms"
             << "\n";
   for (const json& axis : answer.value("fit_residual", json::array())) {
     if (!axis.is_object()) continue;
@@ -106,28 +115,36 @@ void PrintFitResidual(const json& answer) {
       out << std::setprecision(3) << value.get<double>() * scale;
       return out.str();
     };
-    std::cout << std::left << std::setw(6) << Member(axis, "axis") << std::right << std::setw(12) << cell("max")
-              << std::setw(12) << cell("rms") << " " << unit << "\n";
+    std::cout << std::left << std::setw(6) << Member(axis, "axis") << std::right
+              << std::setw(12) << cell("max") << std::setw(12) << cell("rms")
+              << " " << unit << "\n";
   }
 }
 
-// A conversion for a person: the flank and degree, the fit residual per axis, and the distance
-// of the flank the fitted motions cut from the cradle flank. `body` is the request sent.
+// A conversion for a person: the flank and degree, the fit residual per axis,
+// and the distance of the flank the fitted motions cut from the cradle flank.
+// `body` is the request sent.
 void PrintConversion(const json& body, const json& answer) {
-  // The answer spells the whole summary out; whether it began as the published one is the request's.
+  // The answer spells the whole summary out; whether it began as the published
+  // one is the request's.
   const json job = answer.value("job", json::object());
   std::cout << "spiral bevel pinion, " << Member(job, "side") << " flank"
-            << (body["job"].value("published", false) ? " (published summary, Tang 2011)" : "") << ": degree "
-            << Member(answer, "degree");
+            << (body["job"].value("published", false)
+                    ? " (published summary, Tang 2011)"
+                    : "")
+            << ": degree " << Member(answer, "degree");
   const json roll = answer.value("roll_range_deg", json::array());
   if (roll.is_array() && roll.size() == 2) {
-    std::cout << ", cradle roll " << Fixed(roll[0]) << " .. " << Fixed(roll[1]) << " deg";
+    std::cout << ", cradle roll " << Fixed(roll[0]) << " .. " << Fixed(roll[1])
+              << " deg";
   }
   std::cout << "\n";
   PrintFitResidual(answer);
   const json distance = answer.value("flank_distance", json::object());
-  std::cout << "flank distance to the cradle flank: max " << Fixed(distance.value("max_um", json()), 4) << " um, rms "
-            << Fixed(distance.value("rms_um", json()), 4) << " um (" << Member(distance, "points_found") << " of "
+  std::cout << "flank distance to the cradle flank: max "
+            << Fixed(distance.value("max_um", json()), 4) << " um, rms "
+            << Fixed(distance.value("rms_um", json()), 4) << " um ("
+            << Member(distance, "points_found") << " of "
             << Member(distance, "points") << " grid points)\n";
 }
 
@@ -135,25 +152,38 @@ void PrintConversion(const json& body, const json& answer) {
 
 const CommandSpec kBevelConvert{
     "bevel-convert",
-    "usage: gearloop bevel-convert [--degree N | --max-flank-distance-um X] [--side S] [JOB.json]\n\n"
-    "Converts the cradle-type generator summary of a spiral-bevel pinion flank into free-form\n"
-    "axis polynomials (POST /api/v1/bevel/conversions) and prints the degree, the fit residual\n"
-    "of each axis (largest and rms |fit - exact| over the roll range) and how far the flank the\n"
-    "fitted motions cut lies from the cradle flank on the grid. JOB.json is the pinion job\n"
-    "({side, published} or {side, cutter, machine, blank, grid}; clients/FORMATS.md) or a whole\n"
-    "conversion request {job, options}; without it, the published pinion (Tang 2011).\n\n"
+    "usage: gearloop bevel-convert [--degree N | --max-flank-distance-um X] "
+    "[--side S] [JOB.json]\n\n"
+    "Converts the cradle-type generator summary of a spiral-bevel pinion flank "
+    "into free-form\n"
+    "axis polynomials (POST /api/v1/bevel/conversions) and prints the degree, "
+    "the fit residual\n"
+    "of each axis (largest and rms |fit - exact| over the roll range) and how "
+    "far the flank the\n"
+    "fitted motions cut lies from the cradle flank on the grid. JOB.json is "
+    "the pinion job\n"
+    "({side, published} or {side, cutter, machine, blank, grid}; "
+    "clients/FORMATS.md) or a whole\n"
+    "conversion request {job, options}; without it, the published pinion (Tang "
+    "2011).\n\n"
     "options:\n"
-    "  --degree N                  degree of every axis polynomial (server: 1..12, default 5)\n"
-    "  --max-flank-distance-um X   instead, the smallest degree whose flank lies within X um\n"
-    "  --side S                    convex | concave (default concave for the published pinion)\n"
-    "  --motion-out FILE           write the axis polynomials as JSON (the \"motion\" of a scenario)\n\n"
+    "  --degree N                  degree of every axis polynomial (server: "
+    "1..12, default 5)\n"
+    "  --max-flank-distance-um X   instead, the smallest degree whose flank "
+    "lies within X um\n"
+    "  --side S                    convex | concave (default concave for the "
+    "published pinion)\n"
+    "  --motion-out FILE           write the axis polynomials as JSON (the "
+    "\"motion\" of a scenario)\n\n"
     "Exit 0 converted, 3 refused (the message names the field).\n",
     {"--degree", "--max-flank-distance-um", "--side", "--motion-out"},
     {},
     0,
     1};
 
-int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+int RunBevelConvert(const ParsedArgs& args,
+                    ApiClient* client,
+                    const GlobalOptions& global) {
   json body;
   int bad = ReadBevelJob(kBevelConvert, args, &body);
   if (bad >= 0) return bad;
@@ -164,7 +194,9 @@ int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptio
   if (failure >= 0) return failure;
   std::string error;
   if (args.Has("--motion-out") &&
-      !WriteTextFile(args.Value("--motion-out"), answer.body.value("motion", json::object()).dump(2) + "\n", &error)) {
+      !WriteTextFile(args.Value("--motion-out"),
+                     answer.body.value("motion", json::object()).dump(2) + "\n",
+                     &error)) {
     return InputError(error);
   }
   if (global.json) {
@@ -178,35 +210,49 @@ int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptio
 const CommandSpec kBevelClosedLoop{
     "bevel-closed-loop",
     "usage: gearloop bevel-closed-loop [JOB.json] [options]\n\n"
-    "Runs a simulated closed loop of a spiral-bevel pinion on the free-form generator (POST\n"
-    "/api/v1/simulations/closed-loop with machine.kind free-form-bevel-generator): cut with the\n"
-    "commanded axis motions plus hidden axis errors, measure, correct the motions, cut again, N\n"
-    "times; prints the true and measured deviation of each part. JOB.json is the pinion job (as\n"
-    "for `bevel-convert`) or a whole bevel scenario {job, motion, hidden_errors, noise_um, seed,\n"
+    "Runs a simulated closed loop of a spiral-bevel pinion on the free-form "
+    "generator (POST\n"
+    "/api/v1/simulations/closed-loop with machine.kind "
+    "free-form-bevel-generator): cut with the\n"
+    "commanded axis motions plus hidden axis errors, measure, correct the "
+    "motions, cut again, N\n"
+    "times; prints the true and measured deviation of each part. JOB.json is "
+    "the pinion job (as\n"
+    "for `bevel-convert`) or a whole bevel scenario {job, motion, "
+    "hidden_errors, noise_um, seed,\n"
     "target, options, ...}; without it, the published pinion.\n\n"
     "options:\n"
-    "  --error AXIS=C0[,C1,...]  hidden error of an axis polynomial, coefficient k of t^k\n"
-    "                            (AXIS: A_rad, B_rad, X_mm, Y_mm, Z_mm; repeat for several axes),\n"
+    "  --error AXIS=C0[,C1,...]  hidden error of an axis polynomial, "
+    "coefficient k of t^k\n"
+    "                            (AXIS: A_rad, B_rad, X_mm, Y_mm, Z_mm; repeat "
+    "for several axes),\n"
     "                            e.g. --error X_mm=0.008 --error A_rad=0,2e-5\n"
     "  --noise UM                probe noise (standard deviation, um)\n"
     "  --seed N                  the noise's seed\n"
-    "  --corrections N           number of corrections (server: 1..20, default 3)\n"
-    "  --side S                  convex | concave (default concave for the published pinion)\n"
-    "  --store                   keep each correction as a bevel job (see `gearloop show`)\n\n"
-    "Exit 0 completed, 5 the loop stopped early, 3 refused (the message names the field).\n",
+    "  --corrections N           number of corrections (server: 1..20, default "
+    "3)\n"
+    "  --side S                  convex | concave (default concave for the "
+    "published pinion)\n"
+    "  --store                   keep each correction as a bevel job (see "
+    "`gearloop show`)\n\n"
+    "Exit 0 completed, 5 the loop stopped early, 3 refused (the message names "
+    "the field).\n",
     {"--error", "--noise", "--seed", "--corrections", "--side"},
     {"--store"},
     0,
     1};
 
-int RunBevelClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+int RunBevelClosedLoop(const ParsedArgs& args,
+                       ApiClient* client,
+                       const GlobalOptions& global) {
   json scenario;
   int bad = ReadBevelJob(kBevelClosedLoop, args, &scenario);
   if (bad >= 0) return bad;
   scenario["machine"] = {{"kind", kBevelMachineKind}};
   auto errors = args.values.find("--error");
   if (errors != args.values.end()) {
-    if (!scenario.contains("hidden_errors") || !scenario["hidden_errors"].is_object()) {
+    if (!scenario.contains("hidden_errors") ||
+        !scenario["hidden_errors"].is_object()) {
       scenario["hidden_errors"] = json::object();
     }
     for (const std::string& assignment : errors->second) {
@@ -223,11 +269,13 @@ int RunBevelClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOp
         rest = rest.substr(comma + 1);
       }
       if (!good) {
-        std::cerr << "gearloop bevel-closed-loop: --error takes AXIS=C0[,C1,...] with numbers, got '" << assignment
-                  << "'\n";
+        std::cerr << "gearloop bevel-closed-loop: --error takes "
+                     "AXIS=C0[,C1,...] with numbers, got '"
+                  << assignment << "'\n";
         return kExitUsage;
       }
-      // The axis name is the server's to check: it names the field when it does not know it.
+      // The axis name is the server's to check: it names the field when it does
+      // not know it.
       scenario["hidden_errors"][assignment.substr(0, eq)] = coefficients;
     }
   }

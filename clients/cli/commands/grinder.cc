@@ -1,15 +1,14 @@
-// clients/cli/commands/grinder.cc: the grinder model without a correction: `gearloop nominal`
-// (POST /api/v1/nominal) and `gearloop evaluate` (POST /api/v1/evaluate).
-#include "clients/cli/commands/subcommands.h"
-
+// clients/cli/commands/grinder.cc: the grinder model without a correction:
+// `gearloop nominal` (POST /api/v1/nominal) and `gearloop evaluate` (POST
+// /api/v1/evaluate).
 #include <iomanip>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
 #include "clients/cli/command_util.h"
+#include "clients/cli/commands/subcommands.h"
 #include "clients/cli/csv_grid.h"
 #include "clients/cli/grid_files.h"
 
@@ -19,20 +18,26 @@ namespace {
 
 using nlohmann::json;
 
-// Axis coefficients as a table: one line per axis, one column per power of the roll angle.
+// Axis coefficients as a table: one line per axis, one column per power of the
+// roll angle.
 void PrintSettings(const json& settings) {
   const json axes = settings.value("axes", json::object());
   std::cout << std::left << std::setw(9) << "axis" << std::right;
-  for (int k = 0; k < 7; ++k) std::cout << std::setw(14) << ("phi^" + std::to_string(k));
+  for (int k = 0; k < 7; ++k)
+    std::cout << std::setw(14) << ("phi^" + std::to_string(k));
   std::cout << "\n";
   for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
     const bool linear = axis[0] == 'X' || axis[0] == 'Y' || axis[0] == 'Z';
-    std::cout << std::left << std::setw(9) << (std::string(axis) + (linear ? " [mm]" : " [rad]")) << std::right;
+    std::cout << std::left << std::setw(9)
+              << (std::string(axis) + (linear ? " [mm]" : " [rad]"))
+              << std::right;
     const json coefficients = axes.value(axis, json::array());
     for (int k = 0; k < 7; ++k) {
       std::ostringstream cell;
-      if (k < static_cast<int>(coefficients.size()) && coefficients[k].is_number()) {
-        cell << std::scientific << std::setprecision(5) << coefficients[k].get<double>();
+      if (k < static_cast<int>(coefficients.size()) &&
+          coefficients[k].is_number()) {
+        cell << std::scientific << std::setprecision(5)
+             << coefficients[k].get<double>();
       } else {
         cell << "0";
       }
@@ -41,36 +46,47 @@ void PrintSettings(const json& settings) {
     std::cout << "\n";
   }
   const json wheel = settings.value("wheel", json::object());
-  std::cout << "wheel: cone angle " << Member(wheel, "cone_angle_deg") << " deg, parabola "
-            << Member(wheel, "parabola_coefficient_per_mm") << " /mm, vertex " << Member(wheel, "parabola_vertex_mm")
+  std::cout << "wheel: cone angle " << Member(wheel, "cone_angle_deg")
+            << " deg, parabola " << Member(wheel, "parabola_coefficient_per_mm")
+            << " /mm, vertex " << Member(wheel, "parabola_vertex_mm")
             << " mm\n";
 }
 
 }  // namespace
 
-const CommandSpec kNominal{"nominal",
-                           "usage: gearloop nominal REQUEST.json [--settings-out FILE]\n\n"
-                           "Prints the nominal machine settings of the setup in REQUEST.json (gear, wheel,\n"
-                           "machine, flank; POST /api/v1/nominal): the settings that grind the exact\n"
-                           "involute helicoid, and the roll range.\n\n"
-                           "options:\n"
-                           "  --settings-out FILE   write the settings as JSON (input of `evaluate --settings`)\n",
-                           {"--settings-out"},
-                           {},
-                           1,
-                           1};
+const CommandSpec kNominal{
+    "nominal",
+    "usage: gearloop nominal REQUEST.json [--settings-out FILE]\n\n"
+    "Prints the nominal machine settings of the setup in REQUEST.json (gear, "
+    "wheel,\n"
+    "machine, flank; POST /api/v1/nominal): the settings that grind the exact\n"
+    "involute helicoid, and the roll range.\n\n"
+    "options:\n"
+    "  --settings-out FILE   write the settings as JSON (input of `evaluate "
+    "--settings`)\n",
+    {"--settings-out"},
+    {},
+    1,
+    1};
 
-int RunNominal(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+int RunNominal(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global) {
   json request;
   std::string error;
-  if (!ReadJsonFile(args.positional[0], &request, &error)) return InputError(error);
-  if (!request.is_object()) return InputError(args.positional[0] + ": the request must be a JSON object");
+  if (!ReadJsonFile(args.positional[0], &request, &error))
+    return InputError(error);
+  if (!request.is_object())
+    return InputError(args.positional[0] +
+                      ": the request must be a JSON object");
   const ApiResponse answer = client->Post("/api/v1/nominal", request);
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   if (args.Has("--settings-out") &&
-      !WriteTextFile(args.Value("--settings-out"), answer.body.value("settings", json::object()).dump(2) + "\n",
-                     &error)) {
+      !WriteTextFile(
+          args.Value("--settings-out"),
+          answer.body.value("settings", json::object()).dump(2) + "\n",
+          &error)) {
     return InputError(error);
   }
   if (global.json) {
@@ -80,8 +96,10 @@ int RunNominal(const ParsedArgs& args, ApiClient* client, const GlobalOptions& g
   PrintSettings(answer.body.value("settings", json::object()));
   const json roll = answer.body.value("roll_range_deg", json::array());
   if (roll.is_array() && roll.size() == 2) {
-    std::cout << "roll range " << Fixed(roll[0]) << " .. " << Fixed(roll[1]) << " deg, pitch radius "
-              << Fixed(answer.body.value("pitch_radius_mm", json())) << " mm, base radius "
+    std::cout << "roll range " << Fixed(roll[0]) << " .. " << Fixed(roll[1])
+              << " deg, pitch radius "
+              << Fixed(answer.body.value("pitch_radius_mm", json()))
+              << " mm, base radius "
               << Fixed(answer.body.value("base_radius_mm", json())) << " mm\n";
   }
   return kExitOk;
@@ -90,11 +108,14 @@ int RunNominal(const ParsedArgs& args, ApiClient* client, const GlobalOptions& g
 const CommandSpec kEvaluate{
     "evaluate",
     "usage: gearloop evaluate REQUEST.json [--settings FILE] [--csv FILE]\n\n"
-    "Grinds the flank of REQUEST.json's setup in the model with the given settings and prints its\n"
-    "deviations from the involute on the grid (POST /api/v1/evaluate); points the wheel does not\n"
+    "Grinds the flank of REQUEST.json's setup in the model with the given "
+    "settings and prints its\n"
+    "deviations from the involute on the grid (POST /api/v1/evaluate); points "
+    "the wheel does not\n"
     "reach are shown as '-'.\n\n"
     "options:\n"
-    "  --settings FILE   machine settings JSON ({axes, wheel}, e.g. from `submit --settings-out`);\n"
+    "  --settings FILE   machine settings JSON ({axes, wheel}, e.g. from "
+    "`submit --settings-out`);\n"
     "                    default REQUEST.json's settings, else nominal\n"
     "  --csv FILE        write the grid as CSV\n",
     {"--settings", "--csv"},
@@ -102,15 +123,22 @@ const CommandSpec kEvaluate{
     1,
     1};
 
-int RunEvaluate(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global) {
+int RunEvaluate(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global) {
   json request;
   std::string error;
-  if (!ReadJsonFile(args.positional[0], &request, &error)) return InputError(error);
-  if (!request.is_object()) return InputError(args.positional[0] + ": the request must be a JSON object");
+  if (!ReadJsonFile(args.positional[0], &request, &error))
+    return InputError(error);
+  if (!request.is_object())
+    return InputError(args.positional[0] +
+                      ": the request must be a JSON object");
   if (args.Has("--settings")) {
     json settings;
-    if (!ReadJsonFile(args.Value("--settings"), &settings, &error)) return InputError(error);
-    if (settings.is_object() && settings.contains("settings")) settings = settings["settings"];
+    if (!ReadJsonFile(args.Value("--settings"), &settings, &error))
+      return InputError(error);
+    if (settings.is_object() && settings.contains("settings"))
+      settings = settings["settings"];
     request["settings"] = settings;
   }
   const ApiResponse answer = client->Post("/api/v1/evaluate", request);
@@ -123,7 +151,8 @@ int RunEvaluate(const ParsedArgs& args, ApiClient* client, const GlobalOptions& 
       std::cerr << "gearloop evaluate: the answer holds no deviation grid\n";
       return kExitTransport;
     }
-    if (!WriteTextFile(args.Value("--csv"), FormatCsvGrid(csv, true), &error)) return InputError(error);
+    if (!WriteTextFile(args.Value("--csv"), FormatCsvGrid(csv, true), &error))
+      return InputError(error);
   }
   if (global.json) {
     PrintJson(answer.body);

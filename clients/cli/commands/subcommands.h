@@ -1,13 +1,13 @@
-// clients/cli/commands/subcommands.h: the subcommands of `gearloop`, one file per resource of the
-// API (internal to the CLI). Each command is its option spec (with the --help text) and a
-// function that runs it on parsed arguments; the dispatcher (clients/cli/commands.cc) lists them
-// and parses the arguments.
+// clients/cli/commands/subcommands.h: the subcommands of `gearloop`, one file
+// per resource of the API (internal to the CLI). Each command is its option
+// spec (with the --help text) and a function that runs it on parsed arguments;
+// the dispatcher (clients/cli/commands.cc) lists them and parses the arguments.
 //
 //   ParsedArgs parsed;                    // checked against kSubmit
 //   int code = RunSubmit(parsed, &client, global);
 //
-// Each Run* prints a table for a person or (--json) the server's JSON for a script, sends
-// diagnostics to stderr, and returns an ExitCode (commands.h).
+// Each Run* prints a table for a person or (--json) the server's JSON for a
+// script, sends diagnostics to stderr, and returns an ExitCode (commands.h).
 #ifndef GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 #define GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 
@@ -20,43 +20,70 @@ namespace cli_internal {
 
 // commands/corrections.cc: compute a correction and store it as a job.
 extern const CommandSpec kSubmit;
-int RunSubmit(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunSubmit(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
 extern const CommandSpec kReplay;
-int RunReplay(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunReplay(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
 
 // commands/history.cc: the stored jobs.
 extern const CommandSpec kList;
-int RunList(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunList(const ParsedArgs& args,
+            ApiClient* client,
+            const GlobalOptions& global);
 extern const CommandSpec kShow;
-int RunShow(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunShow(const ParsedArgs& args,
+            ApiClient* client,
+            const GlobalOptions& global);
 extern const CommandSpec kReport;
-int RunReport(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunReport(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
 
 // commands/batches.cc: a folder of measurements as one batch.
 extern const CommandSpec kBatch;
-int RunBatch(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunBatch(const ParsedArgs& args,
+             ApiClient* client,
+             const GlobalOptions& global);
 
-// commands/simulations.cc: the simulated measuring machine and closed loop of a gear grinder.
+// commands/simulations.cc: the simulated measuring machine and closed loop of a
+// gear grinder.
 extern const CommandSpec kSimulate;
-int RunSimulate(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunSimulate(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global);
 extern const CommandSpec kClosedLoop;
-int RunClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunClosedLoop(const ParsedArgs& args,
+                  ApiClient* client,
+                  const GlobalOptions& global);
 
 // commands/bevel.cc: spiral-bevel pinions on the free-form generator.
 extern const CommandSpec kBevelConvert;
-int RunBevelConvert(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunBevelConvert(const ParsedArgs& args,
+                    ApiClient* client,
+                    const GlobalOptions& global);
 extern const CommandSpec kBevelClosedLoop;
-int RunBevelClosedLoop(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunBevelClosedLoop(const ParsedArgs& args,
+                       ApiClient* client,
+                       const GlobalOptions& global);
 
 // commands/grinder.cc: the grinder model without a correction.
 extern const CommandSpec kNominal;
-int RunNominal(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunNominal(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global);
 extern const CommandSpec kEvaluate;
-int RunEvaluate(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunEvaluate(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global);
 
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;
-int RunHealth(const ParsedArgs& args, ApiClient* client, const GlobalOptions& global);
+int RunHealth(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
 
 }  // namespace cli_internal
 }  // namespace gearloop
