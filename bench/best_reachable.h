@@ -5,11 +5,10 @@
 // issue 13. Slow and careful: multi-start Levenberg-Marquardt.
 //
 //   ReachOptions options;
-//   options.max_order = 3;                             // as
-//   CorrectionOptions::default_max_order const ReachResult best =
-//   BestReachable(model, commanded + hidden, target_um,
-//                                          roll_min, roll_max,
-//                                          /*extra_starts=*/{}, options);
+//   options.max_order = 3;  // as CorrectionOptions::default_max_order
+//   const ReachResult best = BestReachable(
+//       model, commanded + hidden, target_um, roll_min, roll_max,
+//       /*extra_starts=*/{}, options);
 //   // best.rms_um, best.delta (parameter change), best.starts[k] per start
 //
 // Unknowns: the orthonormal Legendre coordinates over the roll range of each
@@ -17,21 +16,33 @@
 // engine/correction/correction.h: one unit = 1 um rms of axis motion for X, Y,
 // Z, 1 um / r_j for A, B, C), and every scalar block (the wheel). The monomials
 // up to max_order span the same space, so this is the solver's freedom.
+//
 // Objective: 1/2 sum over the points the wheel reaches on the true part of
-// (d(true + dzeta) - t)^2 plus a hinge penalty rho max(0, |dC(phi_s)| / bound -
-// 1) at 33 roll angles phi_s over the roll range of every polynomial block
-// (bound 0.2 mm for a block in mm, 3e-3 rad for one in rad) and on the bounded
-// scalar blocks (ReachOptions::scalar_bounds); rho = 1e3 um per unit of
-// relative excess makes the bound hard for every practical purpose. A trial
-// step that loses one of those points is refused (the damping grows), so the
-// best is always on the same points as the part; a start that loses one is
-// halved toward no change until it does not. Starts: no change; the linearised
-// least-squares step (SVD, directions that move the flank by
-// >= 0.01 um rms per unit, and a wider one to 1e-4 of the largest singular
-// value); the exact cancellation of the hidden errors projected on the free
-// coordinates; the callers' starts (the solver's own final settings, so the
-// reference is never worse than what the solver reached); and random directions
-// of the size of the least-squares step. The best end point wins.
+// (d(true + dzeta) - t)^2, plus a hinge penalty rho max(0, |v| - 1) on every
+// bounded quantity v (relative to its bound): the change dC(phi_s) of every
+// polynomial block at 33 roll angles phi_s over the roll range (0.2 mm for a
+// block in mm, 3e-3 rad for one in rad), the scalar blocks named in
+// scalar_bounds and, on request (wheel_depth_mm > 0), the flat-wheel profile:
+// its change -u dtheta_w + a_w (u - d_w)^2 - a_w0 (u - d_w0)^2 within 0.2 mm
+// and its slope within 3e-3 rad at 9 depths u over [0, D]. rho = 1e3 um per
+// unit of relative excess makes the bounds hard for every practical purpose.
+// The wheel is unbounded by default, as it is for the solver (issue 13 bounds
+// the axes).
+//
+// A trial step that loses one of the objective's points is refused (the
+// damping grows), so the best is always on the same points as the part; a
+// start that loses one is halved toward no change until it does not. Damping:
+// Marquardt's diagonal scaling, floored at 1e-6 of the largest diagonal entry,
+// with Nielsen's update; at most max_iterations per start.
+//
+// Starts: no change; the linearised least-squares step (SVD, directions that
+// move the flank by >= 0.01 um rms per unit, and a wider one to 1e-4 of the
+// largest singular value); the exact cancellation of the hidden errors
+// projected on the free coordinates (the caller's start); the solver's own
+// final settings (so the reference is never worse than what the solver reached
+// within the bounds) and the reference of a smaller free set (callers'
+// starts); random directions of the size of the least-squares step. The best
+// end point wins.
 #ifndef GEARLOOP_BENCH_BEST_REACHABLE_H_
 #define GEARLOOP_BENCH_BEST_REACHABLE_H_
 
@@ -63,6 +74,10 @@ struct ReachOptions {
   // Bounds on scalar blocks by name [block unit]; blocks not named are
   // unbounded.
   std::map<std::string, double> scalar_bounds;
+  // Flat-wheel wheel profile (blocks "cone_angle", "parabola_coefficient",
+  // "parabola_vertex"), when > 0: the working depth D [mm] of the wheel profile
+  // over which its change is bounded like an axis (see the file comment).
+  double wheel_depth_mm = 0.0;
   int random_starts = 3;
   int max_iterations = 300;
   std::uint64_t seed = 1;
@@ -72,6 +87,10 @@ struct ReachStart {
   std::string name;
   double rms_um =
       std::numeric_limits<double>::quiet_NaN();  // NaN: the start lost a point
+  // At the start, after halving it toward no change so that it keeps every
+  // point.
+  double start_rms_um = std::numeric_limits<double>::quiet_NaN();
+  int halvings = 0;
   int iterations = 0;
 };
 
@@ -148,6 +167,22 @@ class ReachProblem {
     for (size_t r = 0; r < rows.size(); ++r)
       motion_.row(static_cast<int>(r)) = rows[r];
 
+    if (options.wheel_depth_mm > 0.0) {
+      for (const ParameterBlock& b : blocks_) {
+        if (b.name == "cone_angle") cone_ = b.first_index;
+        if (b.name == "parabola_coefficient") parabola_ = b.first_index;
+        if (b.name == "parabola_vertex") vertex_ = b.first_index;
+      }
+      if (cone_ >= 0 && parabola_ >= 0 && vertex_ >= 0) {
+        constexpr int kDepthSamples = 9;
+        for (int s = 0; s < kDepthSamples; ++s) {
+          wheel_u_.push_back(options.wheel_depth_mm * s /
+                             (kDepthSamples - 1.0));
+        }
+      }
+      linear_bound_mm_ = options.linear_bound_mm;
+      angular_bound_rad_ = options.angular_bound_rad;
+    }
     ModelEvaluation eval;
     model.Evaluate(state, false, &eval);
     for (int i = 0; i < model.NumPoints(); ++i) {
@@ -174,8 +209,9 @@ class ReachProblem {
     model_.Evaluate(state_ + basis_ * y, jacobian != nullptr, &eval);
     const int m = NumPoints();
     const int p = static_cast<int>(motion_.rows());
-    residuals->resize(m + p);
-    if (jacobian != nullptr) jacobian->setZero(m + p, NumFree());
+    const int w = 2 * static_cast<int>(wheel_u_.size());
+    residuals->resize(m + p + w);
+    if (jacobian != nullptr) jacobian->setZero(m + p + w, NumFree());
     double sum = 0.0;
     for (int k = 0; k < m; ++k) {
       const int i = points_[k];
@@ -196,6 +232,41 @@ class ReachProblem {
             kPenalty * (v(r) > 0.0 ? 1.0 : -1.0) * motion_.row(r);
       }
     }
+    if (w > 0) {
+      // The change of the wheel profile along its normal, -u dtheta +
+      // a (u - d)^2 - a0 (u - d0)^2 [mm], and of its slope [rad], at depths u.
+      const Eigen::VectorXd params = state_ + basis_ * y;
+      const double dtheta = params(cone_) - state_(cone_);
+      const double a = params(parabola_), d = params(vertex_);
+      const double a0 = state_(parabola_), d0 = state_(vertex_);
+      for (size_t s = 0; s < wheel_u_.size(); ++s) {
+        const double u = wheel_u_[s];
+        const double change =
+            -u * dtheta + a * (u - d) * (u - d) - a0 * (u - d0) * (u - d0);
+        const double slope = -dtheta + 2.0 * a * (u - d) - 2.0 * a0 * (u - d0);
+        const double values[2] = {change / linear_bound_mm_,
+                                  slope / angular_bound_rad_};
+        // d value / d (theta, a, d).
+        const double grads[2][3] = {{-u / linear_bound_mm_,
+                                     (u - d) * (u - d) / linear_bound_mm_,
+                                     -2.0 * a * (u - d) / linear_bound_mm_},
+                                    {-1.0 / angular_bound_rad_,
+                                     2.0 * (u - d) / angular_bound_rad_,
+                                     -2.0 * a / angular_bound_rad_}};
+        for (int q = 0; q < 2; ++q) {
+          const int row = m + p + 2 * static_cast<int>(s) + q;
+          const double excess = std::abs(values[q]) - 1.0;
+          (*residuals)(row) = excess > 0.0 ? kPenalty * excess : 0.0;
+          if (jacobian != nullptr && excess > 0.0) {
+            const double sign = values[q] > 0.0 ? 1.0 : -1.0;
+            jacobian->row(row) = kPenalty * sign *
+                                 (grads[q][0] * basis_.row(cone_) +
+                                  grads[q][1] * basis_.row(parabola_) +
+                                  grads[q][2] * basis_.row(vertex_));
+          }
+        }
+      }
+    }
     *flank_rms_um = m > 0 ? std::sqrt(sum / m) : 0.0;
     return true;
   }
@@ -210,6 +281,9 @@ class ReachProblem {
   std::vector<int> free_;
   Eigen::MatrixXd basis_;   // parameters from free coordinates
   Eigen::MatrixXd motion_;  // relative motion rows
+  int cone_ = -1, parabola_ = -1, vertex_ = -1;  // wheel parameter indices
+  std::vector<double> wheel_u_;                  // depths of the wheel bound
+  double linear_bound_mm_ = 0.2, angular_bound_rad_ = 3e-3;
   std::vector<int> points_;
   int evaluations_ = 0;
 };
@@ -219,7 +293,8 @@ class ReachProblem {
 inline double Minimise(ReachProblem* problem,
                        int max_iterations,
                        Eigen::VectorXd* y,
-                       int* iterations) {
+                       ReachStart* record) {
+  int* iterations = &record->iterations;
   Eigen::VectorXd r, r_trial, y_trial;
   Eigen::MatrixXd jacobian;
   double rms = 0.0, rms_trial = 0.0;
@@ -231,17 +306,23 @@ inline double Minimise(ReachProblem* problem,
     if (++halvings > 40) return std::numeric_limits<double>::quiet_NaN();
     *y *= 0.5;
   }
+  record->halvings = halvings;
+  record->start_rms_um = rms;
   double cost = 0.5 * r.squaredNorm();
   double mu = -1.0, nu = 2.0;
-  const int n = problem->NumFree();
   for (int it = 0; it < max_iterations; ++it) {
     *iterations = it + 1;
     const Eigen::MatrixXd h = jacobian.transpose() * jacobian;
     const Eigen::VectorXd g = jacobian.transpose() * r;
-    if (mu < 0.0) mu = 1e-4 * std::max(h.diagonal().maxCoeff(), 1e-12);
+    if (mu < 0.0) mu = 1e-4;
+    // Marquardt's scaling, floored at 1e-6 of the largest diagonal entry so
+    // that directions that hardly move the flank still take a bounded step.
+    const double floor = 1e-6 * std::max(h.diagonal().maxCoeff(), 1e-12);
+    const Eigen::VectorXd scaling = h.diagonal().cwiseMax(floor);
     bool accepted = false;
     for (int inner = 0; inner < 30 && !accepted; ++inner) {
-      const Eigen::MatrixXd a = h + mu * Eigen::MatrixXd::Identity(n, n);
+      Eigen::MatrixXd a = h;
+      a.diagonal() += mu * scaling;
       const Eigen::VectorXd step = a.ldlt().solve(-g);
       if (!step.allFinite()) {
         mu *= nu;
@@ -352,8 +433,8 @@ inline ReachResult BestReachable(
     ReachStart record;
     record.name = start.first;
     Eigen::VectorXd y = start.second;
-    record.rms_um = internal::Minimise(
-        &problem, options.max_iterations, &y, &record.iterations);
+    record.rms_um =
+        internal::Minimise(&problem, options.max_iterations, &y, &record);
     if (std::isfinite(record.rms_um) && !(record.rms_um >= result.rms_um)) {
       result.rms_um = record.rms_um;
       result.best_start = record.name;
