@@ -7,11 +7,13 @@
 // reachable, prediction against achievement, axis motion against the bounds and
 // CPU per correction. A study, not a timing test (BENCHMARKS.md, "Robustness").
 //
-//   build/bench/robustness_benchmark [--scenarios 200] [--bevel 10] [--seed
-//   2026]
-//                                    [--orders default|all|both] [--threads 1]
-//                                    [--json FILE] [--verbose] [--only I]
-//                                    [--bound-wheel]
+//   build/bench/robustness_benchmark
+//       [--scenarios 200] [--bevel 10] [--seed 2026]
+//       [--orders default|all|both] [--threads 1] [--json FILE] [--verbose]
+//       [--only I] [--bound-wheel] [--reach-iterations 300]
+//
+// --only I runs the flat-wheel scenario I alone, drawn as in the full run.
+// --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
 //
 // --orders default: the solver's default options (default_max_order 3); all:
 // every order 0-6 open (default_max_order 6; the bevel generator's degree 5);
@@ -100,7 +102,8 @@ std::string JsonString(const std::string& s) {
 ScenarioOutcome RunScenario(const Scenario& s,
                             const std::vector<Config>& configs,
                             std::uint64_t seed,
-                            bool bound_wheel) {
+                            bool bound_wheel,
+                            int reach_iterations) {
   ScenarioOutcome out;
   out.scenario = s;
   for (const Config& c : configs) {
@@ -113,6 +116,7 @@ ScenarioOutcome RunScenario(const Scenario& s,
   for (size_t k = 0; k < configs.size(); ++k) {
     bench::ReachOptions reach;
     reach.max_order = configs[k].reach_order;
+    reach.max_iterations = reach_iterations;
     reach.seed = seed + s.index;
     // The wheel is as free as the solver's (issue 13 bounds the axes). With
     // --bound-wheel its profile is bounded like an axis over the working depth
@@ -544,6 +548,7 @@ int main(int argc, char** argv) {
   std::string orders = "both";
   const char* json = nullptr;
   bool verbose = false, bound_wheel = false;
+  int reach_iterations = bench::ReachOptions().max_iterations;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (std::strcmp(argv[i], "--scenarios") == 0 && has_value) {
@@ -560,6 +565,8 @@ int main(int argc, char** argv) {
       json = argv[++i];
     } else if (std::strcmp(argv[i], "--only") == 0 && has_value) {
       only = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--reach-iterations") == 0 && has_value) {
+      reach_iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -607,7 +614,8 @@ int main(int argc, char** argv) {
       const Scenario s = jobs[i].first
                              ? bench::DrawBevelScenario(seed, jobs[i].second)
                              : bench::DrawGrinderScenario(seed, jobs[i].second);
-      outcomes[i] = RunScenario(s, configs, seed, bound_wheel);
+      outcomes[i] =
+          RunScenario(s, configs, seed, bound_wheel, reach_iterations);
       std::fprintf(stderr, "scenario %d of %d done\n", i + 1, total);
     }
   };

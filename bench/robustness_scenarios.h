@@ -4,10 +4,10 @@
 // (tests/engine/robustness_subset_test.cc).
 //
 //   const Scenario s = DrawGrinderScenario(/*base_seed=*/2026, /*index=*/7);
-//   CorrectionOptions options;                       // the solver under test
+//   CorrectionOptions options;  // the solver under test
 //   const LoopRecord loop = RunClosedLoop(s, options, /*rounds=*/3);
-//   // loop.part_rms_um[k]: true rms of part k vs the target;
-//   loop.rounds[k].worse
+//   // loop.part_rms_um[k]: true rms of part k against the target
+//   // loop.rounds[k].worse: round k made the next part worse
 //
 // A scenario is one gear on one machine: the setup, the target, the hidden
 // machine errors and the measuring machine. The loop grinds with commanded +
@@ -15,45 +15,38 @@
 // and records what really happened next, which the solver never sees. Every
 // draw is deterministic in (base_seed, index).
 //
-// What is drawn (flat-wheel grinder; the choices a shop sees, stated once
-// here):
-//   gear      spur (1 in 4) or helical, |beta| uniform in [5, 35] deg, either
-//   hand, either
-//             flank; z log-uniform in [12, 150]; m_n log-uniform in [1, 12] mm;
-//             alpha_n one of 17.5, 20 (half of the draws), 22.5, 25 deg; face
-//             width b uniform in [5, 16] m_n; addendum uniform in [0.9, 1.1]
-//             m_n, dedendum in [1.15, 1.4] m_n about r_j.
-//   wheel     the fixed-wheel face-width rule of SHAVING.md §5, R_w >= (b cos
-//   beta)^2 / (8 h_s)
-//             + h_s / 2 with the infeed allowance h_s = 2 mm, raised by 5 %,
-//             and never below a shop wheel drawn uniform in [100, 250] mm (C_s
-//             = 0, fixed wheel).
-//   machine   K1, K2 uniform in [-60, 60] mm in 3 of 10 scenarios, else 0.
-//   errors    1-6 hidden errors, each on an axis X..C (order 0-3, weights
-//   4:3:2:1, one
-//             orthonormal Legendre term over the roll range whose rms motion is
-//             log-uniform in [1, 10] um for X, Y, Z and [2, 20] urad for A, B,
-//             C) or on the wheel (cone angle log-uniform in [20, 200] urad; a
-//             parabola whose depth at the bottom of the tooth, a_w (D - d_w)^2
-//             with D = (r_a - r_f) / cos alpha_n, is log-uniform in [1, 5] um,
-//             vertex d_w uniform in [0, D / 2]); random signs.
-//   target    1 in 7 a smooth random user grid (Legendre terms up to degree 3
-//   in xi and eta,
-//             amplitudes falling as 1 / (1 + i + j)^2, rms uniform in [1, 6]
-//             um); otherwise 1-3 distinct MODEL.md §7 kinds, amounts scaled by
-//             f = clamp(sqrt(m_n / 4), 0.5, 1.5): profile crowning [1, 8] um,
-//             lead crowning [2, 15], profile and helix slope
-//             +-[1, 10], tip relief [5, 25] (length 0.15-0.4, linear or
-//             parabolic), root relief [5, 20] (0.15-0.35), end relief [5, 20]
-//             (0.1-0.3), twist +-[2, 10], diagonal end relief C_1, C_2 in [0,
-//             20] (bands 0.15-0.4, a gradient along the contact line in 3 of
-//             10).
-//   probe     noise sigma uniform in [0.1, 0.5] um, told to the solver in half
-//   the scenarios
-//             (probe_noise_um = sigma, else -1); outliers in 15 % (each point
-//             with probability 2-5 %, +-10..30 um); missing points in 15 %
-//             (3-10 % of the points); 2-4 measured teeth in 25 % (passed to the
-//             solver as measured_teeth_um).
+// What is drawn (flat-wheel grinder; the choices a shop sees, stated once):
+// - gear: spur (1 in 4) or helical, |beta| uniform in [5, 35] deg, either
+//   hand, either flank; z log-uniform in [12, 150]; m_n log-uniform in
+//   [1, 12] mm; alpha_n one of 17.5, 20 (half of the draws), 22.5, 25 deg;
+//   face width b uniform in [5, 16] m_n; addendum uniform in [0.9, 1.1] m_n,
+//   dedendum in [1.15, 1.4] m_n about r_j.
+// - wheel: the fixed-wheel face-width rule of SHAVING.md §5,
+//   R_w >= (b cos beta)^2 / (8 h_s) + h_s / 2 with the infeed allowance
+//   h_s = 2 mm, raised by 5 %, and never below a shop wheel drawn uniform in
+//   [100, 250] mm (C_s = 0, fixed wheel).
+// - machine: K1, K2 uniform in [-60, 60] mm in 3 of 10 scenarios, else 0.
+// - errors: 1-6 hidden errors, each on an axis X..C (order 0-3, weights
+//   4:3:2:1, one orthonormal Legendre term over the roll range whose rms
+//   motion is log-uniform in [1, 10] um for X, Y, Z and [2, 20] urad for A, B,
+//   C) or on the wheel (cone angle log-uniform in [20, 200] urad; a parabola
+//   whose depth at the bottom of the tooth, a_w (D - d_w)^2 with
+//   D = (r_a - r_f) / cos alpha_n, is log-uniform in [1, 5] um, vertex d_w
+//   uniform in [0, D / 2]); random signs.
+// - target: 1 in 7 a smooth random user grid (Legendre terms up to degree 3
+//   in xi and eta, amplitudes falling as 1 / (1 + i + j)^2, rms uniform in
+//   [1, 6] um); otherwise 1-3 distinct MODEL.md §7 kinds, amounts scaled by
+//   f = clamp(sqrt(m_n / 4), 0.5, 1.5): profile crowning [1, 8] um, lead
+//   crowning [2, 15], profile and helix slope +-[1, 10], tip relief [5, 25]
+//   (length 0.15-0.4, linear or parabolic), root relief [5, 20] (0.15-0.35),
+//   end relief [5, 20] (0.1-0.3), twist +-[2, 10], diagonal end relief C_1,
+//   C_2 in [0, 20] (bands 0.15-0.4, a gradient along the contact line in 3 of
+//   10).
+// - probe: noise sigma uniform in [0.1, 0.5] um, told to the solver in half
+//   the scenarios (probe_noise_um = sigma, else -1); outliers in 15 % (each
+//   point with probability 2-5 %, +-10..30 um); missing points in 15 % (3-10 %
+//   of the points); 2-4 measured teeth in 25 % (passed to the solver as
+//   measured_teeth_um).
 // A draw the engine refuses (ValidateSetup) or whose nominal flank the wheel
 // does not reach at every grid point is redrawn with the next attempt's seed;
 // `redraws` counts them.
@@ -542,7 +535,7 @@ inline std::string Scenario::Describe() const {
   return out;
 }
 
-// ---------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------
 // The closed loop.
 
 // Rms of the finite entries (NaN when there is none) and their count.
