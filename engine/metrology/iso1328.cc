@@ -142,49 +142,71 @@ TraceFigures ComputeTraceFigures(const std::vector<double>& abscissa_mm,
   return f;
 }
 
-FlankFigures ComputeFlankFigures(const Iso1328Options& options,
-                                 const GearData& gear,
-                                 const GridOptions& grid,
-                                 const Eigen::VectorXd& deviations_um,
-                                 const Eigen::VectorXd& target_um) {
-  FlankFigures f;
+namespace {
+
+// Checks the options, gear, grid and the sizes of the grid and target; on
+// failure sets f->message.
+bool CheckFigureInputs(const Iso1328Options& options,
+                       const GearData& gear,
+                       const GridOptions& grid,
+                       const Eigen::VectorXd& deviations_um,
+                       const Eigen::VectorXd& target_um,
+                       FlankFigures* f) {
   std::string error;
   if (!options.IsValid(&error)) {
-    f.message = error;
-    return f;
+    f->message = error;
+    return false;
   }
   ValidationIssue issue;
   if (!ValidateGear(gear, &issue) || !ValidateGrid(grid, &issue)) {
-    f.message = issue.field + ": " + issue.message;
-    return f;
+    f->message = issue.field + ": " + issue.message;
+    return false;
   }
   const int rows = grid.profile_points;
   const int columns = grid.lead_points;
   if (deviations_um.size() != rows * columns) {
-    f.message = "the grid has " + std::to_string(deviations_um.size()) +
-                " values, expected " + std::to_string(rows) + " x " +
-                std::to_string(columns);
-    return f;
+    f->message = "the grid has " + std::to_string(deviations_um.size()) +
+                 " values, expected " + std::to_string(rows) + " x " +
+                 std::to_string(columns);
+    return false;
   }
   if (target_um.size() != 0 && target_um.size() != deviations_um.size()) {
-    f.message = "the target has " + std::to_string(target_um.size()) +
-                " values, expected " + std::to_string(rows) + " x " +
-                std::to_string(columns);
-    return f;
+    f->message = "the target has " + std::to_string(target_um.size()) +
+                 " values, expected " + std::to_string(rows) + " x " +
+                 std::to_string(columns);
+    return false;
   }
-  const std::vector<double> l = GridRollLengthsMm(gear, grid);
-  const std::vector<double> x = GridAxialPositionsMm(gear, grid);
-  f.profile_grid_extent_mm = l.back() - l.front();
-  f.helix_grid_extent_mm = x.back() - x.front();
+  return true;
+}
+
+// The grid extents and the ISO evaluation lengths L_alpha, L_beta.
+void SetFigureLengths(const Iso1328Options& options,
+                      const GearData& gear,
+                      const std::vector<double>& l,
+                      const std::vector<double>& x,
+                      FlankFigures* f) {
+  f->profile_grid_extent_mm = l.back() - l.front();
+  f->helix_grid_extent_mm = x.back() - x.front();
   const double b = gear.face_width_mm;
-  f.profile_evaluation_length_mm =
+  f->profile_evaluation_length_mm =
       options.profile_evaluation_length_mm > 0.0
           ? options.profile_evaluation_length_mm
           : 0.95 * (gear.TipRollLengthMm() - gear.FormRollLengthMm());
-  f.helix_evaluation_length_mm =
+  f->helix_evaluation_length_mm =
       options.helix_evaluation_length_mm > 0.0
           ? options.helix_evaluation_length_mm
           : b - 2.0 * std::min(0.05 * b, gear.normal_module_mm);
+}
+
+// The figures of every grid column (profile) and row (helix); fails with
+// f->message when one keeps fewer than 3 points.
+bool ComputeAllTraceFigures(const std::vector<double>& l,
+                            const std::vector<double>& x,
+                            const Eigen::VectorXd& deviations_um,
+                            const Eigen::VectorXd& target_um,
+                            int rows,
+                            int columns,
+                            FlankFigures* f) {
   auto value = [&](int i, int j) {
     const int p = i * columns + j;
     return target_um.size() != 0 ? deviations_um[p] - target_um[p]
@@ -193,67 +215,97 @@ FlankFigures ComputeFlankFigures(const Iso1328Options& options,
   for (int j = 0; j < columns; ++j) {
     std::vector<double> e(rows);
     for (int i = 0; i < rows; ++i) e[i] = value(i, j);
-    f.profile_traces.push_back(ComputeTraceFigures(
-        l, e, f.profile_grid_extent_mm, f.profile_evaluation_length_mm));
+    f->profile_traces.push_back(ComputeTraceFigures(
+        l, e, f->profile_grid_extent_mm, f->profile_evaluation_length_mm));
   }
   for (int i = 0; i < rows; ++i) {
     std::vector<double> e(columns);
     for (int j = 0; j < columns; ++j) e[j] = value(i, j);
-    f.helix_traces.push_back(ComputeTraceFigures(
-        x, e, f.helix_grid_extent_mm, f.helix_evaluation_length_mm));
+    f->helix_traces.push_back(ComputeTraceFigures(
+        x, e, f->helix_grid_extent_mm, f->helix_evaluation_length_mm));
   }
-  for (size_t j = 0; j < f.profile_traces.size(); ++j) {
-    if (f.profile_traces[j].points < 3) {
-      f.message = "grid column " + std::to_string(j) + " has " +
-                  std::to_string(f.profile_traces[j].points) +
-                  " points; the profile figures need 3";
-      return f;
+  for (size_t j = 0; j < f->profile_traces.size(); ++j) {
+    if (f->profile_traces[j].points < 3) {
+      f->message = "grid column " + std::to_string(j) + " has " +
+                   std::to_string(f->profile_traces[j].points) +
+                   " points; the profile figures need 3";
+      return false;
     }
   }
-  for (size_t i = 0; i < f.helix_traces.size(); ++i) {
-    if (f.helix_traces[i].points < 3) {
-      f.message = "grid row " + std::to_string(i) + " has " +
-                  std::to_string(f.helix_traces[i].points) +
-                  " points; the helix figures need 3";
-      return f;
+  for (size_t i = 0; i < f->helix_traces.size(); ++i) {
+    if (f->helix_traces[i].points < 3) {
+      f->message = "grid row " + std::to_string(i) + " has " +
+                   std::to_string(f->helix_traces[i].points) +
+                   " points; the helix figures need 3";
+      return false;
     }
   }
+  return true;
+}
 
+// The flank's means, worst traces and twists from its trace figures.
+void SummarizeTraceFigures(const std::vector<double>& l,
+                           const std::vector<double>& x,
+                           int rows,
+                           int columns,
+                           FlankFigures* f) {
   std::vector<double> slopes_a, slopes_b;
   double crown_a = 0.0, crown_b = 0.0;
-  for (const TraceFigures& t : f.profile_traces) {
+  for (const TraceFigures& t : f->profile_traces) {
     slopes_a.push_back(t.slope_grid_um);
-    f.fHa_max_abs_grid =
-        std::max(f.fHa_max_abs_grid, std::abs(t.slope_grid_um));
-    f.fHa_max_abs = std::max(f.fHa_max_abs, std::abs(t.slope_iso_um));
-    f.ffa_max_abs = std::max(f.ffa_max_abs, std::abs(t.form_um));
-    f.Fa_max_abs = std::max(f.Fa_max_abs, std::abs(t.total_um));
+    f->fHa_max_abs_grid =
+        std::max(f->fHa_max_abs_grid, std::abs(t.slope_grid_um));
+    f->fHa_max_abs = std::max(f->fHa_max_abs, std::abs(t.slope_iso_um));
+    f->ffa_max_abs = std::max(f->ffa_max_abs, std::abs(t.form_um));
+    f->Fa_max_abs = std::max(f->Fa_max_abs, std::abs(t.total_um));
     crown_a += t.crowning_grid_um;
   }
-  for (const TraceFigures& t : f.helix_traces) {
+  for (const TraceFigures& t : f->helix_traces) {
     slopes_b.push_back(t.slope_grid_um);
-    f.fHb_max_abs_grid =
-        std::max(f.fHb_max_abs_grid, std::abs(t.slope_grid_um));
-    f.fHb_max_abs = std::max(f.fHb_max_abs, std::abs(t.slope_iso_um));
-    f.ffb_max_abs = std::max(f.ffb_max_abs, std::abs(t.form_um));
-    f.Fb_max_abs = std::max(f.Fb_max_abs, std::abs(t.total_um));
+    f->fHb_max_abs_grid =
+        std::max(f->fHb_max_abs_grid, std::abs(t.slope_grid_um));
+    f->fHb_max_abs = std::max(f->fHb_max_abs, std::abs(t.slope_iso_um));
+    f->ffb_max_abs = std::max(f->ffb_max_abs, std::abs(t.form_um));
+    f->Fb_max_abs = std::max(f->Fb_max_abs, std::abs(t.total_um));
     crown_b += t.crowning_grid_um;
   }
   const double scale_a =
-      f.profile_evaluation_length_mm / f.profile_grid_extent_mm;
-  const double scale_b = f.helix_evaluation_length_mm / f.helix_grid_extent_mm;
-  f.fHa_mean_grid = Mean(slopes_a);
-  f.fHa_mean = f.fHa_mean_grid * scale_a;
-  f.Ca_mean_grid = crown_a / columns;
-  f.Ca_mean = f.Ca_mean_grid * scale_a * scale_a;
-  f.fHb_mean_grid = Mean(slopes_b);
-  f.fHb_mean = f.fHb_mean_grid * scale_b;
-  f.Cb_mean_grid = crown_b / rows;
-  f.Cb_mean = f.Cb_mean_grid * scale_b * scale_b;
-  f.twist_alpha_grid = LineSlope(x, slopes_a) * f.helix_grid_extent_mm;
-  f.twist_beta_grid = LineSlope(l, slopes_b) * f.profile_grid_extent_mm;
-  f.twist_alpha = f.twist_alpha_grid * scale_a;
-  f.twist_beta = f.twist_beta_grid * scale_b;
+      f->profile_evaluation_length_mm / f->profile_grid_extent_mm;
+  const double scale_b =
+      f->helix_evaluation_length_mm / f->helix_grid_extent_mm;
+  f->fHa_mean_grid = Mean(slopes_a);
+  f->fHa_mean = f->fHa_mean_grid * scale_a;
+  f->Ca_mean_grid = crown_a / columns;
+  f->Ca_mean = f->Ca_mean_grid * scale_a * scale_a;
+  f->fHb_mean_grid = Mean(slopes_b);
+  f->fHb_mean = f->fHb_mean_grid * scale_b;
+  f->Cb_mean_grid = crown_b / rows;
+  f->Cb_mean = f->Cb_mean_grid * scale_b * scale_b;
+  f->twist_alpha_grid = LineSlope(x, slopes_a) * f->helix_grid_extent_mm;
+  f->twist_beta_grid = LineSlope(l, slopes_b) * f->profile_grid_extent_mm;
+  f->twist_alpha = f->twist_alpha_grid * scale_a;
+  f->twist_beta = f->twist_beta_grid * scale_b;
+}
+
+}  // namespace
+
+FlankFigures ComputeFlankFigures(const Iso1328Options& options,
+                                 const GearData& gear,
+                                 const GridOptions& grid,
+                                 const Eigen::VectorXd& deviations_um,
+                                 const Eigen::VectorXd& target_um) {
+  FlankFigures f;
+  if (!CheckFigureInputs(options, gear, grid, deviations_um, target_um, &f))
+    return f;
+  const int rows = grid.profile_points;
+  const int columns = grid.lead_points;
+  const std::vector<double> l = GridRollLengthsMm(gear, grid);
+  const std::vector<double> x = GridAxialPositionsMm(gear, grid);
+  SetFigureLengths(options, gear, l, x, &f);
+  if (!ComputeAllTraceFigures(
+          l, x, deviations_um, target_um, rows, columns, &f))
+    return f;
+  SummarizeTraceFigures(l, x, rows, columns, &f);
   f.ok = true;
   return f;
 }
