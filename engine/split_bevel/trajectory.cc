@@ -48,25 +48,23 @@ double SegmentMid(const SplitBevelRequest& request,
              : SlotAzimuth(gear, request.cut.slot_index);
 }
 
-}  // namespace
+// An angle in radians as a number of degrees for a message.
+std::string Deg(double rad) { return Number(RadToDeg(rad)); }
 
-bool SplitBevelRequest::IsValid(std::string* field,
-                                std::string* message) const {
+// The request field that names the spiral angle given.
+std::string SpiralField(const SplitBevelGear& gear) {
+  return gear.mean_spiral_angle_rad ? "gear.mean_spiral_angle_deg"
+                                    : "gear.outer_spiral_angle_deg";
+}
+
+// The gear's cone distance, face width and spiral angle checks of IsValid.
+bool CheckGearSize(const SplitBevelGear& gear,
+                   std::string* field,
+                   std::string* message) {
   const auto fail = [&](const std::string& f, const std::string& m) {
     return Fail(f, m, field, message);
   };
   const auto finite = [](double x) { return std::isfinite(x); };
-  const auto deg = [](double rad) { return Number(RadToDeg(rad)); };
-
-  // --- gear ---
-  if (gear.teeth < 1)
-    return fail("gear.teeth",
-                "gear.teeth must be >= 1, got " + std::to_string(gear.teeth));
-  if (!finite(gear.pitch_angle_rad) || gear.pitch_angle_rad <= 0.0 ||
-      gear.pitch_angle_rad > kPi / 2 + kAngleSlackRad)
-    return fail("gear.pitch_angle_deg",
-                "gear.pitch_angle_deg must be in (0, 90], got " +
-                    deg(gear.pitch_angle_rad));
   if (gear.outer_cone_distance_mm.has_value() ==
       gear.outer_transverse_module_mm.has_value())
     return fail("gear.outer_cone_distance_mm",
@@ -94,6 +92,26 @@ bool SplitBevelRequest::IsValid(std::string* field,
     return fail("gear.face_width_mm",
                 "gear.face_width_mm must be in (0, Re = " + Number(re) +
                     "), got " + Number(gear.face_width_mm));
+  return true;
+}
+
+// The gear checks of IsValid, in their order.
+bool CheckGear(const SplitBevelGear& gear,
+               std::string* field,
+               std::string* message) {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  const auto finite = [](double x) { return std::isfinite(x); };
+  if (gear.teeth < 1)
+    return fail("gear.teeth",
+                "gear.teeth must be >= 1, got " + std::to_string(gear.teeth));
+  if (!finite(gear.pitch_angle_rad) || gear.pitch_angle_rad <= 0.0 ||
+      gear.pitch_angle_rad > kPi / 2 + kAngleSlackRad)
+    return fail("gear.pitch_angle_deg",
+                "gear.pitch_angle_deg must be in (0, 90], got " +
+                    Deg(gear.pitch_angle_rad));
+  if (!CheckGearSize(gear, field, message)) return false;
   if (gear.mean_spiral_angle_rad.has_value() ==
       gear.outer_spiral_angle_rad.has_value())
     return fail("gear.mean_spiral_angle_deg",
@@ -101,20 +119,18 @@ bool SplitBevelRequest::IsValid(std::string* field,
                             "and gear.outer_spiral_angle_deg (") +
                     (gear.mean_spiral_angle_rad ? "both" : "neither") +
                     " given)");
-  const std::string spiral_field = gear.mean_spiral_angle_rad
-                                       ? "gear.mean_spiral_angle_deg"
-                                       : "gear.outer_spiral_angle_deg";
+  const std::string spiral_field = SpiralField(gear);
   const double spiral = gear.mean_spiral_angle_rad
                             ? *gear.mean_spiral_angle_rad
                             : *gear.outer_spiral_angle_rad;
   if (!finite(spiral) || spiral <= 0.0 || spiral >= DegToRad(60.0))
     return fail(spiral_field,
-                spiral_field + " must be in (0, 60), got " + deg(spiral));
+                spiral_field + " must be in (0, 60), got " + Deg(spiral));
   if (!finite(gear.pressure_angle_rad) || gear.pressure_angle_rad <= 0.0 ||
       gear.pressure_angle_rad >= DegToRad(45.0))
     return fail("gear.pressure_angle_deg",
                 "gear.pressure_angle_deg must be in (0, 45), got " +
-                    deg(gear.pressure_angle_rad));
+                    Deg(gear.pressure_angle_rad));
   const std::pair<const std::optional<double>*, const char*> proportions[] = {
       {&gear.addendum_mm, "gear.addendum_mm"},
       {&gear.dedendum_mm, "gear.dedendum_mm"},
@@ -124,22 +140,40 @@ bool SplitBevelRequest::IsValid(std::string* field,
       return fail(name,
                   std::string(name) + " must be > 0, got " + Number(**value));
   }
+  return true;
+}
 
-  // --- tool ---
-  if (!finite(tool.radius_mm) || tool.radius_mm <= 0.0)
-    return fail("tool.radius_mm",
-                "tool.radius_mm must be > 0, got " + Number(tool.radius_mm));
-  if (!finite(tool.stock_mm) || tool.stock_mm <= -tool.radius_mm)
-    return fail("tool.stock_mm",
+// The tool checks of IsValid.
+bool CheckTool(const SplitBevelTool& tool,
+               std::string* field,
+               std::string* message) {
+  if (!std::isfinite(tool.radius_mm) || tool.radius_mm <= 0.0)
+    return Fail("tool.radius_mm",
+                "tool.radius_mm must be > 0, got " + Number(tool.radius_mm),
+                field,
+                message);
+  if (!std::isfinite(tool.stock_mm) || tool.stock_mm <= -tool.radius_mm)
+    return Fail("tool.stock_mm",
                 "tool.stock_mm must be > -tool.radius_mm = " +
-                    Number(-tool.radius_mm) + ", got " + Number(tool.stock_mm));
+                    Number(-tool.radius_mm) + ", got " + Number(tool.stock_mm),
+                field,
+                message);
+  return true;
+}
 
-  // --- cut ---
-  if (std::abs(static_cast<long long>(cut.slot_index)) >= gear.teeth)
-    return fail("cut.slot_index",
-                "|cut.slot_index| must be < gear.teeth = " +
-                    std::to_string(gear.teeth) + ", got " +
-                    std::to_string(cut.slot_index));
+// The cut checks of IsValid (the slot against the gear's teeth).
+bool CheckCut(const SplitBevelCut& cut,
+              int teeth,
+              std::string* field,
+              std::string* message) {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  if (std::abs(static_cast<long long>(cut.slot_index)) >= teeth)
+    return fail(
+        "cut.slot_index",
+        "|cut.slot_index| must be < gear.teeth = " + std::to_string(teeth) +
+            ", got " + std::to_string(cut.slot_index));
   if (cut.flanks.empty())
     return fail("cut.flanks",
                 "cut.flanks must name at least one of convex, concave");
@@ -164,17 +198,26 @@ bool SplitBevelRequest::IsValid(std::string* field,
         "cut.steps",
         "cut.steps must be in 2..20001, got " + std::to_string(*cut.steps));
   if (cut.chord_tolerance_mm &&
-      (!finite(*cut.chord_tolerance_mm) ||
+      (!std::isfinite(*cut.chord_tolerance_mm) ||
        *cut.chord_tolerance_mm < kSplitBevelMinChordToleranceMm))
     return fail("cut.chord_tolerance_mm",
                 "cut.chord_tolerance_mm must be >= 1e-4, got " +
                     Number(*cut.chord_tolerance_mm));
-  if (!finite(cut.feed_mm_per_min) || cut.feed_mm_per_min <= 0.0)
+  if (!std::isfinite(cut.feed_mm_per_min) || cut.feed_mm_per_min <= 0.0)
     return fail(
         "cut.feed_mm_per_min",
         "cut.feed_mm_per_min must be > 0, got " + Number(cut.feed_mm_per_min));
+  return true;
+}
 
-  // --- machine ---
+// The machine checks of IsValid.
+bool CheckMachine(const SplitBevelMachine& machine,
+                  std::string* field,
+                  std::string* message) {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  const auto finite = [](double x) { return std::isfinite(x); };
   if (!finite(machine.pivot_length_mm) || machine.pivot_length_mm < 0.0)
     return fail("machine.pivot_length_mm",
                 "machine.pivot_length_mm must be >= 0, got " +
@@ -185,15 +228,24 @@ bool SplitBevelRequest::IsValid(std::string* field,
     return fail(
         "machine.a_limits_deg",
         "machine.a_limits_deg must be [min, max] with min < max, got [" +
-            deg(limits.a_min_rad) + ", " + deg(limits.a_max_rad) + "]");
+            Deg(limits.a_min_rad) + ", " + Deg(limits.a_max_rad) + "]");
   if (!finite(limits.b_min_rad) || !finite(limits.b_max_rad) ||
       limits.b_min_rad >= limits.b_max_rad)
     return fail(
         "machine.b_limits_deg",
         "machine.b_limits_deg must be [min, max] with min < max, got [" +
-            deg(limits.b_min_rad) + ", " + deg(limits.b_max_rad) + "]");
+            Deg(limits.b_min_rad) + ", " + Deg(limits.b_max_rad) + "]");
+  return true;
+}
 
-  // --- setup ---
+// The setup checks of IsValid.
+bool CheckSetup(const SplitBevelSetup& setup,
+                std::string* field,
+                std::string* message) {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  const auto finite = [](double x) { return std::isfinite(x); };
   if (!setup.apex_mm.allFinite())
     return fail("setup.apex_mm", "setup.apex_mm must be three finite numbers");
   if (setup.segment_mid_rad && !finite(*setup.segment_mid_rad))
@@ -204,10 +256,22 @@ bool SplitBevelRequest::IsValid(std::string* field,
        *setup.segment_angle_rad > 2.0 * kPi + kAngleSlackRad))
     return fail("setup.segment_angle_deg",
                 "setup.segment_angle_deg must be in (0, 360], got " +
-                    deg(*setup.segment_angle_rad));
+                    Deg(*setup.segment_angle_rad));
+  return true;
+}
 
-  // --- the gear, tool and segment together ---
-  const SplitBevelGearData d = DeriveSplitBevelGear(gear);
+// The checks of the derived gear's slot against the tool: the base circle, the
+// root width, the tool's width and the concave flank's curvature.
+bool CheckSlotAndTool(const SplitBevelRequest& request,
+                      const SplitBevelGearData& d,
+                      std::string* field,
+                      std::string* message) {
+  const auto fail = [&](const std::string& f, const std::string& m) {
+    return Fail(f, m, field, message);
+  };
+  const SplitBevelTool& tool = request.tool;
+  const SplitBevelCut& cut = request.cut;
+  const std::string spiral_field = SpiralField(request.gear);
   if (!(d.base_radius_mm < d.inner_cone_distance_mm))
     return fail(spiral_field,
                 "the base circle r_b = " + Number(d.base_radius_mm) +
@@ -247,27 +311,53 @@ bool SplitBevelRequest::IsValid(std::string* field,
               " mm >= (Ri sin(beta_i) - h_f tan(alpha)) / cos(alpha) = " +
               Number(bend) + " mm");
   }
-  if (setup.segment_angle_rad) {
-    const double mid = SegmentMid(*this, d);
-    const double half = 0.5 * *setup.segment_angle_rad;
-    for (const SplitBevelFlank flank : cut.flanks) {
-      // psi_f(R) is monotonic in R: its ends bound the line.
-      for (const double r :
-           {d.inner_cone_distance_mm, d.outer_cone_distance_mm}) {
-        const double off =
-            AngleDifference(FlankLineAzimuth(d, cut.slot_index, flank, r), mid);
-        if (std::abs(off) > half)
-          return fail("cut.slot_index",
-                      std::string("the ") + SplitBevelFlankName(flank) +
-                          " pitch line of slot " +
-                          std::to_string(cut.slot_index) + " reaches " +
-                          deg(off) +
-                          " deg from segment_mid_deg at R = " + Number(r) +
-                          " mm, outside the segment's +-" + deg(half) + " deg");
-      }
+  return true;
+}
+
+// Whether the pitch lines of the cut flanks stay inside the segment, when one
+// is given.
+bool CheckSegment(const SplitBevelRequest& request,
+                  const SplitBevelGearData& d,
+                  std::string* field,
+                  std::string* message) {
+  const SplitBevelCut& cut = request.cut;
+  if (!request.setup.segment_angle_rad) return true;
+  const double mid = SegmentMid(request, d);
+  const double half = 0.5 * *request.setup.segment_angle_rad;
+  for (const SplitBevelFlank flank : cut.flanks) {
+    // psi_f(R) is monotonic in R: its ends bound the line.
+    for (const double r :
+         {d.inner_cone_distance_mm, d.outer_cone_distance_mm}) {
+      const double off =
+          AngleDifference(FlankLineAzimuth(d, cut.slot_index, flank, r), mid);
+      if (std::abs(off) > half)
+        return Fail("cut.slot_index",
+                    std::string("the ") + SplitBevelFlankName(flank) +
+                        " pitch line of slot " +
+                        std::to_string(cut.slot_index) + " reaches " +
+                        Deg(off) +
+                        " deg from segment_mid_deg at R = " + Number(r) +
+                        " mm, outside the segment's +-" + Deg(half) + " deg",
+                    field,
+                    message);
     }
   }
   return true;
+}
+
+}  // namespace
+
+bool SplitBevelRequest::IsValid(std::string* field,
+                                std::string* message) const {
+  if (!CheckGear(gear, field, message)) return false;
+  if (!CheckTool(tool, field, message)) return false;
+  if (!CheckCut(cut, gear.teeth, field, message)) return false;
+  if (!CheckMachine(machine, field, message)) return false;
+  if (!CheckSetup(setup, field, message)) return false;
+  // The gear, tool and segment together.
+  const SplitBevelGearData d = DeriveSplitBevelGear(gear);
+  if (!CheckSlotAndTool(*this, d, field, message)) return false;
+  return CheckSegment(*this, d, field, message);
 }
 
 Eigen::Vector3d SplitBevelToolCentre(const SplitBevelFlankSurface& flank,
@@ -339,6 +429,193 @@ int StationsForTolerance(const SplitBevelFlankSurface& flank,
   return hi;
 }
 
+// The head angles of the previous point, which the next one keeps close to.
+struct HeadTrack {
+  HeadAngles previous;
+  bool have_previous = false;
+};
+
+// The result of a chord tolerance that needs more than the maximum number of
+// stations.
+SplitBevelResult ChordToleranceFailure(const SplitBevelGearData& gear,
+                                       double chord_tolerance_mm,
+                                       SplitBevelFlank flank_side,
+                                       int level) {
+  SplitBevelResult failed;
+  failed.derived = gear;
+  failed.field = "cut.chord_tolerance_mm";
+  failed.message = "cut.chord_tolerance_mm = " + Number(chord_tolerance_mm) +
+                   " mm needs more than " +
+                   std::to_string(kSplitBevelMaxSteps) + " stations on the " +
+                   SplitBevelFlankName(flank_side) + " flank, level " +
+                   std::to_string(level);
+  return failed;
+}
+
+// The result of a tool axis that no head position within the limits reaches.
+SplitBevelResult HeadLimitFailure(const SplitBevelRequest& request,
+                                  const SplitBevelGearData& gear,
+                                  double cone_distance_mm,
+                                  SplitBevelFlank flank_side,
+                                  int level) {
+  SplitBevelResult failed;
+  failed.derived = gear;
+  failed.field = "machine.a_limits_deg";
+  failed.message =
+      std::string(
+          "no head position within the axis limits for the tool axis "
+          "at R = ") +
+      Number(cone_distance_mm) + " mm on the " +
+      SplitBevelFlankName(flank_side) + " flank, level " +
+      std::to_string(level) + " (A in [" +
+      Number(RadToDeg(request.machine.limits.a_min_rad)) + ", " +
+      Number(RadToDeg(request.machine.limits.a_max_rad)) + "] deg, B in [" +
+      Number(RadToDeg(request.machine.limits.b_min_rad)) + ", " +
+      Number(RadToDeg(request.machine.limits.b_max_rad)) + "] deg)";
+  return failed;
+}
+
+// The n stations' sections and arc lengths along the pass direction, the ends
+// exactly at Ri and Re.
+void StationSections(const SplitBevelFlankSurface& flank,
+                     const SplitBevelGearData& gear,
+                     SplitBevelStart from,
+                     int n,
+                     double total_arc,
+                     std::vector<FlankSection>* sections,
+                     std::vector<double>* arcs) {
+  sections->clear();
+  arcs->clear();
+  sections->reserve(n);
+  arcs->reserve(n);
+  for (int j = 0; j < n; ++j) {
+    const int i = from == SplitBevelStart::kToe ? j : n - 1 - j;
+    // The ends exactly at Ri and Re.
+    const double arc = i == n - 1 ? total_arc : total_arc * i / (n - 1);
+    const double r = i == 0       ? gear.inner_cone_distance_mm
+                     : i == n - 1 ? gear.outer_cone_distance_mm
+                                  : ConeDistanceAtArc(gear, arc);
+    arcs->push_back(arc);
+    sections->push_back(flank.Section(r));
+  }
+}
+
+// The point's geometry at tip height `tip` of section s: pitch and flank
+// point, normal, tool centre and axis.
+void SetPointGeometry(const FlankSection& s,
+                      double arc,
+                      double tip,
+                      double offset,
+                      SplitBevelPoint* point) {
+  point->arc_mm = arc;
+  point->cone_distance_mm = s.cone_distance_mm;
+  point->spiral_angle_rad = s.spiral_angle_rad;
+  point->pitch_point_mm = s.pitch_point_mm;
+  point->flank_point_mm = s.Point(tip);
+  point->flank_normal = s.Normal(tip);
+  point->tool_centre_mm = point->flank_point_mm + offset * point->flank_normal;
+  point->tool_axis = s.ruling;
+}
+
+// Widens `deviation` by the side deviation along the tool's side line from the
+// tip height up to the addendum.
+void AddSideDeviation(const SplitBevelFlankSurface& flank,
+                      const FlankSection& s,
+                      const SplitBevelPoint& point,
+                      double tip,
+                      double addendum_mm,
+                      double cos_alpha,
+                      double tool_radius_mm,
+                      SplitBevelSideDeviation* deviation) {
+  // The foot point moves smoothly with the height: each Newton starts from the
+  // parabola through the three previous feet (the line through two at the
+  // third height), with the last exact section as its anchor.
+  FlankSection anchor = s;
+  double foot_previous = s.cone_distance_mm, foot_before = s.cone_distance_mm,
+         foot_third = 0.0;
+  for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
+    const double height =
+        tip + (addendum_mm - tip) * h / (kSplitBevelDeviationHeights - 1);
+    const Eigen::Vector3d x =
+        point.tool_centre_mm + ((height - tip) / cos_alpha) * point.tool_axis;
+    const double guess = h < 2 ? foot_previous
+                         : h == 2
+                             ? 2.0 * foot_previous - foot_before
+                             : 3.0 * (foot_previous - foot_before) + foot_third;
+    const SplitBevelFlankSurface::NearestPoint near =
+        flank.Nearest(x, guess, &anchor);
+    foot_third = foot_before;
+    foot_before = foot_previous;
+    foot_previous = near.cone_distance_mm;
+    const double gap = (x - near.point_mm).dot(near.normal) - tool_radius_mm;
+    deviation->min_mm = std::min(deviation->min_mm, gap);
+    deviation->max_mm = std::max(deviation->max_mm, gap);
+  }
+}
+
+// One pass of `flank_side` at depth `level` and tip height `tip` over the
+// stations; false with *failed set when a point is out of the head's limits.
+bool ComputePass(const SplitBevelRequest& request,
+                 const SplitBevelGearData& gear,
+                 const SplitBevelFlankSurface& flank,
+                 SplitBevelFlank flank_side,
+                 int level,
+                 double tip,
+                 const std::vector<FlankSection>& sections,
+                 const std::vector<double>& arcs,
+                 const Eigen::Matrix4d& blank_to_machine,
+                 HeadTrack* track,
+                 SplitBevelPass* pass,
+                 SplitBevelResult* failed) {
+  const Eigen::Matrix3d rotation = blank_to_machine.block<3, 3>(0, 0);
+  const Eigen::Vector3d apex = request.setup.apex_mm;
+  const SplitBevelTool& tool = request.tool;
+  const double offset = tool.radius_mm + tool.stock_mm;
+  const double cos_alpha = std::cos(gear.pressure_angle_rad);
+  const double pivot = request.machine.pivot_length_mm;
+  const int n = static_cast<int>(sections.size());
+  pass->slot = request.cut.slot_index;
+  pass->flank = flank_side;
+  pass->level = level;
+  pass->tip_height_mm = tip;
+  pass->side_deviation_mm.min_mm = std::numeric_limits<double>::infinity();
+  pass->side_deviation_mm.max_mm = -std::numeric_limits<double>::infinity();
+  pass->points.resize(n);
+  for (int j = 0; j < n; ++j) {
+    const FlankSection& s = sections[j];
+    SplitBevelPoint& point = pass->points[j];
+    SetPointGeometry(s, arcs[j], tip, offset, &point);
+
+    const Eigen::Vector3d axis_m = rotation * point.tool_axis;
+    const Eigen::Vector3d centre_m = apex + rotation * point.tool_centre_mm;
+    HeadAngles angles;
+    if (!ChooseHeadAngles(axis_m,
+                          track->have_previous ? &track->previous : nullptr,
+                          request.machine.limits,
+                          &angles)) {
+      *failed = HeadLimitFailure(
+          request, gear, s.cone_distance_mm, flank_side, level);
+      return false;
+    }
+    track->previous = angles;
+    track->have_previous = true;
+    // The pivot from the requested axis itself (a_m(A, B) equals it to
+    // rounding).
+    const Eigen::Vector3d pivot_m = centre_m + pivot * axis_m;
+    point.axes = HeadAxes{
+        pivot_m.x(), pivot_m.y(), pivot_m.z(), angles.a_rad, angles.b_rad};
+    AddSideDeviation(flank,
+                     s,
+                     point,
+                     tip,
+                     gear.addendum_mm,
+                     cos_alpha,
+                     tool.radius_mm,
+                     &pass->side_deviation_mm);
+  }
+  return true;
+}
+
 }  // namespace
 
 SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
@@ -349,19 +626,13 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
   result.segment_mid_rad = SegmentMid(request, gear);
   result.blank_to_machine =
       SplitBevelBlankToMachine(result.segment_mid_rad, request.setup.apex_mm);
-  const Eigen::Matrix3d rotation = result.blank_to_machine.block<3, 3>(0, 0);
-  const Eigen::Vector3d apex = request.setup.apex_mm;
 
   const SplitBevelCut& cut = request.cut;
   const SplitBevelTool& tool = request.tool;
-  const double offset = tool.radius_mm + tool.stock_mm;
-  const double cos_alpha = std::cos(gear.pressure_angle_rad);
   const double total_arc = ArcLengthAt(gear, gear.outer_cone_distance_mm);
   const double depth = gear.addendum_mm + gear.dedendum_mm;
-  const double pivot = request.machine.pivot_length_mm;
 
-  HeadAngles previous;
-  bool have_previous = false;
+  HeadTrack track;
   for (const SplitBevelFlank flank_side : cut.flanks) {
     const SplitBevelFlankSurface flank(gear, cut.slot_index, flank_side);
     // Sections at the stations, shared by the levels that use the same n.
@@ -373,119 +644,28 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
       int n = cut.steps.value_or(kSplitBevelDefaultSteps);
       if (cut.chord_tolerance_mm) {
         n = StationsForTolerance(flank, tool, tip, *cut.chord_tolerance_mm);
-        if (n == 0) {
-          SplitBevelResult failed;
-          failed.derived = gear;
-          failed.field = "cut.chord_tolerance_mm";
-          failed.message =
-              "cut.chord_tolerance_mm = " + Number(*cut.chord_tolerance_mm) +
-              " mm needs more than " + std::to_string(kSplitBevelMaxSteps) +
-              " stations on the " + SplitBevelFlankName(flank_side) +
-              " flank, level " + std::to_string(level);
-          return failed;
-        }
+        if (n == 0)
+          return ChordToleranceFailure(
+              gear, *cut.chord_tolerance_mm, flank_side, level);
       }
-      if (static_cast<int>(sections.size()) != n) {
-        sections.clear();
-        arcs.clear();
-        sections.reserve(n);
-        arcs.reserve(n);
-        for (int j = 0; j < n; ++j) {
-          const int i = cut.from == SplitBevelStart::kToe ? j : n - 1 - j;
-          // The ends exactly at Ri and Re.
-          const double arc = i == n - 1 ? total_arc : total_arc * i / (n - 1);
-          const double r = i == 0       ? gear.inner_cone_distance_mm
-                           : i == n - 1 ? gear.outer_cone_distance_mm
-                                        : ConeDistanceAtArc(gear, arc);
-          arcs.push_back(arc);
-          sections.push_back(flank.Section(r));
-        }
-      }
+      if (static_cast<int>(sections.size()) != n)
+        StationSections(flank, gear, cut.from, n, total_arc, &sections, &arcs);
 
       SplitBevelPass pass;
-      pass.slot = cut.slot_index;
-      pass.flank = flank_side;
-      pass.level = level;
-      pass.tip_height_mm = tip;
-      pass.side_deviation_mm.min_mm = std::numeric_limits<double>::infinity();
-      pass.side_deviation_mm.max_mm = -std::numeric_limits<double>::infinity();
-      pass.points.resize(n);
-      for (int j = 0; j < n; ++j) {
-        const FlankSection& s = sections[j];
-        SplitBevelPoint& point = pass.points[j];
-        point.arc_mm = arcs[j];
-        point.cone_distance_mm = s.cone_distance_mm;
-        point.spiral_angle_rad = s.spiral_angle_rad;
-        point.pitch_point_mm = s.pitch_point_mm;
-        point.flank_point_mm = s.Point(tip);
-        point.flank_normal = s.Normal(tip);
-        point.tool_centre_mm =
-            point.flank_point_mm + offset * point.flank_normal;
-        point.tool_axis = s.ruling;
-
-        const Eigen::Vector3d axis_m = rotation * point.tool_axis;
-        const Eigen::Vector3d centre_m = apex + rotation * point.tool_centre_mm;
-        HeadAngles angles;
-        if (!ChooseHeadAngles(axis_m,
-                              have_previous ? &previous : nullptr,
-                              request.machine.limits,
-                              &angles)) {
-          SplitBevelResult failed;
-          failed.derived = gear;
-          failed.field = "machine.a_limits_deg";
-          failed.message =
-              std::string(
-                  "no head position within the axis limits for the tool axis "
-                  "at R = ") +
-              Number(s.cone_distance_mm) + " mm on the " +
-              SplitBevelFlankName(flank_side) + " flank, level " +
-              std::to_string(level) + " (A in [" +
-              Number(RadToDeg(request.machine.limits.a_min_rad)) + ", " +
-              Number(RadToDeg(request.machine.limits.a_max_rad)) +
-              "] deg, B in [" +
-              Number(RadToDeg(request.machine.limits.b_min_rad)) + ", " +
-              Number(RadToDeg(request.machine.limits.b_max_rad)) + "] deg)";
-          return failed;
-        }
-        previous = angles;
-        have_previous = true;
-        // The pivot from the requested axis itself (a_m(A, B) equals it to
-        // rounding).
-        const Eigen::Vector3d pivot_m = centre_m + pivot * axis_m;
-        point.axes = HeadAxes{
-            pivot_m.x(), pivot_m.y(), pivot_m.z(), angles.a_rad, angles.b_rad};
-
-        // Side deviation along the tool's side line from the tip height up to
-        // the addendum. The foot point moves smoothly with the height: each
-        // Newton starts from the parabola through the three previous feet (the
-        // line through two at the third height), with the last exact section as
-        // its anchor.
-        FlankSection anchor = s;
-        double foot_previous = s.cone_distance_mm,
-               foot_before = s.cone_distance_mm, foot_third = 0.0;
-        for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
-          const double height = tip + (gear.addendum_mm - tip) * h /
-                                          (kSplitBevelDeviationHeights - 1);
-          const Eigen::Vector3d x =
-              point.tool_centre_mm +
-              ((height - tip) / cos_alpha) * point.tool_axis;
-          const double guess =
-              h < 2    ? foot_previous
-              : h == 2 ? 2.0 * foot_previous - foot_before
-                       : 3.0 * (foot_previous - foot_before) + foot_third;
-          const SplitBevelFlankSurface::NearestPoint near =
-              flank.Nearest(x, guess, &anchor);
-          foot_third = foot_before;
-          foot_before = foot_previous;
-          foot_previous = near.cone_distance_mm;
-          const double gap =
-              (x - near.point_mm).dot(near.normal) - tool.radius_mm;
-          pass.side_deviation_mm.min_mm =
-              std::min(pass.side_deviation_mm.min_mm, gap);
-          pass.side_deviation_mm.max_mm =
-              std::max(pass.side_deviation_mm.max_mm, gap);
-        }
-      }
+      SplitBevelResult failed;
+      if (!ComputePass(request,
+                       gear,
+                       flank,
+                       flank_side,
+                       level,
+                       tip,
+                       sections,
+                       arcs,
+                       result.blank_to_machine,
+                       &track,
+                       &pass,
+                       &failed))
+        return failed;
       result.passes.push_back(std::move(pass));
     }
   }
