@@ -309,34 +309,114 @@ std::string ShavingSummary::BriefReport() const {
   return out.str();
 }
 
+namespace {
+
+// Checks the options and the input; on failure sets the summary to
+// kInvalidInput with the issue.
+bool CheckShavingInputs(const ShavingOptions& options,
+                        const ShavingInput& input,
+                        ShavingResult* result) {
+  std::string error;
+  ValidationIssue issue;
+  if (!options.IsValid(&error)) {
+    result->summary.termination = ShavingSummary::Termination::kInvalidInput;
+    result->summary.message = error;
+    result->summary.field = "options";
+    return false;
+  }
+  if (!input.IsValid(&issue)) {
+    result->summary.termination = ShavingSummary::Termination::kInvalidInput;
+    result->summary.message = issue.message;
+    result->summary.field = issue.field;
+    return false;
+  }
+  return true;
+}
+
+// The crossed axes angle, the centre distance and the wheel radius check.
+void SetMeshAndWheel(const ShavingInput& input, ShavingResult* result) {
+  const GearData& work = input.work_gear;
+  const GearData& cutter = input.cutter;
+  result->crossed_axes_angle_rad = CrossedAxesAngleRad(work, cutter);
+  result->centre_distance_mm = input.centre_distance_mm.value_or(
+      work.PitchRadiusMm() + cutter.PitchRadiusMm());
+  result->wheel = ComputeWheelRadiusCheck(cutter, input.wheel_check.h_s_mm);
+  result->contact_line_length_mm =
+      input.wheel_check.traverse_mm_per_rad == 0.0
+          ? result->wheel.contact_line_fixed_mm
+          : result->wheel.contact_line_traversing_mm;
+}
+
+// Solves grid point i on the unmodified and then the modified work gear and
+// records its contact, status and deviations in *result.
+void SolveGridPoint(const ShavingOptions& options,
+                    const DiagonallyModifiedFlank& base_flank,
+                    const DiagonallyModifiedFlank& modified_flank,
+                    const CrossedAxisMesh& base_mesh,
+                    const CrossedAxisMesh& modified_mesh,
+                    const FlankGridPoint& q,
+                    int i,
+                    ShavingResult* result) {
+  Eigen::Vector4d start;
+  if (!FindGlobalStart(options, base_mesh, q, &start)) return;
+  const ConjugatePointSolution base =
+      RefineConjugatePoint(options, base_mesh, q, start);
+  if (!base.converged) return;
+  const ConjugatePointSolution modified =
+      RefineConjugatePoint(options, modified_mesh, q, base.unknowns);
+  if (!modified.converged) return;
+  const Eigen::Vector4d& u = modified.unknowns;
+  ShavingContact& contact = result->contacts[i];
+  contact.roll_length_mm = u(0);
+  contact.x_mm = u(1);
+  contact.work_angle_rad = u(2);
+  contact.work_relief_um = modified_flank.Relief(u(0), u(1)).value_um;
+  contact.iterations = modified.iterations;
+  if (!modified_flank.OnActiveFlank(u(0), u(1)) ||
+      !base_flank.OnActiveFlank(base.unknowns(0), base.unknowns(1))) {
+    result->status[i] = ShavingPointStatus::kOutsideWorkFlank;
+    return;
+  }
+  result->status[i] = ShavingPointStatus::kOk;
+  result->delta_s_um(i) = u(3) * kMmToUm;
+  result->base_um(i) = base.unknowns(3) * kMmToUm;
+}
+
+// Counts and lists the points by status into the summary; returns the largest
+// delta_s of the solved points (-inf when none).
+double SummarizePoints(int n, int columns, ShavingResult* result) {
+  ShavingSummary& summary = result->summary;
+  summary.num_points = n;
+  double max_delta = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) {
+    const GridIndex index{i / columns, i % columns};
+    switch (result->status[i]) {
+      case ShavingPointStatus::kOk:
+        ++summary.num_solved;
+        max_delta = std::max(max_delta, result->delta_s_um(i));
+        break;
+      case ShavingPointStatus::kOutsideWorkFlank:
+        ++summary.num_outside_work_flank;
+        result->outside_work_flank.push_back(index);
+        break;
+      case ShavingPointStatus::kNotConverged:
+        ++summary.num_not_converged;
+        result->not_converged.push_back(index);
+        break;
+    }
+  }
+  return max_delta;
+}
+
+}  // namespace
+
 ShavingResult ComputeShavingCutterTarget(const ShavingOptions& options,
                                          const ShavingInput& input) {
   ShavingResult result;
-  {
-    std::string error;
-    ValidationIssue issue;
-    if (!options.IsValid(&error)) {
-      result.summary.termination = ShavingSummary::Termination::kInvalidInput;
-      result.summary.message = error;
-      result.summary.field = "options";
-      return result;
-    }
-    if (!input.IsValid(&issue)) {
-      result.summary.termination = ShavingSummary::Termination::kInvalidInput;
-      result.summary.message = issue.message;
-      result.summary.field = issue.field;
-      return result;
-    }
-  }
+  if (!CheckShavingInputs(options, input, &result)) return result;
   const GearData& work = input.work_gear;
   const GearData& cutter = input.cutter;
-  result.crossed_axes_angle_rad = CrossedAxesAngleRad(work, cutter);
-  result.centre_distance_mm = input.centre_distance_mm.value_or(
-      work.PitchRadiusMm() + cutter.PitchRadiusMm());
-  result.wheel = ComputeWheelRadiusCheck(cutter, input.wheel_check.h_s_mm);
-  result.contact_line_length_mm = input.wheel_check.traverse_mm_per_rad == 0.0
-                                      ? result.wheel.contact_line_fixed_mm
-                                      : result.wheel.contact_line_traversing_mm;
+  SetMeshAndWheel(input, &result);
 
   GrindingSetup cutter_setup;
   cutter_setup.gear = cutter;
@@ -366,52 +446,18 @@ ShavingResult ComputeShavingCutterTarget(const ShavingOptions& options,
   result.status.assign(n, ShavingPointStatus::kNotConverged);
   result.contacts.assign(n, ShavingContact());
   for (int i = 0; i < n; ++i) {
-    const FlankGridPoint& q = grid.points[i];
-    Eigen::Vector4d start;
-    if (!FindGlobalStart(options, base_mesh, q, &start)) continue;
-    const ConjugatePointSolution base =
-        RefineConjugatePoint(options, base_mesh, q, start);
-    if (!base.converged) continue;
-    const ConjugatePointSolution modified =
-        RefineConjugatePoint(options, modified_mesh, q, base.unknowns);
-    if (!modified.converged) continue;
-    const Eigen::Vector4d& u = modified.unknowns;
-    ShavingContact& contact = result.contacts[i];
-    contact.roll_length_mm = u(0);
-    contact.x_mm = u(1);
-    contact.work_angle_rad = u(2);
-    contact.work_relief_um = modified_flank.Relief(u(0), u(1)).value_um;
-    contact.iterations = modified.iterations;
-    if (!modified_flank.OnActiveFlank(u(0), u(1)) ||
-        !base_flank.OnActiveFlank(base.unknowns(0), base.unknowns(1))) {
-      result.status[i] = ShavingPointStatus::kOutsideWorkFlank;
-      continue;
-    }
-    result.status[i] = ShavingPointStatus::kOk;
-    result.delta_s_um(i) = u(3) * kMmToUm;
-    result.base_um(i) = base.unknowns(3) * kMmToUm;
+    SolveGridPoint(options,
+                   base_flank,
+                   modified_flank,
+                   base_mesh,
+                   modified_mesh,
+                   grid.points[i],
+                   i,
+                   &result);
   }
 
   ShavingSummary& summary = result.summary;
-  summary.num_points = n;
-  double max_delta = -std::numeric_limits<double>::infinity();
-  for (int i = 0; i < n; ++i) {
-    const GridIndex index{i / grid.columns, i % grid.columns};
-    switch (result.status[i]) {
-      case ShavingPointStatus::kOk:
-        ++summary.num_solved;
-        max_delta = std::max(max_delta, result.delta_s_um(i));
-        break;
-      case ShavingPointStatus::kOutsideWorkFlank:
-        ++summary.num_outside_work_flank;
-        result.outside_work_flank.push_back(index);
-        break;
-      case ShavingPointStatus::kNotConverged:
-        ++summary.num_not_converged;
-        result.not_converged.push_back(index);
-        break;
-    }
-  }
+  const double max_delta = SummarizePoints(n, grid.columns, &result);
   if (summary.num_solved == 0) {
     summary.termination = ShavingSummary::Termination::kNoPointGenerated;
     summary.field = "grid";
