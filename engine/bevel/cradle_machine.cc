@@ -72,7 +72,12 @@ const char* BevelFlankSideName(BevelFlankSide side) {
   return side == BevelFlankSide::kConvex ? "convex" : "concave";
 }
 
-bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
+namespace {
+
+// The cutter checks of BevelPinionJob::IsValid.
+bool CheckCutter(const BevelCutter& cutter,
+                 std::string* field,
+                 std::string* message) {
   auto finite = [](double v) { return std::isfinite(v); };
   if (!(cutter.point_radius_mm > 0.0) || !finite(cutter.point_radius_mm))
     return Fail("cutter.point_radius_mm", "must be > 0", field, message);
@@ -86,6 +91,14 @@ bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
                 "must lie in [0, point radius / 2)",
                 field,
                 message);
+  return true;
+}
+
+// The machine setting checks of BevelPinionJob::IsValid.
+bool CheckMachineSettings(const CradleMachineSettings& machine,
+                          std::string* field,
+                          std::string* message) {
+  auto finite = [](double v) { return std::isfinite(v); };
   const double settings[] = {machine.blank_offset_mm,
                              machine.horizontal_offset_mm,
                              machine.sliding_base_mm,
@@ -122,6 +135,14 @@ bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
         "machine.tilt_axis_mounting_rad", "must be finite", field, message);
   if (!(machine.ratio_of_roll > 0.0) || !finite(machine.ratio_of_roll))
     return Fail("machine.ratio_of_roll", "must be > 0", field, message);
+  return true;
+}
+
+// The blank checks of BevelPinionJob::IsValid.
+bool CheckBlank(const BevelBlank& blank,
+                std::string* field,
+                std::string* message) {
+  auto finite = [](double v) { return std::isfinite(v); };
   if (!(blank.inner_cone_distance_mm > 0.0))
     return Fail("blank.inner_cone_distance_mm", "must be > 0", field, message);
   if (!(blank.outer_cone_distance_mm > blank.inner_cone_distance_mm) ||
@@ -139,6 +160,13 @@ bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
                 "must lie between the root angle and 90 deg",
                 field,
                 message);
+  return true;
+}
+
+// The grid checks of BevelPinionJob::IsValid.
+bool CheckGrid(const BevelGridOptions& grid,
+               std::string* field,
+               std::string* message) {
   if (grid.profile_points < 1 || grid.profile_points > 50)
     return Fail("grid.profile_points", "must lie in [1, 50]", field, message);
   if (grid.lengthwise_points < 1 || grid.lengthwise_points > 50)
@@ -159,6 +187,14 @@ bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
                 field,
                 message);
   return true;
+}
+
+}  // namespace
+
+bool BevelPinionJob::IsValid(std::string* field, std::string* message) const {
+  return CheckCutter(cutter, field, message) &&
+         CheckMachineSettings(machine, field, message) &&
+         CheckBlank(blank, field, message) && CheckGrid(grid, field, message);
 }
 
 BevelPinionJob PublishedPinionJob(BevelFlankSide side) {
