@@ -123,6 +123,13 @@ class GdeReader {
           FilePlace{root_.line, "/" + root_.name},
           "root element <" + root_.name + ">, expected <" + names_.root + ">");
     }
+    return ReadGearValues() && ReadHelixDirection() && ReadDatumFace() &&
+           ReadDeviationSign() && ReadEvaluationRanges() && ReadNets();
+  }
+
+ private:
+  // The gear data of the header: teeth, module, angles, widths, diameters.
+  bool ReadGearValues() {
     MeasurementFileHeader& h = file_->header;
     if (!Value(names_.teeth, Quantity::kCount, "number of teeth", &h.teeth) ||
         !Value(names_.normal_module,
@@ -155,6 +162,12 @@ class GdeReader {
         (h.teeth->value != std::floor(h.teeth->value) || h.teeth->value < 1)) {
       return Fail(h.teeth->place, "number of teeth is not a whole number >= 1");
     }
+    return true;
+  }
+
+  // The helix direction, when given.
+  bool ReadHelixDirection() {
+    MeasurementFileHeader& h = file_->header;
     std::string path;
     const XmlElement* e = nullptr;
     if (!Find(names_.helix_direction, &e, &path)) return false;
@@ -171,6 +184,14 @@ class GdeReader {
                     "unknown helix direction '" + v.substr(0, 40) + "'");
       h.helix_hand_place = Place(e, path);
     }
+    return true;
+  }
+
+  // The datum face, when given.
+  bool ReadDatumFace() {
+    MeasurementFileHeader& h = file_->header;
+    std::string path;
+    const XmlElement* e = nullptr;
     if (!Find(names_.datum_face, &e, &path)) return false;
     if (e != nullptr) {
       const std::string v = Trim(e->text);
@@ -184,6 +205,13 @@ class GdeReader {
                         names_.datum_x_negative + " or " +
                         names_.datum_x_positive + ")");
     }
+    return true;
+  }
+
+  // The sign convention of the deviations, when given.
+  bool ReadDeviationSign() {
+    std::string path;
+    const XmlElement* e = nullptr;
     if (!Find(names_.deviation_sign, &e, &path)) return false;
     if (e != nullptr) {
       const std::string v = Trim(e->text);
@@ -193,6 +221,14 @@ class GdeReader {
         return Fail(Place(e, path),
                     "unknown deviation sign '" + v.substr(0, 40) + "'");
     }
+    return true;
+  }
+
+  // The profile and helix evaluation ranges, when given.
+  bool ReadEvaluationRanges() {
+    MeasurementFileHeader& h = file_->header;
+    std::string path;
+    const XmlElement* e = nullptr;
     if (!Find(names_.profile_evaluation_range, &e, &path)) return false;
     if (e != nullptr) {
       std::optional<HeaderValue> from, to;
@@ -220,10 +256,9 @@ class GdeReader {
                     "evaluation range the wrong way (from >= to)");
       }
     }
-    return ReadNets();
+    return true;
   }
 
- private:
   bool Fail(const FilePlace& place, const std::string& message) {
     error_->place = place;
     error_->message = message;
@@ -385,48 +420,84 @@ class GdeReader {
     return true;
   }
 
+  // The attributes of a net: tooth, declared size, flank and units.
+  struct NetAttributes {
+    std::optional<int> tooth, rows, columns;
+    Flank flank = Flank::kRight;
+    double length_factor = 1.0, deviation_factor = 1.0;
+  };
+
+  // The points of a net keyed by (d, z) in nanometres, with the diameters and
+  // axial positions they lie on.
+  struct NetPoints {
+    std::map<std::pair<long long, long long>, std::pair<int, double>>
+        points;  // -> (P index, dev)
+    std::map<long long, double> diameters, positions;
+  };
+
+  static long long NanometreKey(double mm) {
+    return static_cast<long long>(std::llround(mm * 1e6));
+  }
+
   bool ReadNet(const XmlElement& net, const std::string& path) {
     const FilePlace place{net.line, path};
-    std::optional<int> tooth, rows, columns;
-    if (!IntAttribute(net, path, names_.topography_tooth, 1, 10000, &tooth) ||
+    NetAttributes a;
+    NetPoints points;
+    if (!ReadNetAttributes(net, path, place, &a) ||
+        !ReadNetPoints(net, path, place, a, &points) ||
+        !CheckNetShape(net, path, place, a, points))
+      return false;
+    AddNetTraces(a, points, place);
+    return true;
+  }
+
+  bool ReadNetAttributes(const XmlElement& net,
+                         const std::string& path,
+                         const FilePlace& place,
+                         NetAttributes* a) {
+    if (!IntAttribute(
+            net, path, names_.topography_tooth, 1, 10000, &a->tooth) ||
         !IntAttribute(
-            net, path, names_.topography_rows, 1, kMaxNetPoints, &rows) ||
-        !IntAttribute(
-            net, path, names_.topography_columns, 1, kMaxNetPoints, &columns)) {
+            net, path, names_.topography_rows, 1, kMaxNetPoints, &a->rows) ||
+        !IntAttribute(net,
+                      path,
+                      names_.topography_columns,
+                      1,
+                      kMaxNetPoints,
+                      &a->columns)) {
       return false;
     }
     const std::string* flank_text = net.Attribute(names_.topography_flank);
-    Flank flank = Flank::kRight;
     if (flank_text == nullptr)
       return Fail(place,
                   "net without a " + names_.topography_flank + " attribute");
     if (*flank_text == names_.flank_right)
-      flank = Flank::kRight;
+      a->flank = Flank::kRight;
     else if (*flank_text == names_.flank_left)
-      flank = Flank::kLeft;
+      a->flank = Flank::kLeft;
     else
       return Fail(FilePlace{net.line, path + "/@" + names_.topography_flank},
                   "unknown flank '" + flank_text->substr(0, 20) + "'");
-    double length_factor = 1.0, deviation_factor = 1.0;
     if (!Factor(&net,
                 path,
                 names_.length_unit_attribute,
                 Quantity::kLength,
-                &length_factor) ||
+                &a->length_factor) ||
         !Factor(&net,
                 path,
                 names_.deviation_unit_attribute,
                 Quantity::kDeviation,
-                &deviation_factor)) {
+                &a->deviation_factor)) {
       return false;
     }
-    // Points keyed by (d, z) in nanometres.
-    auto key = [](double mm) {
-      return static_cast<long long>(std::llround(mm * 1e6));
-    };
-    std::map<std::pair<long long, long long>, std::pair<int, double>>
-        points;  // -> (P index, dev)
-    std::map<long long, double> diameters, positions;
+    return true;
+  }
+
+  bool ReadNetPoints(const XmlElement& net,
+                     const std::string& path,
+                     const FilePlace& place,
+                     const NetAttributes& a,
+                     NetPoints* net_points) {
     int p_index = 0;
     for (const XmlElement& p : net.children) {
       if (p.name != names_.point) {
@@ -439,100 +510,141 @@ class GdeReader {
                     "more than " + std::to_string(kMaxNetPoints) + " points");
       const std::string p_path =
           path + "/" + names_.point + "[" + std::to_string(p_index) + "]";
-      double v[3];
-      const std::string* attributes[3] = {
-          &names_.point_diameter, &names_.point_axial, &names_.point_deviation};
-      for (int k = 0; k < 3; ++k) {
-        const std::string* text = p.Attribute(*attributes[k]);
-        const FilePlace a_place{p.line, p_path + "/@" + *attributes[k]};
-        if (text == nullptr)
-          return Fail(FilePlace{p.line, p_path},
-                      "point without " + *attributes[k]);
-        if (!Number(*text, a_place, *attributes[k], &v[k])) return false;
-      }
-      const double d = v[0] * length_factor;
-      const double z = v[1] * length_factor;
-      const double dev = v[2] * deviation_factor * sign_;
-      if (std::abs(d) > kMaxLengthMm || std::abs(z) > kMaxLengthMm) {
-        return Fail(FilePlace{p.line, p_path}, "point position out of range");
-      }
-      if (std::abs(dev) > kMaxDeviationUm) {
-        return Fail(FilePlace{p.line, p_path + "/@" + names_.point_deviation},
-                    "deviation above 10 mm is no deviation");
-      }
-      const auto k = std::make_pair(key(d), key(z));
-      const auto [it, inserted] =
-          points.emplace(k, std::make_pair(p_index, dev));
-      if (!inserted) {
-        return Fail(
-            FilePlace{p.line, p_path},
-            "duplicate point d = " + Trim(*p.Attribute(names_.point_diameter)) +
-                ", z = " + Trim(*p.Attribute(names_.point_axial)) +
-                " (first as " + names_.point + "[" +
-                std::to_string(it->second.first) + "])");
-      }
-      diameters.emplace(k.first, d);
-      positions.emplace(k.second, z);
+      double d = 0.0, z = 0.0, dev = 0.0;
+      if (!ReadPoint(p, p_path, a, &d, &z, &dev) ||
+          !AddPoint(p, p_path, p_index, d, z, dev, net_points))
+        return false;
     }
-    if (points.empty()) return Fail(place, "a net without points");
-    if (rows && *rows != static_cast<int>(diameters.size())) {
-      return Fail(FilePlace{net.line, path + "/@" + names_.topography_rows},
-                  std::to_string(*rows) + " rows declared, the points lie on " +
-                      std::to_string(diameters.size()) + " diameters");
+    return true;
+  }
+
+  // The position and deviation of one point, in mm and um.
+  bool ReadPoint(const XmlElement& p,
+                 const std::string& p_path,
+                 const NetAttributes& a,
+                 double* d,
+                 double* z,
+                 double* dev) {
+    double v[3];
+    const std::string* attributes[3] = {
+        &names_.point_diameter, &names_.point_axial, &names_.point_deviation};
+    for (int k = 0; k < 3; ++k) {
+      const std::string* text = p.Attribute(*attributes[k]);
+      const FilePlace a_place{p.line, p_path + "/@" + *attributes[k]};
+      if (text == nullptr)
+        return Fail(FilePlace{p.line, p_path},
+                    "point without " + *attributes[k]);
+      if (!Number(*text, a_place, *attributes[k], &v[k])) return false;
     }
-    if (columns && *columns != static_cast<int>(positions.size())) {
-      return Fail(FilePlace{net.line, path + "/@" + names_.topography_columns},
-                  std::to_string(*columns) +
-                      " columns declared, the points lie at " +
-                      std::to_string(positions.size()) + " axial positions");
+    *d = v[0] * a.length_factor;
+    *z = v[1] * a.length_factor;
+    *dev = v[2] * a.deviation_factor * sign_;
+    if (std::abs(*d) > kMaxLengthMm || std::abs(*z) > kMaxLengthMm) {
+      return Fail(FilePlace{p.line, p_path}, "point position out of range");
     }
-    if (points.size() != diameters.size() * positions.size()) {
-      for (const auto& [dk, d] : diameters) {
-        for (const auto& [zk, z] : positions) {
-          if (points.count({dk, zk}) == 0) {
+    if (std::abs(*dev) > kMaxDeviationUm) {
+      return Fail(FilePlace{p.line, p_path + "/@" + names_.point_deviation},
+                  "deviation above 10 mm is no deviation");
+    }
+    return true;
+  }
+
+  // Adds a point to the net; a second point at the same (d, z) is refused.
+  bool AddPoint(const XmlElement& p,
+                const std::string& p_path,
+                int p_index,
+                double d,
+                double z,
+                double dev,
+                NetPoints* net) {
+    const auto k = std::make_pair(NanometreKey(d), NanometreKey(z));
+    const auto [it, inserted] =
+        net->points.emplace(k, std::make_pair(p_index, dev));
+    if (!inserted) {
+      return Fail(
+          FilePlace{p.line, p_path},
+          "duplicate point d = " + Trim(*p.Attribute(names_.point_diameter)) +
+              ", z = " + Trim(*p.Attribute(names_.point_axial)) +
+              " (first as " + names_.point + "[" +
+              std::to_string(it->second.first) + "])");
+    }
+    net->diameters.emplace(k.first, d);
+    net->positions.emplace(k.second, z);
+    return true;
+  }
+
+  // The points must fill the declared rows x columns grid.
+  bool CheckNetShape(const XmlElement& xml,
+                     const std::string& path,
+                     const FilePlace& place,
+                     const NetAttributes& a,
+                     const NetPoints& net) {
+    if (net.points.empty()) return Fail(place, "a net without points");
+    if (a.rows && *a.rows != static_cast<int>(net.diameters.size())) {
+      return Fail(FilePlace{xml.line, path + "/@" + names_.topography_rows},
+                  std::to_string(*a.rows) +
+                      " rows declared, the points lie on " +
+                      std::to_string(net.diameters.size()) + " diameters");
+    }
+    if (a.columns && *a.columns != static_cast<int>(net.positions.size())) {
+      return Fail(
+          FilePlace{xml.line, path + "/@" + names_.topography_columns},
+          std::to_string(*a.columns) + " columns declared, the points lie at " +
+              std::to_string(net.positions.size()) + " axial positions");
+    }
+    if (net.points.size() != net.diameters.size() * net.positions.size()) {
+      for (const auto& [dk, d] : net.diameters) {
+        for (const auto& [zk, z] : net.positions) {
+          if (net.points.count({dk, zk}) == 0) {
             char buffer[96];
             std::snprintf(buffer,
                           sizeof(buffer),
                           "net not full: no point at d = %.3f, z = %.3f",
                           d,
                           z);
-            return Fail(place,
-                        std::string(buffer) + " (" +
-                            std::to_string(points.size()) + " points on " +
-                            std::to_string(diameters.size()) + " diameters x " +
-                            std::to_string(positions.size()) + " positions)");
+            return Fail(
+                place,
+                std::string(buffer) + " (" + std::to_string(net.points.size()) +
+                    " points on " + std::to_string(net.diameters.size()) +
+                    " diameters x " + std::to_string(net.positions.size()) +
+                    " positions)");
           }
         }
       }
     }
+    return true;
+  }
+
+  void AddNetTraces(const NetAttributes& a,
+                    const NetPoints& net,
+                    const FilePlace& place) {
     // Columns (equal z) are profile traces, rows (equal d) helix traces.
-    for (const auto& [zk, z] : positions) {
+    for (const auto& [zk, z] : net.positions) {
       MeasuredTrace t;
       t.kind = TraceKind::kProfile;
-      t.tooth = tooth.value_or(1);
-      t.flank = flank;
+      t.tooth = a.tooth.value_or(1);
+      t.flank = a.flank;
       t.position_mm = z;
       t.spacing = TraceSpacing::kListed;
-      for (const auto& [dk, d] : diameters) {
+      for (const auto& [dk, d] : net.diameters) {
         t.abscissa_mm.push_back(d);
-        t.values_um.push_back(points.at({dk, zk}).second);
+        t.values_um.push_back(net.points.at({dk, zk}).second);
       }
       Add(std::move(t), place);
     }
-    for (const auto& [dk, d] : diameters) {
+    for (const auto& [dk, d] : net.diameters) {
       MeasuredTrace t;
       t.kind = TraceKind::kHelix;
-      t.tooth = tooth.value_or(1);
-      t.flank = flank;
+      t.tooth = a.tooth.value_or(1);
+      t.flank = a.flank;
       t.position_mm = d;
       t.spacing = TraceSpacing::kListed;
-      for (const auto& [zk, z] : positions) {
+      for (const auto& [zk, z] : net.positions) {
         t.abscissa_mm.push_back(z);
-        t.values_um.push_back(points.at({dk, zk}).second);
+        t.values_um.push_back(net.points.at({dk, zk}).second);
       }
       Add(std::move(t), place);
     }
-    return true;
   }
 
   void Add(MeasuredTrace trace, const FilePlace& place) {
@@ -601,54 +713,63 @@ bool ReadGdeFile(std::string_view content,
   return reader.Read(content);
 }
 
-std::string WriteGde(const GdeExport& data, const GdeNames& names) {
+namespace {
+
+// The gear data, datum face and tolerance class.
+void WriteGdeHeader(const GdeExport& data,
+                    const GdeNames& names,
+                    XmlElement* root) {
   const GearData& g = data.gear;
-  XmlElement root;
-  root.name = names.root;
-  root.attributes.emplace_back(names.version_attribute, "3.4");
   const std::string& unit = names.unit_attribute;
   if (!data.drawing_number.empty())
-    SetValue(&root, names.drawing_number, data.drawing_number, unit, "");
-  SetValue(&root, names.teeth, std::to_string(g.teeth), unit, "");
-  SetValue(
-      &root, names.normal_module, Fixed(g.normal_module_mm, 6), unit, "mm");
-  SetValue(&root,
+    SetValue(root, names.drawing_number, data.drawing_number, unit, "");
+  SetValue(root, names.teeth, std::to_string(g.teeth), unit, "");
+  SetValue(root, names.normal_module, Fixed(g.normal_module_mm, 6), unit, "mm");
+  SetValue(root,
            names.normal_pressure_angle,
            Fixed(RadToDeg(g.normal_pressure_angle_rad), 6),
            unit,
            "deg");
-  SetValue(&root,
+  SetValue(root,
            names.helix_angle,
            Fixed(std::abs(RadToDeg(g.helix_angle_rad)), 6),
            unit,
            "deg");
   // MODEL.md §1: beta > 0 is a left-hand helix.
-  SetValue(&root,
+  SetValue(root,
            names.helix_direction,
            g.helix_angle_rad > 0.0
                ? names.hand_left
                : (g.helix_angle_rad < 0.0 ? names.hand_right : names.hand_spur),
            unit,
            "");
-  SetValue(&root, names.face_width, Fixed(g.face_width_mm, 6), unit, "mm");
+  SetValue(root, names.face_width, Fixed(g.face_width_mm, 6), unit, "mm");
   SetValue(
-      &root, names.tip_diameter, Fixed(2.0 * g.tip_radius_mm, 6), unit, "mm");
+      root, names.tip_diameter, Fixed(2.0 * g.tip_radius_mm, 6), unit, "mm");
   SetValue(
-      &root, names.root_diameter, Fixed(2.0 * g.root_radius_mm, 6), unit, "mm");
-  SetValue(&root,
+      root, names.root_diameter, Fixed(2.0 * g.root_radius_mm, 6), unit, "mm");
+  SetValue(root,
            names.datum_face,
            data.datum_face == DatumFace::kXNegative ? names.datum_x_negative
                                                     : names.datum_x_positive,
            unit,
            "");
-  SetValue(&root, names.tolerance_standard, "ISO 1328-1:2013", unit, "");
+  SetValue(root, names.tolerance_standard, "ISO 1328-1:2013", unit, "");
   if (data.classes && data.classes->overall) {
-    SetValue(&root,
+    SetValue(root,
              names.tolerance_class,
              std::to_string(*data.classes->overall),
              unit,
              "");
   }
+}
+
+// The evaluation ranges and the deviation sign.
+void WriteGdeRanges(const GdeExport& data,
+                    const GdeNames& names,
+                    XmlElement* root) {
+  const GearData& g = data.gear;
+  const std::string& unit = names.unit_attribute;
   // Evaluation ranges: L_form .. L_form + L_alpha (as P-series files state
   // d1/d2) and the face width less the ISO end zones, b/2 -+ L_beta/2.
   const double b = g.face_width_mm;
@@ -658,19 +779,26 @@ std::string WriteGde(const GdeExport& data, const GdeNames& names) {
   const double l_beta = data.figures
                             ? data.figures->helix_evaluation_length_mm
                             : b - 2.0 * std::min(0.05 * b, g.normal_module_mm);
-  XmlElement* profile_range = Ensure(&root, names.profile_evaluation_range);
+  XmlElement* profile_range = Ensure(root, names.profile_evaluation_range);
   profile_range->attributes = {
       {unit, "mm"},
       {names.range_from,
        Fixed(DiameterOfRollLengthMm(g, g.FormRollLengthMm()), 6)},
       {names.range_to,
        Fixed(DiameterOfRollLengthMm(g, g.FormRollLengthMm() + l_alpha), 6)}};
-  XmlElement* helix_range = Ensure(&root, names.helix_evaluation_range);
+  XmlElement* helix_range = Ensure(root, names.helix_evaluation_range);
   helix_range->attributes = {{unit, "mm"},
                              {names.range_from, Fixed((b - l_beta) / 2.0, 6)},
                              {names.range_to, Fixed((b + l_beta) / 2.0, 6)}};
-  SetValue(&root, names.deviation_sign, names.sign_material_positive, unit, "");
+  SetValue(root, names.deviation_sign, names.sign_material_positive, unit, "");
+}
 
+// The topography nets.
+void WriteGdeNets(const GdeExport& data,
+                  const GdeNames& names,
+                  XmlElement* root) {
+  const GearData& g = data.gear;
+  const double b = g.face_width_mm;
   // The nets. With the datum face at x = +b/2 the grid's flank is the file's
   // other flank.
   const std::vector<double> l = GridRollLengthsMm(g, data.grid);
@@ -679,7 +807,7 @@ std::string WriteGde(const GdeExport& data, const GdeNames& names) {
   const Flank file_flank =
       swap ? (data.flank == Flank::kRight ? Flank::kLeft : Flank::kRight)
            : data.flank;
-  XmlElement* results = Ensure(&root, names.measurement_results);
+  XmlElement* results = Ensure(root, names.measurement_results);
   for (const GdeTopography& net : data.topographies) {
     XmlElement t;
     t.name = names.topography;
@@ -710,9 +838,16 @@ std::string WriteGde(const GdeExport& data, const GdeNames& names) {
     }
     results->children.push_back(std::move(t));
   }
+}
+
+// The ISO 1328 figures and classes, when evaluated.
+void WriteGdeResults(const GdeExport& data,
+                     const GdeNames& names,
+                     XmlElement* root) {
+  const std::string& unit = names.unit_attribute;
   if (data.figures && data.figures->ok) {
     const FlankFigures& f = *data.figures;
-    XmlElement* r = Ensure(&root, names.results);
+    XmlElement* r = Ensure(root, names.results);
     r->attributes = {
         {"flank",
          data.flank == Flank::kRight ? names.flank_right : names.flank_left},
@@ -755,6 +890,18 @@ std::string WriteGde(const GdeExport& data, const GdeNames& names) {
       }
     }
   }
+}
+
+}  // namespace
+
+std::string WriteGde(const GdeExport& data, const GdeNames& names) {
+  XmlElement root;
+  root.name = names.root;
+  root.attributes.emplace_back(names.version_attribute, "3.4");
+  WriteGdeHeader(data, names, &root);
+  WriteGdeRanges(data, names, &root);
+  WriteGdeNets(data, names, &root);
+  WriteGdeResults(data, names, &root);
   return WriteXml(root);
 }
 

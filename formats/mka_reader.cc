@@ -119,23 +119,7 @@ class MkaReader {
 
   bool ReadLine(int number, std::string_view raw) {
     const std::string_view line = Trim(raw);
-    if (number == 1) {
-      const auto tokens = Tokens(line);
-      if (tokens.size() >= 2 && tokens[0] == "HEADER" &&
-          tokens[1] == "KS.MW.FILE") {
-        return Fail(1,
-                    "a KS.MW.FILE is a value file (printed figures only); "
-                    "export the curves (KS.MK.FILE)");
-      }
-      if (tokens.size() != 2 || tokens[0] != "HEADER" ||
-          tokens[1] != "KS.MK.FILE") {
-        return Fail(1,
-                    "the first line must be 'HEADER KS.MK.FILE' (a "
-                    "Klingelnberg curve file)");
-      }
-      seen_header_ = true;
-      return true;
-    }
+    if (number == 1) return ReadFirstLine(line);
     if (line.empty()) return true;
     const bool block_start =
         StartsWith(line, "TOPOGRAFIE:") || StartsWith(line, "Profil:") ||
@@ -165,19 +149,7 @@ class MkaReader {
       return ReadTopographyHead(number, line);
     if (line == "Profil:" || line == "Flankenlinie:" ||
         StartsWith(line, "Profil: ") || StartsWith(line, "Flankenlinie: ")) {
-      const std::string_view rest = Trim(line.substr(line.find(':') + 1));
-      if (StartsWith(rest, "Zahn-Nr.")) {
-        plain_kind_ = StartsWith(line, "Profil") ? TraceKind::kProfile
-                                                 : TraceKind::kHelix;
-        return ReadPlainHead(number, rest);
-      }
-      if (!rest.empty())
-        return Fail(number,
-                    "a block line 'Profil:' / 'Flankenlinie:' followed by '" +
-                        std::string(rest) + "'");
-      plain_kind_ =
-          StartsWith(line, "Profil") ? TraceKind::kProfile : TraceKind::kHelix;
-      return true;
+      return ReadPlainBlockLine(number, line);
     }
     if (StartsWith(line, "Zahn-Nr.")) {
       if (!plain_kind_) {
@@ -194,6 +166,47 @@ class MkaReader {
       plain_kind_.reset();
       return true;
     }
+    return ReadOtherLine(number, line);
+  }
+
+  // Line 1: the header of a curve file.
+  bool ReadFirstLine(std::string_view line) {
+    const auto tokens = Tokens(line);
+    if (tokens.size() >= 2 && tokens[0] == "HEADER" &&
+        tokens[1] == "KS.MW.FILE") {
+      return Fail(1,
+                  "a KS.MW.FILE is a value file (printed figures only); "
+                  "export the curves (KS.MK.FILE)");
+    }
+    if (tokens.size() != 2 || tokens[0] != "HEADER" ||
+        tokens[1] != "KS.MK.FILE") {
+      return Fail(1,
+                  "the first line must be 'HEADER KS.MK.FILE' (a "
+                  "Klingelnberg curve file)");
+    }
+    seen_header_ = true;
+    return true;
+  }
+
+  // A 'Profil:' or 'Flankenlinie:' block line, maybe with its trace head.
+  bool ReadPlainBlockLine(int number, std::string_view line) {
+    const std::string_view rest = Trim(line.substr(line.find(':') + 1));
+    if (StartsWith(rest, "Zahn-Nr.")) {
+      plain_kind_ =
+          StartsWith(line, "Profil") ? TraceKind::kProfile : TraceKind::kHelix;
+      return ReadPlainHead(number, rest);
+    }
+    if (!rest.empty())
+      return Fail(number,
+                  "a block line 'Profil:' / 'Flankenlinie:' followed by '" +
+                      std::string(rest) + "'");
+    plain_kind_ =
+        StartsWith(line, "Profil") ? TraceKind::kProfile : TraceKind::kHelix;
+    return true;
+  }
+
+  // A preamble line before the first header code; anything else is refused.
+  bool ReadOtherLine(int number, std::string_view line) {
     if (!seen_code_ && ReadPreamble(number, line)) return true;
     if (error_->place.line == number) return false;  // ReadPreamble refused it
     if (line.find("Werte") != std::string_view::npos) {

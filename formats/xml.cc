@@ -164,6 +164,14 @@ class Parser {
     element->line = line_;
     Advance(1);  // '<'
     if (!ParseName(&element->name)) return false;
+    bool empty = false;
+    if (!ParseAttributes(element, &empty)) return false;
+    if (empty) return true;
+    return ParseContent(element, depth);
+  }
+
+  // The attributes of a start tag up to its '>' (or "/>": *empty).
+  bool ParseAttributes(XmlElement* element, bool* empty) {
     while (true) {
       const size_t before = pos_;
       SkipSpace();
@@ -171,86 +179,66 @@ class Parser {
         return Fail("unterminated start tag <" + element->name + ">");
       if (StartsWith("/>")) {
         Advance(2);
+        *empty = true;
         return true;
       }
       if (s_[pos_] == '>') {
         Advance(1);
-        break;
+        return true;
       }
       if (pos_ == before)
         return Fail("expected whitespace before an attribute in <" +
                     element->name + ">");
-      std::string name;
-      if (!ParseName(&name)) return false;
-      SkipSpace();
-      if (AtEnd() || s_[pos_] != '=')
-        return Fail("attribute " + name + " without '='");
-      Advance(1);
-      SkipSpace();
-      if (AtEnd() || (s_[pos_] != '"' && s_[pos_] != '\''))
-        return Fail("attribute " + name + " value not quoted");
-      const char quote = s_[pos_];
-      Advance(1);
-      std::string value;
-      while (true) {
-        if (AtEnd()) return Fail("unterminated attribute value of " + name);
-        const char c = s_[pos_];
-        if (c == quote) {
-          Advance(1);
-          break;
-        }
-        if (c == '<') return Fail("'<' in the value of attribute " + name);
-        if (c == '&') {
-          if (!ParseReference(&value)) return false;
-          continue;
-        }
-        value.push_back(c);
-        Advance(1);
-      }
-      for (const auto& [existing, unused] : element->attributes) {
-        if (existing == name)
-          return Fail("attribute " + name + " repeated in <" + element->name +
-                      ">");
-      }
-      element->attributes.emplace_back(std::move(name), std::move(value));
+      if (!ParseAttribute(element)) return false;
     }
-    // Content.
+  }
+
+  // One name="value" attribute; a repeated name is refused.
+  bool ParseAttribute(XmlElement* element) {
+    std::string name;
+    if (!ParseName(&name)) return false;
+    SkipSpace();
+    if (AtEnd() || s_[pos_] != '=')
+      return Fail("attribute " + name + " without '='");
+    Advance(1);
+    SkipSpace();
+    if (AtEnd() || (s_[pos_] != '"' && s_[pos_] != '\''))
+      return Fail("attribute " + name + " value not quoted");
+    const char quote = s_[pos_];
+    Advance(1);
+    std::string value;
+    while (true) {
+      if (AtEnd()) return Fail("unterminated attribute value of " + name);
+      const char c = s_[pos_];
+      if (c == quote) {
+        Advance(1);
+        break;
+      }
+      if (c == '<') return Fail("'<' in the value of attribute " + name);
+      if (c == '&') {
+        if (!ParseReference(&value)) return false;
+        continue;
+      }
+      value.push_back(c);
+      Advance(1);
+    }
+    for (const auto& [existing, unused] : element->attributes) {
+      if (existing == name)
+        return Fail("attribute " + name + " repeated in <" + element->name +
+                    ">");
+    }
+    element->attributes.emplace_back(std::move(name), std::move(value));
+    return true;
+  }
+
+  // The content of an element up to and including its end tag.
+  bool ParseContent(XmlElement* element, int depth) {
     while (true) {
       if (AtEnd()) return Fail("element <" + element->name + "> is not closed");
       const char c = s_[pos_];
       if (c == '<') {
-        if (StartsWith("</")) {
-          Advance(2);
-          std::string name;
-          if (!ParseName(&name)) return false;
-          SkipSpace();
-          if (AtEnd() || s_[pos_] != '>')
-            return Fail("malformed end tag </" + name);
-          if (name != element->name) {
-            return Fail("end tag </" + name + "> does not match <" +
-                        element->name + "> of line " +
-                        std::to_string(element->line));
-          }
-          Advance(1);
-          return true;
-        }
-        if (StartsWith("<!--")) {
-          if (!SkipUntil("-->", "comment")) return false;
-        } else if (StartsWith("<![CDATA[")) {
-          Advance(9);
-          const size_t end = s_.find("]]>", pos_);
-          if (end == std::string_view::npos)
-            return Fail("unterminated CDATA section");
-          element->text.append(s_.substr(pos_, end - pos_));
-          Advance(end + 3 - pos_);
-        } else if (StartsWith("<?")) {
-          if (!SkipUntil("?>", "processing instruction")) return false;
-        } else if (StartsWith("<!")) {
-          return Fail("a DOCTYPE or declaration inside an element");
-        } else {
-          element->children.emplace_back();
-          if (!ParseElement(&element->children.back(), depth + 1)) return false;
-        }
+        if (StartsWith("</")) return ParseEndTag(*element);
+        if (!ParseMarkup(element, depth)) return false;
       } else if (c == '&') {
         if (!ParseReference(&element->text)) return false;
       } else {
@@ -258,6 +246,44 @@ class Parser {
         Advance(1);
       }
     }
+  }
+
+  // The end tag of `element`, at "</".
+  bool ParseEndTag(const XmlElement& element) {
+    Advance(2);
+    std::string name;
+    if (!ParseName(&name)) return false;
+    SkipSpace();
+    if (AtEnd() || s_[pos_] != '>') return Fail("malformed end tag </" + name);
+    if (name != element.name) {
+      return Fail("end tag </" + name + "> does not match <" + element.name +
+                  "> of line " + std::to_string(element.line));
+    }
+    Advance(1);
+    return true;
+  }
+
+  // Markup inside an element other than its end tag: a comment, CDATA, a
+  // processing instruction or a child element.
+  bool ParseMarkup(XmlElement* element, int depth) {
+    if (StartsWith("<!--")) {
+      if (!SkipUntil("-->", "comment")) return false;
+    } else if (StartsWith("<![CDATA[")) {
+      Advance(9);
+      const size_t end = s_.find("]]>", pos_);
+      if (end == std::string_view::npos)
+        return Fail("unterminated CDATA section");
+      element->text.append(s_.substr(pos_, end - pos_));
+      Advance(end + 3 - pos_);
+    } else if (StartsWith("<?")) {
+      if (!SkipUntil("?>", "processing instruction")) return false;
+    } else if (StartsWith("<!")) {
+      return Fail("a DOCTYPE or declaration inside an element");
+    } else {
+      element->children.emplace_back();
+      if (!ParseElement(&element->children.back(), depth + 1)) return false;
+    }
+    return true;
   }
 
   std::string_view s_;

@@ -71,52 +71,45 @@ class DemoClient {
   std::ostream& out_;
 };
 
-}  // namespace
-
-bool SeedDemo(const std::string& host,
-              int port,
-              const std::string& token,
-              std::ostream& out) {
-  DemoClient client(host, port, token, out);
-  const nlohmann::json history =
-      client.Call("GET", "/api/v1/corrections?limit=1", nullptr, 200);
-  if (history.is_null()) return false;
-  if (history.value("total", 0) > 0) {
-    out << "Job history: " << history["total"]
-        << " stored jobs (demo already seeded).\n";
-    return true;
-  }
-  out << "Seeding the job history with a short closed-loop demo (API.md "
-         "example gear: z = 37, m_n = 6 mm,\n"
-         "20 deg, helix 15 deg left hand, b = 78 mm, wheel R_w = 350 mm, right "
-         "flank, 5 x 9 grid).\n";
-
-  // 1. A part ground with hidden machine errors, measured with 0.3 um probe
-  // noise.
+// The simulation of the demo's first part: hidden machine errors and 0.3 um
+// probe noise.
+nlohmann::json DemoSimulation() {
   nlohmann::json simulation = DemoSetup();
   simulation["random_hidden_errors"] = {
       {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
   simulation["noise_um"] = 0.3;
   simulation["seed"] = 9;
+  return simulation;
+}
+
+// Steps 1 and 2: measures the simulated part and stores its correction as a
+// job; *request is the correction request, *job the stored job.
+bool SeedCorrection(DemoClient& client,
+                    std::ostream& out,
+                    const nlohmann::json& simulation,
+                    nlohmann::json* request,
+                    nlohmann::json* job) {
+  // 1. A part ground with hidden machine errors, measured with 0.3 um probe
+  // noise.
   const nlohmann::json measured =
       client.Call("POST", "/api/v1/simulations/measurement", simulation, 200);
   if (measured.is_null()) return false;
 
   // 2. The correction, stored as a job.
-  nlohmann::json request = DemoSetup();
-  request["measurement"] = measured["measurement"];
-  request["target"] = {
+  *request = DemoSetup();
+  (*request)["measurement"] = measured["measurement"];
+  (*request)["target"] = {
       {"modifications", {{{"kind", "profile_crowning"}, {"amount_um", 3.0}}}}};
-  request["options"] = {{"probe_noise_um", 0.3}};
-  const nlohmann::json job =
-      client.Call("POST", "/api/v1/corrections", request, 201);
-  if (job.is_null()) return false;
-  const nlohmann::json& result = job["result"];
+  (*request)["options"] = {{"probe_noise_um", 0.3}};
+  *job = client.Call("POST", "/api/v1/corrections", *request, 201);
+  if (job->is_null()) return false;
+  const nlohmann::json& stored = *job;
+  const nlohmann::json& result = stored["result"];
   out << "  1. measured part (hidden machine errors, 0.3 um probe noise), "
          "target 3 um profile crowning:\n"
       << "     flank error rms " << Fixed(Number(result["initial_rms_um"]), 2)
       << " um, max " << Fixed(Number(result["initial_max_um"]), 2) << " um\n"
-      << "  2. correction job #" << job["id"] << " ("
+      << "  2. correction job #" << stored["id"] << " ("
       << result["status"].get<std::string>() << ", "
       << result["solver"].get<std::string>() << ", "
       << result["regularisation"]["rule"].get<std::string>()
@@ -124,7 +117,13 @@ bool SeedDemo(const std::string& host,
       << Fixed(Number(result["residual_rms_um"]), 2) << " um; best reachable "
       << Fixed(Number(result["best_reachable_rms_um"]), 2) << " um; rank "
       << result["rank"] << "\n";
+  return true;
+}
 
+// Step 3: replays the job with a changed target.
+bool SeedReplay(DemoClient& client,
+                std::ostream& out,
+                const nlohmann::json& job) {
   // 3. A replay of the same measurement with a changed target, linked to its
   // parent.
   const std::string replay_path = "/api/v1/corrections/" +
@@ -141,7 +140,14 @@ bool SeedDemo(const std::string& host,
       << ": same measurement, target plus 2 um lead crowning: predicted "
          "residual rms "
       << Fixed(Number(replay["result"]["residual_rms_um"]), 2) << " um\n";
+  return true;
+}
 
+// Step 4: closed-loop rounds stored as a settings lineage.
+bool SeedClosedLoop(DemoClient& client,
+                    std::ostream& out,
+                    const nlohmann::json& simulation,
+                    const nlohmann::json& request) {
   // 4. Three rounds of grind -> measure -> correct, stored as a settings
   // lineage.
   nlohmann::json loop = simulation;
@@ -166,6 +172,34 @@ bool SeedDemo(const std::string& host,
         << last_job << "/lineage\n";
   }
   return true;
+}
+
+}  // namespace
+
+bool SeedDemo(const std::string& host,
+              int port,
+              const std::string& token,
+              std::ostream& out) {
+  DemoClient client(host, port, token, out);
+  const nlohmann::json history =
+      client.Call("GET", "/api/v1/corrections?limit=1", nullptr, 200);
+  if (history.is_null()) return false;
+  if (history.value("total", 0) > 0) {
+    out << "Job history: " << history["total"]
+        << " stored jobs (demo already seeded).\n";
+    return true;
+  }
+  out << "Seeding the job history with a short closed-loop demo (API.md "
+         "example gear: z = 37, m_n = 6 mm,\n"
+         "20 deg, helix 15 deg left hand, b = 78 mm, wheel R_w = 350 mm, right "
+         "flank, 5 x 9 grid).\n";
+
+  const nlohmann::json simulation = DemoSimulation();
+  nlohmann::json request;
+  nlohmann::json job;
+  return SeedCorrection(client, out, simulation, &request, &job) &&
+         SeedReplay(client, out, job) &&
+         SeedClosedLoop(client, out, simulation, request);
 }
 
 }  // namespace gearloop

@@ -46,39 +46,46 @@ double Percentile(std::vector<double> values, double p) {
   return values[index];
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct LoadOptions {
   std::string host = "127.0.0.1";
   int port = 8080;
   int clients = 1;
   double seconds = 10.0;
   std::string token;
   double rate = 0.0;
+};
+
+// Reads the command line; false on an unknown argument (reported).
+bool ParseArguments(int argc, char** argv, LoadOptions* options) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string arg = argv[i];
     if (arg == "--host") {
-      host = argv[i + 1];
+      options->host = argv[i + 1];
     } else if (arg == "--port") {
-      port = std::atoi(argv[i + 1]);
+      options->port = std::atoi(argv[i + 1]);
     } else if (arg == "--clients") {
-      clients = std::max(1, std::atoi(argv[i + 1]));
+      options->clients = std::max(1, std::atoi(argv[i + 1]));
     } else if (arg == "--seconds") {
-      seconds = std::atof(argv[i + 1]);
+      options->seconds = std::atof(argv[i + 1]);
     } else if (arg == "--token") {
-      token = argv[i + 1];
+      options->token = argv[i + 1];
     } else if (arg == "--rate") {
-      rate = std::atof(argv[i + 1]);
+      options->rate = std::atof(argv[i + 1]);
     } else {
       std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
-      return 2;
+      return false;
     }
   }
-  httplib::Headers headers;
-  if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+  return true;
+}
 
-  httplib::Client setup_client(host, port);
-  setup_client.set_read_timeout(60, 0);
+// Has the server simulate a measurement of the default gear and returns the
+// body of a correction request for it; false when the server cannot
+// (reported).
+bool BuildCorrectionBody(httplib::Client& setup_client,
+                         const httplib::Headers& headers,
+                         const LoadOptions& options,
+                         std::string* body) {
   nlohmann::json simulation = DefaultSetup();
   simulation["random_hidden_errors"] = {
       {"block_size", 3.0}, {"max_order", 2}, {"seed", 4}};
@@ -88,78 +95,118 @@ int main(int argc, char** argv) {
                                      simulation.dump(),
                                      "application/json");
   if (!simulated || simulated->status != 200) {
-    std::fprintf(
-        stderr, "cannot simulate a measurement on %s:%d\n", host.c_str(), port);
-    return 1;
+    std::fprintf(stderr,
+                 "cannot simulate a measurement on %s:%d\n",
+                 options.host.c_str(),
+                 options.port);
+    return false;
   }
   nlohmann::json request = DefaultSetup();
   request["measurement"] =
       nlohmann::json::parse(simulated->body)["measurement"];
   request["options"] = {{"probe_noise_um", 0.3}};
-  const std::string body = request.dump();
+  *body = request.dump();
+  return true;
+}
 
+// What the clients gathered: latencies and ids of acknowledged jobs, and the
+// count of failed requests.
+struct LoadResults {
   std::mutex mutex;
   std::vector<double> latencies_ms;
   std::vector<long long> ids;
   std::atomic<long long> errors{0};
+};
+
+// steady_clock::now() plus a duration in seconds of double.
+using Deadline = decltype(std::chrono::steady_clock::now() +
+                          std::chrono::duration<double>(1.0));
+
+// One client: posts the body on its own keep-alive connection until end,
+// paced to options.rate, printing the latency of the last 10 s when paced.
+void RunClient(const LoadOptions& options,
+               const httplib::Headers& headers,
+               const std::string& body,
+               std::chrono::steady_clock::time_point start,
+               Deadline end,
+               LoadResults* results) {
+  const double rate = options.rate;
+  httplib::Client client(options.host, options.port);
+  client.set_keep_alive(true);
+  client.set_tcp_nodelay(true);
+  client.set_read_timeout(60, 0);
+  std::vector<double> local;
+  std::vector<long long> local_ids;
+  auto next = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() < end) {
+    if (rate > 0.0) {
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(1.0 / rate));
+      std::this_thread::sleep_until(next);
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    auto result =
+        client.Post("/api/v1/corrections", headers, body, "application/json");
+    const double ms = std::chrono::duration<double, std::milli>(
+                          std::chrono::steady_clock::now() - t0)
+                          .count();
+    if (!result || result->status != 201) {
+      ++results->errors;
+      continue;
+    }
+    local.push_back(ms);
+    local_ids.push_back(
+        nlohmann::json::parse(result->body)["id"].get<long long>());
+    if (rate > 0.0 &&
+        local.size() % static_cast<size_t>(std::max(1.0, 10.0 * rate)) == 0) {
+      const std::vector<double> window(
+          local.end() - static_cast<long>(std::max(1.0, 10.0 * rate)),
+          local.end());
+      std::lock_guard<std::mutex> lock(results->mutex);
+      std::printf("  t = %5.0f s: last 10 s p50 %.2f ms, p99 %.2f ms\n",
+                  std::chrono::duration<double>(
+                      std::chrono::steady_clock::now() - start)
+                      .count(),
+                  Percentile(window, 0.5),
+                  Percentile(window, 0.99));
+      std::fflush(stdout);
+    }
+  }
+  std::lock_guard<std::mutex> lock(results->mutex);
+  results->latencies_ms.insert(
+      results->latencies_ms.end(), local.begin(), local.end());
+  results->ids.insert(results->ids.end(), local_ids.begin(), local_ids.end());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  LoadOptions options;
+  if (!ParseArguments(argc, argv, &options)) return 2;
+  httplib::Headers headers;
+  if (!options.token.empty())
+    headers.emplace("Authorization", "Bearer " + options.token);
+
+  httplib::Client setup_client(options.host, options.port);
+  setup_client.set_read_timeout(60, 0);
+  std::string body;
+  if (!BuildCorrectionBody(setup_client, headers, options, &body)) return 1;
+
+  LoadResults results;
   const auto start = std::chrono::steady_clock::now();
-  const auto end = start + std::chrono::duration<double>(seconds);
+  const auto end = start + std::chrono::duration<double>(options.seconds);
   std::vector<std::thread> threads;
-  for (int c = 0; c < clients; ++c) {
-    threads.emplace_back([&] {
-      httplib::Client client(host, port);
-      client.set_keep_alive(true);
-      client.set_tcp_nodelay(true);
-      client.set_read_timeout(60, 0);
-      std::vector<double> local;
-      std::vector<long long> local_ids;
-      auto next = std::chrono::steady_clock::now();
-      while (std::chrono::steady_clock::now() < end) {
-        if (rate > 0.0) {
-          next +=
-              std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                  std::chrono::duration<double>(1.0 / rate));
-          std::this_thread::sleep_until(next);
-        }
-        const auto t0 = std::chrono::steady_clock::now();
-        auto result = client.Post(
-            "/api/v1/corrections", headers, body, "application/json");
-        const double ms = std::chrono::duration<double, std::milli>(
-                              std::chrono::steady_clock::now() - t0)
-                              .count();
-        if (!result || result->status != 201) {
-          ++errors;
-          continue;
-        }
-        local.push_back(ms);
-        local_ids.push_back(
-            nlohmann::json::parse(result->body)["id"].get<long long>());
-        if (rate > 0.0 &&
-            local.size() % static_cast<size_t>(std::max(1.0, 10.0 * rate)) ==
-                0) {
-          const std::vector<double> window(
-              local.end() - static_cast<long>(std::max(1.0, 10.0 * rate)),
-              local.end());
-          std::lock_guard<std::mutex> lock(mutex);
-          std::printf("  t = %5.0f s: last 10 s p50 %.2f ms, p99 %.2f ms\n",
-                      std::chrono::duration<double>(
-                          std::chrono::steady_clock::now() - start)
-                          .count(),
-                      Percentile(window, 0.5),
-                      Percentile(window, 0.99));
-          std::fflush(stdout);
-        }
-      }
-      std::lock_guard<std::mutex> lock(mutex);
-      latencies_ms.insert(latencies_ms.end(), local.begin(), local.end());
-      ids.insert(ids.end(), local_ids.begin(), local_ids.end());
-    });
+  for (int c = 0; c < options.clients; ++c) {
+    threads.emplace_back(
+        [&] { RunClient(options, headers, body, start, end, &results); });
   }
   for (std::thread& thread : threads) thread.join();
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
 
+  const std::vector<double>& latencies_ms = results.latencies_ms;
+  const std::vector<long long>& ids = results.ids;
   long long missing = 0;
   for (long long id : ids) {
     auto result = setup_client.Get(
@@ -167,11 +214,11 @@ int main(int argc, char** argv) {
     if (!result || result->status != 200) ++missing;
   }
   std::printf("clients %d, %.1f s: %zu corrections (%.1f/s), errors %lld\n",
-              clients,
+              options.clients,
               elapsed,
               latencies_ms.size(),
               latencies_ms.size() / elapsed,
-              errors.load());
+              results.errors.load());
   std::printf("latency ms: p50 %.2f  p90 %.2f  p99 %.2f  max %.2f\n",
               Percentile(latencies_ms, 0.5),
               Percentile(latencies_ms, 0.9),
@@ -180,5 +227,5 @@ int main(int argc, char** argv) {
   std::printf("acknowledged jobs stored: %lld of %zu\n",
               static_cast<long long>(ids.size()) - missing,
               ids.size());
-  return missing == 0 && errors == 0 ? 0 : 1;
+  return missing == 0 && results.errors == 0 ? 0 : 1;
 }

@@ -46,6 +46,73 @@ bool ParseInt(const char* text, int min, int max, int* out) {
   return true;
 }
 
+// Reads the command line into *options and *seed_demo. Returns -1 to go on,
+// or the exit code (0 after --help, 2 on a bad argument).
+int ParseArguments(int argc,
+                   char** argv,
+                   gearloop::ServerOptions* options,
+                   bool* seed_demo) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (arg == "--help" || arg == "-h") {
+      PrintUsage();
+      return 0;
+    } else if (arg == "--quiet") {
+      options->access_log = false;
+    } else if (arg == "--seed-demo") {
+      *seed_demo = true;
+    } else if (arg == "--port" && has_value) {
+      if (!ParseInt(argv[++i], 0, 65535, &options->port)) {
+        std::cerr << "--port must be 0..65535\n";
+        return 2;
+      }
+    } else if (arg == "--threads" && has_value) {
+      if (!ParseInt(argv[++i], 1, 1024, &options->threads)) {
+        std::cerr << "--threads must be 1..1024\n";
+        return 2;
+      }
+    } else if (arg == "--batch-workers" && has_value) {
+      if (!ParseInt(argv[++i], 1, 64, &options->batch_workers)) {
+        std::cerr << "--batch-workers must be 1..64\n";
+        return 2;
+      }
+    } else if (arg == "--db" && has_value) {
+      options->database_path = argv[++i];
+    } else if (arg == "--host" && has_value) {
+      options->host = argv[++i];
+    } else if (arg == "--token-file" && has_value) {
+      options->token_file = argv[++i];
+    } else {
+      std::cerr << "unknown or incomplete argument: " << arg << "\n";
+      PrintUsage();
+      return 2;
+    }
+  }
+  return -1;
+}
+
+// Once the server runs, seeds the demo (without tokens) and prints where the
+// server listens.
+void SeedDemoWhenRunning(const gearloop::GearloopServer& server,
+                         const gearloop::ServerOptions& options,
+                         int port) {
+  while (!server.IsRunning())
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (!options.token_file.empty()) {
+    std::cout << "Tokens are on: the demo is not seeded (it would need a "
+                 "write token).\n";
+  } else if (!gearloop::SeedDemo(options.host, port, "", std::cout)) {
+    std::cout << "The demo could not be seeded (see above); the server keeps "
+                 "running.\n";
+  }
+  std::cout << "\ngearloop-server is running on http://" << options.host << ":"
+            << port
+            << "  (dashboard: /, API: /api/v1, metrics: /metrics; Ctrl-C "
+               "stops it)\n"
+            << std::flush;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -54,43 +121,8 @@ int main(int argc, char** argv) {
 
   gearloop::ServerOptions options;
   bool seed_demo = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (arg == "--help" || arg == "-h") {
-      PrintUsage();
-      return 0;
-    } else if (arg == "--quiet") {
-      options.access_log = false;
-    } else if (arg == "--seed-demo") {
-      seed_demo = true;
-    } else if (arg == "--port" && has_value) {
-      if (!ParseInt(argv[++i], 0, 65535, &options.port)) {
-        std::cerr << "--port must be 0..65535\n";
-        return 2;
-      }
-    } else if (arg == "--threads" && has_value) {
-      if (!ParseInt(argv[++i], 1, 1024, &options.threads)) {
-        std::cerr << "--threads must be 1..1024\n";
-        return 2;
-      }
-    } else if (arg == "--batch-workers" && has_value) {
-      if (!ParseInt(argv[++i], 1, 64, &options.batch_workers)) {
-        std::cerr << "--batch-workers must be 1..64\n";
-        return 2;
-      }
-    } else if (arg == "--db" && has_value) {
-      options.database_path = argv[++i];
-    } else if (arg == "--host" && has_value) {
-      options.host = argv[++i];
-    } else if (arg == "--token-file" && has_value) {
-      options.token_file = argv[++i];
-    } else {
-      std::cerr << "unknown or incomplete argument: " << arg << "\n";
-      PrintUsage();
-      return 2;
-    }
-  }
+  const int exit_code = ParseArguments(argc, argv, &options, &seed_demo);
+  if (exit_code >= 0) return exit_code;
 
   // Block the stop signals in every thread (the HTTP pool inherits the mask);
   // one thread waits for them with sigwait and stops the server from ordinary
@@ -133,22 +165,7 @@ int main(int argc, char** argv) {
   });
 
   std::thread serving([&server] { server->Serve(); });
-  if (seed_demo) {
-    while (!server->IsRunning())
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    if (!options.token_file.empty()) {
-      std::cout << "Tokens are on: the demo is not seeded (it would need a "
-                   "write token).\n";
-    } else if (!gearloop::SeedDemo(options.host, port, "", std::cout)) {
-      std::cout << "The demo could not be seeded (see above); the server keeps "
-                   "running.\n";
-    }
-    std::cout << "\ngearloop-server is running on http://" << options.host
-              << ":" << port
-              << "  (dashboard: /, API: /api/v1, metrics: /metrics; Ctrl-C "
-                 "stops it)\n"
-              << std::flush;
-  }
+  if (seed_demo) SeedDemoWhenRunning(*server, options, port);
   serving.join();
   // Serve() returned: normally because the waiter called Stop(). Wake the
   // waiter otherwise, and let it leave Stop() before the server goes away.

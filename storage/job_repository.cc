@@ -537,6 +537,12 @@ class SqliteJobRepository : public JobRepository {
   }
 
   void PrepareStatements() {
+    PrepareJobStatements();
+    PrepareBatchStatements();
+  }
+
+  // The statements of the jobs table: insert, read, filter, list, lineage.
+  void PrepareJobStatements() {
     const std::string columns = kJobSummaryColumns;
     // Every filter is optional: a NULL binding matches everything, so one
     // prepared statement serves all combinations.
@@ -580,6 +586,10 @@ class SqliteJobRepository : public JobRepository {
             " FROM jobs WHERE job_id IN (SELECT id FROM up UNION SELECT id "
             "FROM down) ORDER BY job_id ASC;",
         &stmt_read_lineage_);
+  }
+
+  // The statements of the batches and batch_items tables.
+  void PrepareBatchStatements() {
     Prepare(
         "INSERT INTO batches (created_utc, total_items, status, finished_utc) "
         "VALUES (?1, ?2, ?3, ?4);",

@@ -129,6 +129,68 @@ bool Fail(int line,
   return false;
 }
 
+// Checks the shape of one data row: the rows seen so far and its cell count.
+bool CheckDataRow(const std::vector<Cell>& cells,
+                  int line_number,
+                  int data_rows,
+                  const CsvGridOptions& options,
+                  CsvGridError* error) {
+  if (data_rows >= options.rows) {
+    return Fail(line_number,
+                0,
+                "more than " + std::to_string(options.rows) +
+                    " data rows (a grid has " + std::to_string(options.rows) +
+                    " profile rows)",
+                error);
+  }
+  if (static_cast<int>(cells.size()) != options.columns) {
+    return Fail(line_number,
+                0,
+                std::to_string(cells.size()) + " cells, expected " +
+                    std::to_string(options.columns) + " (one per lead column)",
+                error);
+  }
+  return true;
+}
+
+// Reads cell `column` (1-based) of a data row into *values.
+bool ReadCell(const Cell& cell,
+              int line_number,
+              int column,
+              const CsvGridOptions& options,
+              std::vector<std::optional<double>>* values,
+              CsvGridError* error) {
+  if (IsMissing(cell)) {
+    if (!options.allow_missing) {
+      return Fail(line_number,
+                  column,
+                  "missing value (this grid must be complete)",
+                  error);
+    }
+    values->emplace_back(std::nullopt);
+    return true;
+  }
+  double v = 0.0;
+  bool finite = false;
+  if (!ParseNumber(cell.text, &v, &finite)) {
+    return Fail(line_number,
+                column,
+                "'" + cell.text +
+                    "' is not a number (write a value in um, or leave the "
+                    "cell empty " +
+                    "or \"null\" for a missing point)",
+                error);
+  }
+  if (!finite) {
+    return Fail(line_number,
+                column,
+                "'" + cell.text + "' is not a finite number",
+                error);
+  }
+  values->emplace_back(v);
+  return true;
+}
+
 }  // namespace
 
 int CsvGrid::NumMissing() const {
@@ -200,52 +262,12 @@ bool ParseCsvGrid(const std::string& text,
     seen_content = true;
     if (first && LooksLikeHeader(cells)) continue;
 
-    if (data_rows >= options.rows) {
-      return Fail(line_number,
-                  0,
-                  "more than " + std::to_string(options.rows) +
-                      " data rows (a grid has " + std::to_string(options.rows) +
-                      " profile rows)",
-                  error);
-    }
-    if (static_cast<int>(cells.size()) != options.columns) {
-      return Fail(line_number,
-                  0,
-                  std::to_string(cells.size()) + " cells, expected " +
-                      std::to_string(options.columns) +
-                      " (one per lead column)",
-                  error);
-    }
+    if (!CheckDataRow(cells, line_number, data_rows, options, error))
+      return false;
     for (int c = 0; c < options.columns; ++c) {
-      const Cell& cell = cells[c];
-      if (IsMissing(cell)) {
-        if (!options.allow_missing) {
-          return Fail(line_number,
-                      c + 1,
-                      "missing value (this grid must be complete)",
-                      error);
-        }
-        result.values.emplace_back(std::nullopt);
-        continue;
-      }
-      double v = 0.0;
-      bool finite = false;
-      if (!ParseNumber(cell.text, &v, &finite)) {
-        return Fail(line_number,
-                    c + 1,
-                    "'" + cell.text +
-                        "' is not a number (write a value in um, or leave the "
-                        "cell empty " +
-                        "or \"null\" for a missing point)",
-                    error);
-      }
-      if (!finite) {
-        return Fail(line_number,
-                    c + 1,
-                    "'" + cell.text + "' is not a finite number",
-                    error);
-      }
-      result.values.emplace_back(v);
+      if (!ReadCell(
+              cells[c], line_number, c + 1, options, &result.values, error))
+        return false;
     }
     ++data_rows;
   }

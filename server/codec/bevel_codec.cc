@@ -127,20 +127,14 @@ nlohmann::json GridPointsToJson(const BevelFlankGrid& grid) {
   return points;
 }
 
-bool ParseBevelJob(const nlohmann::json& body,
-                   BevelPinionJob* result,
-                   ApiError* error) {
-  if (!body.contains("job")) {
-    *error = InvalidRequest("job", "missing required field job");
-    return false;
-  }
-  const nlohmann::json& j = body.at("job");
-  if (!j.is_object()) {
-    *error = InvalidRequest("job",
-                            "job must be an object {\"side\": \"convex\", "
-                            "\"published\": true} or a summary");
-    return false;
-  }
+namespace {
+
+// Reads job.side and job.published and starts the job from them: the
+// published job of that side, or an empty one with the side's blade.
+bool ReadJobSide(const nlohmann::json& j,
+                 BevelPinionJob* job,
+                 bool* published,
+                 ApiError* error) {
   std::string side;
   if (!ReadString(j, "job", "side", true, &side, error)) return false;
   BevelFlankSide flank_side;
@@ -153,27 +147,33 @@ bool ParseBevelJob(const nlohmann::json& body,
         InvalidValue("job.side", "job.side must be \"convex\" or \"concave\"");
     return false;
   }
-  bool published = false;
-  if (!ReadBool(j, "job", "published", false, &published, error)) return false;
-  BevelPinionJob job;
-  if (published) {
-    job = PublishedPinionJob(flank_side);
+  if (!ReadBool(j, "job", "published", false, published, error)) return false;
+  if (*published) {
+    *job = PublishedPinionJob(flank_side);
   } else {
-    job.side = flank_side;
+    job->side = flank_side;
     // The convex side is cut by the inside blade, the concave side by the
     // outside blade (§1).
-    job.cutter.blade = flank_side == BevelFlankSide::kConvex
-                           ? BevelBlade::kInside
-                           : BevelBlade::kOutside;
+    job->cutter.blade = flank_side == BevelFlankSide::kConvex
+                            ? BevelBlade::kInside
+                            : BevelBlade::kOutside;
   }
-  CradleMachineSettings& m = job.machine;
+  return true;
+}
+
+// Reads job.cutter and job.machine (all fields required unless published).
+bool ReadCutterAndMachine(const nlohmann::json& j,
+                          bool published,
+                          BevelPinionJob* job,
+                          ApiError* error) {
+  CradleMachineSettings& m = job->machine;
   if (!ReadJobFields(
           j,
           "cutter",
           published,
-          {{"point_radius_mm", &job.cutter.point_radius_mm, false, true},
-           {"blade_angle_deg", &job.cutter.blade_angle_rad, true, true},
-           {"edge_radius_mm", &job.cutter.edge_radius_mm, false, false}},
+          {{"point_radius_mm", &job->cutter.point_radius_mm, false, true},
+           {"blade_angle_deg", &job->cutter.blade_angle_rad, true, true},
+           {"edge_radius_mm", &job->cutter.edge_radius_mm, false, false}},
           error) ||
       !ReadJobFields(
           j,
@@ -193,39 +193,49 @@ bool ParseBevelJob(const nlohmann::json& body,
             false},
            {"tilt_axis_mounting_deg", &m.tilt_axis_mounting_rad, true, false},
            {"ratio_of_roll", &m.ratio_of_roll, false, true}},
-          error) ||
-      !ReadJobFields(
+          error)) {
+    return false;
+  }
+  return true;
+}
+
+// Reads job.blank and job.grid.
+bool ReadBlankAndGrid(const nlohmann::json& j,
+                      bool published,
+                      BevelPinionJob* job,
+                      ApiError* error) {
+  if (!ReadJobFields(
           j,
           "blank",
           published,
           {{"outer_cone_distance_mm",
-            &job.blank.outer_cone_distance_mm,
+            &job->blank.outer_cone_distance_mm,
             false,
             true},
            {"inner_cone_distance_mm",
-            &job.blank.inner_cone_distance_mm,
+            &job->blank.inner_cone_distance_mm,
             false,
             true},
-           {"face_angle_deg", &job.blank.face_angle_rad, true, true},
-           {"root_angle_deg", &job.blank.root_angle_rad, true, true}},
+           {"face_angle_deg", &job->blank.face_angle_rad, true, true},
+           {"root_angle_deg", &job->blank.root_angle_rad, true, true}},
           error) ||
       !ReadJobFields(j,
                      "grid",
                      true,
                      {{"profile_min_fraction",
-                       &job.grid.profile_min_fraction,
+                       &job->grid.profile_min_fraction,
                        false,
                        false},
                       {"profile_max_fraction",
-                       &job.grid.profile_max_fraction,
+                       &job->grid.profile_max_fraction,
                        false,
                        false},
                       {"lengthwise_min_fraction",
-                       &job.grid.lengthwise_min_fraction,
+                       &job->grid.lengthwise_min_fraction,
                        false,
                        false},
                       {"lengthwise_max_fraction",
-                       &job.grid.lengthwise_max_fraction,
+                       &job->grid.lengthwise_max_fraction,
                        false,
                        false}},
                      error)) {
@@ -235,16 +245,41 @@ bool ParseBevelJob(const nlohmann::json& body,
     if (!ReadIntField(j.at("grid"),
                       "job.grid",
                       "profile_points",
-                      &job.grid.profile_points,
+                      &job->grid.profile_points,
                       error) ||
         !ReadIntField(j.at("grid"),
                       "job.grid",
                       "lengthwise_points",
-                      &job.grid.lengthwise_points,
+                      &job->grid.lengthwise_points,
                       error)) {
       return false;
     }
   }
+  return true;
+}
+
+}  // namespace
+
+bool ParseBevelJob(const nlohmann::json& body,
+                   BevelPinionJob* result,
+                   ApiError* error) {
+  if (!body.contains("job")) {
+    *error = InvalidRequest("job", "missing required field job");
+    return false;
+  }
+  const nlohmann::json& j = body.at("job");
+  if (!j.is_object()) {
+    *error = InvalidRequest("job",
+                            "job must be an object {\"side\": \"convex\", "
+                            "\"published\": true} or a summary");
+    return false;
+  }
+  BevelPinionJob job;
+  bool published = false;
+  if (!ReadJobSide(j, &job, &published, error) ||
+      !ReadCutterAndMachine(j, published, &job, error) ||
+      !ReadBlankAndGrid(j, published, &job, error))
+    return false;
   std::string field, message;
   if (!job.IsValid(&field, &message)) {
     const std::string api_field = ApiBevelField(field);

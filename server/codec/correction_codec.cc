@@ -352,6 +352,208 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
   };
 }
 
+namespace {
+
+// Reads options.solver and options.mode.
+bool ReadSolverAndMode(const nlohmann::json& j,
+                       const std::string& path,
+                       CorrectionOptions* o,
+                       ApiError* error) {
+  std::string solver;
+  bool found = false;
+  if (!ReadString(j, path, "solver", false, &solver, error, &found))
+    return false;
+  if (found && !ParseCorrectionSolver(solver, &o->solver)) {
+    *error = InvalidValue(
+        "options.solver",
+        "options.solver must be \"regularised\", \"pso\" or \"lsq-plain\"");
+    return false;
+  }
+  std::string mode;
+  if (!ReadString(j, path, "mode", false, &mode, error, &found)) return false;
+  if (found && !ParseCorrectionMode(mode, &o->mode)) {
+    *error = InvalidValue("options.mode",
+                          "options.mode must be \"next-part\" or \"rework\"");
+    return false;
+  }
+  return true;
+}
+
+// Reads options.default_max_order, options.max_order and options.block_scales.
+bool ReadBlockOptions(const nlohmann::json& j,
+                      const std::string& path,
+                      CorrectionOptions* o,
+                      ApiError* error) {
+  if (!ReadIntegerInRange(
+          j, path, "default_max_order", -1, 6, &o->default_max_order, error))
+    return false;
+  std::map<std::string, double> orders;
+  if (!ReadNamedMap(j, path, "max_order", /*integers=*/true, &orders, error))
+    return false;
+  for (const auto& [name, order] : orders) {
+    if (order < -1 || order > 6) {
+      *error = InvalidValue("options.max_order." + name,
+                            "a maximum order lies in [-1, 6]");
+      return false;
+    }
+    o->max_order[name] = static_cast<int>(order);
+  }
+  return ReadNamedMap(j, path, "block_scales", false, &o->block_scales, error);
+}
+
+// Reads options.point_weights, a grid of rows x columns.
+bool ReadPointWeights(const nlohmann::json& j,
+                      int rows,
+                      int columns,
+                      CorrectionOptions* o,
+                      ApiError* error) {
+  if (!j.contains("point_weights")) return true;
+  std::vector<bool> present;
+  return ParseGridValues(j.at("point_weights"),
+                         "options.point_weights",
+                         rows,
+                         columns,
+                         false,
+                         &o->point_weights,
+                         &present,
+                         error);
+}
+
+// Reads options.probe_noise_um and options.regularisation_rule.
+bool ReadNoiseOptions(const nlohmann::json& j,
+                      const std::string& path,
+                      CorrectionOptions* o,
+                      ApiError* error) {
+  // Absent: the probe noise is unknown and generalised cross-validation picks
+  // the level.
+  bool noise_found = false;
+  if (!ReadNumber(j,
+                  path,
+                  "probe_noise_um",
+                  false,
+                  &o->probe_noise_um,
+                  error,
+                  &noise_found))
+    return false;
+  if (noise_found && !(o->probe_noise_um >= 0.0 && o->probe_noise_um <= 1e3)) {
+    *error = InvalidValue("options.probe_noise_um",
+                          "options.probe_noise_um must lie in [0, 1000] um");
+    return false;
+  }
+  std::string rule;
+  bool rule_found = false;
+  if (!ReadString(
+          j, path, "regularisation_rule", false, &rule, error, &rule_found))
+    return false;
+  if (rule_found) {
+    if (rule != "upre" && rule != "discrepancy-principle") {
+      *error = InvalidValue("options.regularisation_rule",
+                            "options.regularisation_rule must be \"upre\" or "
+                            "\"discrepancy-principle\" "
+                            "(it applies when probe_noise_um > 0)");
+      return false;
+    }
+    o->use_discrepancy_principle = rule == "discrepancy-principle";
+  }
+  return true;
+}
+
+// Reads the solver's limits: machine state, iterations, rework passes,
+// outlier rejection and the particle swarm's size.
+bool ReadSolverLimits(const nlohmann::json& j,
+                      const std::string& path,
+                      CorrectionOptions* o,
+                      ApiError* error) {
+  if (!ReadBool(j,
+                path,
+                "estimate_machine_state",
+                false,
+                &o->estimate_machine_state,
+                error))
+    return false;
+  return ReadNumber(j,
+                    path,
+                    "min_flank_effect_um",
+                    false,
+                    &o->min_flank_effect_um,
+                    error) &&
+         ReadIntegerInRange(j,
+                            path,
+                            "max_num_iterations",
+                            0,
+                            200,
+                            &o->max_num_iterations,
+                            error) &&
+         ReadIntegerInRange(j,
+                            path,
+                            "max_rework_passes",
+                            0,
+                            20,
+                            &o->max_rework_passes,
+                            error) &&
+         ReadNumber(j,
+                    path,
+                    "rework_tolerance_um",
+                    false,
+                    &o->rework_tolerance_um,
+                    error) &&
+         ReadNumber(j,
+                    path,
+                    "outlier_threshold",
+                    false,
+                    &o->outlier_threshold,
+                    error) &&
+         ReadNumber(
+             j, path, "outlier_min_um", false, &o->outlier_min_um, error) &&
+         ReadNumber(j,
+                    path,
+                    "max_outlier_fraction",
+                    false,
+                    &o->max_outlier_fraction,
+                    error) &&
+         ReadIntegerInRange(
+             j, path, "pso_particles", 1, 200, &o->pso_particles, error) &&
+         ReadIntegerInRange(
+             j, path, "pso_generations", 1, 2000, &o->pso_generations, error);
+}
+
+// Reads options.pso_seed, which must not be negative.
+bool ReadPsoSeed(const nlohmann::json& j,
+                 const std::string& path,
+                 CorrectionOptions* o,
+                 ApiError* error) {
+  long long seed = static_cast<long long>(o->pso_seed);
+  if (!ReadInteger(j, path, "pso_seed", false, &seed, error)) return false;
+  if (seed < 0) {
+    *error = InvalidValue("options.pso_seed",
+                          "options.pso_seed must not be negative");
+    return false;
+  }
+  o->pso_seed = static_cast<unsigned long long>(seed);
+  return true;
+}
+
+// Reads the "options" object field by field, in the order the API reports
+// the first invalid field.
+bool ReadOptionsObject(const nlohmann::json& j,
+                       int rows,
+                       int columns,
+                       CorrectionOptions* o,
+                       ApiError* error) {
+  const std::string path = "options";
+  if (!j.is_object()) {
+    *error = InvalidRequest(path, "options must be an object");
+    return false;
+  }
+  return ReadSolverAndMode(j, path, o, error) &&
+         ReadBlockOptions(j, path, o, error) &&
+         ReadPointWeights(j, rows, columns, o, error) &&
+         ReadNoiseOptions(j, path, o, error) &&
+         ReadSolverLimits(j, path, o, error) && ReadPsoSeed(j, path, o, error);
+}
+
+}  // namespace
+
 bool ParseCorrectionOptions(const nlohmann::json& body,
                             int rows,
                             int columns,
@@ -359,141 +561,8 @@ bool ParseCorrectionOptions(const nlohmann::json& body,
                             ApiError* error) {
   CorrectionOptions o;
   if (body.contains("options") && !body.at("options").is_null()) {
-    const nlohmann::json& j = body.at("options");
-    const std::string path = "options";
-    if (!j.is_object()) {
-      *error = InvalidRequest(path, "options must be an object");
+    if (!ReadOptionsObject(body.at("options"), rows, columns, &o, error))
       return false;
-    }
-    std::string solver;
-    bool found = false;
-    if (!ReadString(j, path, "solver", false, &solver, error, &found))
-      return false;
-    if (found && !ParseCorrectionSolver(solver, &o.solver)) {
-      *error = InvalidValue(
-          "options.solver",
-          "options.solver must be \"regularised\", \"pso\" or \"lsq-plain\"");
-      return false;
-    }
-    std::string mode;
-    if (!ReadString(j, path, "mode", false, &mode, error, &found)) return false;
-    if (found && !ParseCorrectionMode(mode, &o.mode)) {
-      *error = InvalidValue("options.mode",
-                            "options.mode must be \"next-part\" or \"rework\"");
-      return false;
-    }
-    if (!ReadIntegerInRange(
-            j, path, "default_max_order", -1, 6, &o.default_max_order, error))
-      return false;
-    std::map<std::string, double> orders;
-    if (!ReadNamedMap(j, path, "max_order", /*integers=*/true, &orders, error))
-      return false;
-    for (const auto& [name, order] : orders) {
-      if (order < -1 || order > 6) {
-        *error = InvalidValue("options.max_order." + name,
-                              "a maximum order lies in [-1, 6]");
-        return false;
-      }
-      o.max_order[name] = static_cast<int>(order);
-    }
-    if (!ReadNamedMap(j, path, "block_scales", false, &o.block_scales, error))
-      return false;
-    if (j.contains("point_weights")) {
-      std::vector<bool> present;
-      if (!ParseGridValues(j.at("point_weights"),
-                           "options.point_weights",
-                           rows,
-                           columns,
-                           false,
-                           &o.point_weights,
-                           &present,
-                           error)) {
-        return false;
-      }
-    }
-    // Absent: the probe noise is unknown and generalised cross-validation picks
-    // the level.
-    bool noise_found = false;
-    if (!ReadNumber(j,
-                    path,
-                    "probe_noise_um",
-                    false,
-                    &o.probe_noise_um,
-                    error,
-                    &noise_found))
-      return false;
-    if (noise_found && !(o.probe_noise_um >= 0.0 && o.probe_noise_um <= 1e3)) {
-      *error = InvalidValue("options.probe_noise_um",
-                            "options.probe_noise_um must lie in [0, 1000] um");
-      return false;
-    }
-    std::string rule;
-    bool rule_found = false;
-    if (!ReadString(
-            j, path, "regularisation_rule", false, &rule, error, &rule_found))
-      return false;
-    if (rule_found) {
-      if (rule != "upre" && rule != "discrepancy-principle") {
-        *error = InvalidValue("options.regularisation_rule",
-                              "options.regularisation_rule must be \"upre\" or "
-                              "\"discrepancy-principle\" "
-                              "(it applies when probe_noise_um > 0)");
-        return false;
-      }
-      o.use_discrepancy_principle = rule == "discrepancy-principle";
-    }
-    if (!ReadBool(j,
-                  path,
-                  "estimate_machine_state",
-                  false,
-                  &o.estimate_machine_state,
-                  error))
-      return false;
-    if (!ReadNumber(j,
-                    path,
-                    "min_flank_effect_um",
-                    false,
-                    &o.min_flank_effect_um,
-                    error) ||
-        !ReadIntegerInRange(j,
-                            path,
-                            "max_num_iterations",
-                            0,
-                            200,
-                            &o.max_num_iterations,
-                            error) ||
-        !ReadIntegerInRange(
-            j, path, "max_rework_passes", 0, 20, &o.max_rework_passes, error) ||
-        !ReadNumber(j,
-                    path,
-                    "rework_tolerance_um",
-                    false,
-                    &o.rework_tolerance_um,
-                    error) ||
-        !ReadNumber(
-            j, path, "outlier_threshold", false, &o.outlier_threshold, error) ||
-        !ReadNumber(
-            j, path, "outlier_min_um", false, &o.outlier_min_um, error) ||
-        !ReadNumber(j,
-                    path,
-                    "max_outlier_fraction",
-                    false,
-                    &o.max_outlier_fraction,
-                    error) ||
-        !ReadIntegerInRange(
-            j, path, "pso_particles", 1, 200, &o.pso_particles, error) ||
-        !ReadIntegerInRange(
-            j, path, "pso_generations", 1, 2000, &o.pso_generations, error)) {
-      return false;
-    }
-    long long seed = static_cast<long long>(o.pso_seed);
-    if (!ReadInteger(j, path, "pso_seed", false, &seed, error)) return false;
-    if (seed < 0) {
-      *error = InvalidValue("options.pso_seed",
-                            "options.pso_seed must not be negative");
-      return false;
-    }
-    o.pso_seed = static_cast<unsigned long long>(seed);
   }
   // The swarm's work grows with particles x generations x grid points; keep one
   // request from occupying a worker for long (the published 40 x 200 on 5 x 9

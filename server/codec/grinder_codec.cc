@@ -36,67 +36,23 @@ std::string ApiFieldPath(const std::string& engine_field) {
   return engine_field;
 }
 
-bool ParseGrindingSetup(const nlohmann::json& request,
-                        GrindingSetup* setup,
-                        ApiError* error) {
-  GrindingSetup s;
-  const nlohmann::json* gear = nullptr;
-  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error))
-    return false;
-  long long teeth = 0;
-  double pressure_angle_deg = 0.0;
-  double helix_angle_deg = 0.0;
-  if (!ReadInteger(*gear, "gear", "teeth", true, &teeth, error) ||
-      !ReadNumber(*gear,
-                  "gear",
-                  "normal_module_mm",
-                  true,
-                  &s.gear.normal_module_mm,
-                  error) ||
-      !ReadNumber(*gear,
-                  "gear",
-                  "normal_pressure_angle_deg",
-                  true,
-                  &pressure_angle_deg,
-                  error) ||
-      !ReadNumber(
-          *gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
-      !ReadNumber(
-          *gear, "gear", "face_width_mm", true, &s.gear.face_width_mm, error) ||
-      !ReadNumber(
-          *gear, "gear", "tip_radius_mm", true, &s.gear.tip_radius_mm, error) ||
-      !ReadNumber(*gear,
-                  "gear",
-                  "root_radius_mm",
-                  true,
-                  &s.gear.root_radius_mm,
-                  error)) {
-    return false;
-  }
-  if (teeth < -1000000 || teeth > 1000000) {
-    *error = InvalidValue(
-        "gear.teeth",
-        "gear.teeth is out of range, got " + std::to_string(teeth));
-    return false;
-  }
-  s.gear.teeth = static_cast<int>(teeth);
-  if (helix_angle_deg < 0.0) {
-    *error = InvalidValue(
-        "gear.helix_angle_deg",
-        "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
-            nlohmann::json(helix_angle_deg).dump());
-    return false;
-  }
+namespace {
+
+// Reads gear.hand into the sign of the helix angle (MODEL.md §1: beta > 0 is
+// a left-hand helix); a helical gear needs it.
+bool ReadGearHand(const nlohmann::json& gear,
+                  double helix_angle_deg,
+                  double* sign,
+                  ApiError* error) {
   std::string hand;
   bool hand_found = false;
-  if (!ReadString(*gear, "gear", "hand", false, &hand, error, &hand_found))
+  if (!ReadString(gear, "gear", "hand", false, &hand, error, &hand_found))
     return false;
-  double sign = 0.0;
   if (hand_found) {
     if (hand == "left") {
-      sign = 1.0;
+      *sign = 1.0;
     } else if (hand == "right") {
-      sign = -1.0;
+      *sign = -1.0;
     } else {
       *error =
           InvalidValue("gear.hand", "gear.hand must be \"left\" or \"right\"");
@@ -108,41 +64,123 @@ bool ParseGrindingSetup(const nlohmann::json& request,
                             "needs \"left\" or \"right\")");
     return false;
   }
-  s.gear.normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
-  // MODEL.md §1: beta > 0 is a left-hand helix.
-  s.gear.helix_angle_rad = sign * helix_angle_deg * kRadPerDeg;
+  return true;
+}
 
+// Reads the gear: teeth, module, angles, widths, radii and hand.
+bool ReadGear(const nlohmann::json& request,
+              GrindingSetup* s,
+              ApiError* error) {
+  const nlohmann::json* gear = nullptr;
+  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error))
+    return false;
+  long long teeth = 0;
+  double pressure_angle_deg = 0.0;
+  double helix_angle_deg = 0.0;
+  if (!ReadInteger(*gear, "gear", "teeth", true, &teeth, error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "normal_module_mm",
+                  true,
+                  &s->gear.normal_module_mm,
+                  error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "normal_pressure_angle_deg",
+                  true,
+                  &pressure_angle_deg,
+                  error) ||
+      !ReadNumber(
+          *gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "face_width_mm",
+                  true,
+                  &s->gear.face_width_mm,
+                  error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "tip_radius_mm",
+                  true,
+                  &s->gear.tip_radius_mm,
+                  error) ||
+      !ReadNumber(*gear,
+                  "gear",
+                  "root_radius_mm",
+                  true,
+                  &s->gear.root_radius_mm,
+                  error)) {
+    return false;
+  }
+  if (teeth < -1000000 || teeth > 1000000) {
+    *error = InvalidValue(
+        "gear.teeth",
+        "gear.teeth is out of range, got " + std::to_string(teeth));
+    return false;
+  }
+  s->gear.teeth = static_cast<int>(teeth);
+  if (helix_angle_deg < 0.0) {
+    *error = InvalidValue(
+        "gear.helix_angle_deg",
+        "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
+            nlohmann::json(helix_angle_deg).dump());
+    return false;
+  }
+  double sign = 0.0;
+  if (!ReadGearHand(*gear, helix_angle_deg, &sign, error)) return false;
+  s->gear.normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
+  // MODEL.md §1: beta > 0 is a left-hand helix.
+  s->gear.helix_angle_rad = sign * helix_angle_deg * kRadPerDeg;
+  return true;
+}
+
+// Reads the wheel radius.
+bool ReadWheel(const nlohmann::json& request,
+               GrindingSetup* s,
+               ApiError* error) {
   const nlohmann::json* wheel = nullptr;
   if (!RequireObject(request, "", "wheel", true, &wheel, error) ||
       !ReadNumber(
-          *wheel, "wheel", "radius_mm", true, &s.wheel.radius_mm, error)) {
+          *wheel, "wheel", "radius_mm", true, &s->wheel.radius_mm, error)) {
     return false;
   }
+  return true;
+}
 
+// Reads the optional machine constants (flat-wheel grinders only).
+bool ReadMachine(const nlohmann::json& request,
+                 GrindingSetup* s,
+                 ApiError* error) {
   const nlohmann::json* machine = nullptr;
   if (!RequireObject(request, "", "machine", false, &machine, error))
     return false;
   if (machine != nullptr) {
     if (!RequireFlatWheelGrinder(request, error)) return false;
     if (!ReadNumber(
-            *machine, "machine", "k1_mm", false, &s.machine.k1_mm, error) ||
+            *machine, "machine", "k1_mm", false, &s->machine.k1_mm, error) ||
         !ReadNumber(
-            *machine, "machine", "k2_mm", false, &s.machine.k2_mm, error) ||
+            *machine, "machine", "k2_mm", false, &s->machine.k2_mm, error) ||
         !ReadNumber(*machine,
                     "machine",
                     "traverse_mm_per_rad",
                     false,
-                    &s.machine.traverse_mm_per_rad,
+                    &s->machine.traverse_mm_per_rad,
                     error)) {
       return false;
     }
   }
+  return true;
+}
 
+// Reads the optional evaluation grid.
+bool ReadGrid(const nlohmann::json& request,
+              GrindingSetup* s,
+              ApiError* error) {
   const nlohmann::json* grid = nullptr;
   if (!RequireObject(request, "", "grid", false, &grid, error)) return false;
   if (grid != nullptr) {
-    long long profile_points = s.grid.profile_points;
-    long long lead_points = s.grid.lead_points;
+    long long profile_points = s->grid.profile_points;
+    long long lead_points = s->grid.lead_points;
     if (!ReadInteger(
             *grid, "grid", "profile_points", false, &profile_points, error) ||
         !ReadInteger(
@@ -150,14 +188,14 @@ bool ParseGrindingSetup(const nlohmann::json& request,
         !ReadRange(*grid,
                    "grid",
                    "profile_range",
-                   &s.grid.profile_begin,
-                   &s.grid.profile_end,
+                   &s->grid.profile_begin,
+                   &s->grid.profile_end,
                    error) ||
         !ReadRange(*grid,
                    "grid",
                    "lead_range",
-                   &s.grid.lead_begin,
-                   &s.grid.lead_end,
+                   &s->grid.lead_begin,
+                   &s->grid.lead_end,
                    error)) {
       return false;
     }
@@ -172,18 +210,38 @@ bool ParseGrindingSetup(const nlohmann::json& request,
           InvalidValue("grid.lead_points", "grid.lead_points is out of range");
       return false;
     }
-    s.grid.profile_points = static_cast<int>(profile_points);
-    s.grid.lead_points = static_cast<int>(lead_points);
+    s->grid.profile_points = static_cast<int>(profile_points);
+    s->grid.lead_points = static_cast<int>(lead_points);
   }
+  return true;
+}
 
+// Reads the flank, right unless given.
+bool ReadFlank(const nlohmann::json& request,
+               GrindingSetup* s,
+               ApiError* error) {
   std::string flank = "right";
   if (!ReadString(request, "", "flank", false, &flank, error)) return false;
   if (flank == "right") {
-    s.flank = Flank::kRight;
+    s->flank = Flank::kRight;
   } else if (flank == "left") {
-    s.flank = Flank::kLeft;
+    s->flank = Flank::kLeft;
   } else {
     *error = InvalidValue("flank", "flank must be \"left\" or \"right\"");
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool ParseGrindingSetup(const nlohmann::json& request,
+                        GrindingSetup* setup,
+                        ApiError* error) {
+  GrindingSetup s;
+  if (!ReadGear(request, &s, error) || !ReadWheel(request, &s, error) ||
+      !ReadMachine(request, &s, error) || !ReadGrid(request, &s, error) ||
+      !ReadFlank(request, &s, error)) {
     return false;
   }
 
@@ -196,16 +254,14 @@ bool ParseGrindingSetup(const nlohmann::json& request,
   return true;
 }
 
-bool ParseMachineSettings(const nlohmann::json& settings,
-                          const std::string& path,
-                          MachineSettings* result,
-                          ApiError* error) {
-  if (!settings.is_object()) {
-    *error = InvalidRequest(
-        path, path + " must be an object, got " + TypeName(settings));
-    return false;
-  }
-  MachineSettings s;
+namespace {
+
+// Reads the polynomial coefficients of the six axes; every axis is required
+// and no other is allowed.
+bool ReadAxes(const nlohmann::json& settings,
+              const std::string& path,
+              MachineSettings* s,
+              ApiError* error) {
   const nlohmann::json* axes = nullptr;
   if (!RequireObject(settings, path, "axes", true, &axes, error)) return false;
   const std::string axes_path = JoinPath(path, "axes");
@@ -227,10 +283,10 @@ bool ParseMachineSettings(const nlohmann::json& settings,
     for (size_t k = 0; k < coefficients.size(); ++k) {
       if (!NumberFromJson(coefficients[k],
                           field + "[" + std::to_string(k) + "]",
-                          &s.axes[i][k],
+                          &s->axes[i][k],
                           error))
         return false;
-      if (std::fabs(s.axes[i][k]) > 1e6) {
+      if (std::fabs(s->axes[i][k]) > 1e6) {
         *error = InvalidValue(field + "[" + std::to_string(k) + "]",
                               "axis coefficient is implausibly large");
         return false;
@@ -247,6 +303,14 @@ bool ParseMachineSettings(const nlohmann::json& settings,
       return false;
     }
   }
+  return true;
+}
+
+// Reads the optional wheel shape: cone angle and parabola.
+bool ReadWheelShape(const nlohmann::json& settings,
+                    const std::string& path,
+                    MachineSettings* s,
+                    ApiError* error) {
   const nlohmann::json* wheel = nullptr;
   if (!RequireObject(settings, path, "wheel", false, &wheel, error))
     return false;
@@ -263,13 +327,13 @@ bool ParseMachineSettings(const nlohmann::json& settings,
                     wheel_path,
                     "parabola_coefficient_per_mm",
                     false,
-                    &s.wheel.parabola_coefficient_per_mm,
+                    &s->wheel.parabola_coefficient_per_mm,
                     error) ||
         !ReadNumber(*wheel,
                     wheel_path,
                     "parabola_vertex_mm",
                     false,
-                    &s.wheel.parabola_vertex_mm,
+                    &s->wheel.parabola_vertex_mm,
                     error)) {
       return false;
     }
@@ -279,19 +343,37 @@ bool ParseMachineSettings(const nlohmann::json& settings,
                        "the wheel cone angle must lie within (-45, 45) deg");
       return false;
     }
-    if (std::fabs(s.wheel.parabola_coefficient_per_mm) > 1.0) {
+    if (std::fabs(s->wheel.parabola_coefficient_per_mm) > 1.0) {
       *error =
           InvalidValue(JoinPath(wheel_path, "parabola_coefficient_per_mm"),
                        "the parabola coefficient must lie within [-1, 1] 1/mm");
       return false;
     }
-    if (std::fabs(s.wheel.parabola_vertex_mm) > 1e4) {
+    if (std::fabs(s->wheel.parabola_vertex_mm) > 1e4) {
       *error = InvalidValue(JoinPath(wheel_path, "parabola_vertex_mm"),
                             "the parabola vertex must lie within 1e4 mm");
       return false;
     }
-    s.wheel.cone_angle_rad = cone_angle_deg * kRadPerDeg;
+    s->wheel.cone_angle_rad = cone_angle_deg * kRadPerDeg;
   }
+  return true;
+}
+
+}  // namespace
+
+bool ParseMachineSettings(const nlohmann::json& settings,
+                          const std::string& path,
+                          MachineSettings* result,
+                          ApiError* error) {
+  if (!settings.is_object()) {
+    *error = InvalidRequest(
+        path, path + " must be an object, got " + TypeName(settings));
+    return false;
+  }
+  MachineSettings s;
+  if (!ReadAxes(settings, path, &s, error) ||
+      !ReadWheelShape(settings, path, &s, error))
+    return false;
   *result = s;
   return true;
 }

@@ -12,6 +12,92 @@
 namespace gearloop {
 namespace {
 const char* kAxisNames[kNumAxes] = {"X", "Y", "Z", "A", "B", "C"};
+
+// Reads hidden_errors.axes: per axis, up to 7 coefficients.
+bool ReadHiddenAxisErrors(const nlohmann::json& axes,
+                          Eigen::VectorXd* errors,
+                          ApiError* error) {
+  if (!axes.is_object()) {
+    *error = InvalidRequest(
+        "hidden_errors.axes",
+        "hidden_errors.axes must be an object of axis -> coefficients");
+    return false;
+  }
+  for (const auto& item : axes.items()) {
+    int axis = -1;
+    for (int i = 0; i < kNumAxes; ++i) {
+      if (item.key() == kAxisNames[i]) axis = i;
+    }
+    const std::string field = "hidden_errors.axes." + item.key();
+    if (axis < 0) {
+      *error = InvalidRequest(
+          field, "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
+      return false;
+    }
+    const nlohmann::json& coefficients = item.value();
+    if (!coefficients.is_array() ||
+        coefficients.size() > static_cast<size_t>(kCoefficientsPerAxis)) {
+      *error = InvalidRequest(field,
+                              field + " must be an array of at most 7 numbers");
+      return false;
+    }
+    for (size_t k = 0; k < coefficients.size(); ++k) {
+      if (!ReadCoefficient(coefficients[k],
+                           field + "[" + std::to_string(k) + "]",
+                           /*max_abs=*/1e3,
+                           "finite and at most 1e3 in size",
+                           &(*errors)(ParameterIndex(static_cast<Axis>(axis),
+                                                     static_cast<int>(k))),
+                           error)) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Reads hidden_errors.wheel: cone angle and parabola.
+bool ReadHiddenWheelErrors(const nlohmann::json& wheel,
+                           Eigen::VectorXd* errors,
+                           ApiError* error) {
+  if (!wheel.is_object()) {
+    *error = InvalidRequest("hidden_errors.wheel",
+                            "hidden_errors.wheel must be an object");
+    return false;
+  }
+  double cone_deg = 0.0, parabola = 0.0, vertex = 0.0;
+  if (!ReadNumber(wheel,
+                  "hidden_errors.wheel",
+                  "cone_angle_deg",
+                  false,
+                  &cone_deg,
+                  error) ||
+      !ReadNumber(wheel,
+                  "hidden_errors.wheel",
+                  "parabola_coefficient_per_mm",
+                  false,
+                  &parabola,
+                  error) ||
+      !ReadNumber(wheel,
+                  "hidden_errors.wheel",
+                  "parabola_vertex_mm",
+                  false,
+                  &vertex,
+                  error)) {
+    return false;
+  }
+  if (std::fabs(cone_deg) > 10.0 || std::fabs(parabola) > 1.0 ||
+      std::fabs(vertex) > 1e3) {
+    *error = InvalidValue("hidden_errors.wheel",
+                          "hidden wheel errors are implausibly large");
+    return false;
+  }
+  (*errors)(kConeAngleIndex) = cone_deg * kRadPerDeg;
+  (*errors)(kParabolaCoefficientIndex) = parabola;
+  (*errors)(kParabolaVertexIndex) = vertex;
+  return true;
+}
+
 }  // namespace
 
 // Hidden errors given coefficient by coefficient; every part optional.
@@ -26,84 +112,12 @@ bool ParseGrinderHiddenErrors(const nlohmann::json& value,
         "hidden_errors must be an object {\"axes\": {...}, \"wheel\": {...}}");
     return false;
   }
-  if (value.contains("axes")) {
-    const nlohmann::json& axes = value.at("axes");
-    if (!axes.is_object()) {
-      *error = InvalidRequest(
-          "hidden_errors.axes",
-          "hidden_errors.axes must be an object of axis -> coefficients");
-      return false;
-    }
-    for (const auto& item : axes.items()) {
-      int axis = -1;
-      for (int i = 0; i < kNumAxes; ++i) {
-        if (item.key() == kAxisNames[i]) axis = i;
-      }
-      const std::string field = "hidden_errors.axes." + item.key();
-      if (axis < 0) {
-        *error = InvalidRequest(
-            field,
-            "unknown axis " + item.key() + " (axes are X, Y, Z, A, B, C)");
-        return false;
-      }
-      const nlohmann::json& coefficients = item.value();
-      if (!coefficients.is_array() ||
-          coefficients.size() > static_cast<size_t>(kCoefficientsPerAxis)) {
-        *error = InvalidRequest(
-            field, field + " must be an array of at most 7 numbers");
-        return false;
-      }
-      for (size_t k = 0; k < coefficients.size(); ++k) {
-        if (!ReadCoefficient(coefficients[k],
-                             field + "[" + std::to_string(k) + "]",
-                             /*max_abs=*/1e3,
-                             "finite and at most 1e3 in size",
-                             &(*errors)(ParameterIndex(static_cast<Axis>(axis),
-                                                       static_cast<int>(k))),
-                             error)) {
-          return false;
-        }
-      }
-    }
-  }
-  if (value.contains("wheel")) {
-    const nlohmann::json& wheel = value.at("wheel");
-    if (!wheel.is_object()) {
-      *error = InvalidRequest("hidden_errors.wheel",
-                              "hidden_errors.wheel must be an object");
-      return false;
-    }
-    double cone_deg = 0.0, parabola = 0.0, vertex = 0.0;
-    if (!ReadNumber(wheel,
-                    "hidden_errors.wheel",
-                    "cone_angle_deg",
-                    false,
-                    &cone_deg,
-                    error) ||
-        !ReadNumber(wheel,
-                    "hidden_errors.wheel",
-                    "parabola_coefficient_per_mm",
-                    false,
-                    &parabola,
-                    error) ||
-        !ReadNumber(wheel,
-                    "hidden_errors.wheel",
-                    "parabola_vertex_mm",
-                    false,
-                    &vertex,
-                    error)) {
-      return false;
-    }
-    if (std::fabs(cone_deg) > 10.0 || std::fabs(parabola) > 1.0 ||
-        std::fabs(vertex) > 1e3) {
-      *error = InvalidValue("hidden_errors.wheel",
-                            "hidden wheel errors are implausibly large");
-      return false;
-    }
-    (*errors)(kConeAngleIndex) = cone_deg * kRadPerDeg;
-    (*errors)(kParabolaCoefficientIndex) = parabola;
-    (*errors)(kParabolaVertexIndex) = vertex;
-  }
+  if (value.contains("axes") &&
+      !ReadHiddenAxisErrors(value.at("axes"), errors, error))
+    return false;
+  if (value.contains("wheel") &&
+      !ReadHiddenWheelErrors(value.at("wheel"), errors, error))
+    return false;
   return true;
 }
 

@@ -79,6 +79,112 @@ const char* CodeForStatus(int status) {
   }
 }
 
+// A route of the API: a plain handler or a service handler of the context.
+struct ApiRoute {
+  const char* method;
+  const char* pattern;
+  const char* route;
+  Access access;
+  void (*handler)(const httplib::Request&, httplib::Response&);
+  void (*service)(const ServiceContext&,
+                  const httplib::Request&,
+                  httplib::Response&);
+};
+
+// The API routes in registration order.
+const ApiRoute kApiRoutes[] = {
+    {"POST",
+     "/api/v1/nominal",
+     "POST /api/v1/nominal",
+     Access::kRead,
+     GrinderNominal,
+     nullptr},
+    {"POST",
+     "/api/v1/evaluate",
+     "POST /api/v1/evaluate",
+     Access::kRead,
+     GrinderEvaluate,
+     nullptr},
+    {"POST",
+     "/api/v1/sensitivity",
+     "POST /api/v1/sensitivity",
+     Access::kRead,
+     GrinderSensitivity,
+     nullptr},
+    {"POST",
+     "/api/v1/corrections",
+     "POST /api/v1/corrections",
+     Access::kWrite,
+     nullptr,
+     CreateCorrection},
+    {"GET",
+     "/api/v1/corrections",
+     "GET /api/v1/corrections",
+     Access::kRead,
+     nullptr,
+     ListCorrections},
+    {"GET",
+     R"(/api/v1/corrections/(\d+))",
+     "GET /api/v1/corrections/{id}",
+     Access::kRead,
+     nullptr,
+     GetCorrection},
+    {"GET",
+     R"(/api/v1/corrections/(\d+)/lineage)",
+     "GET /api/v1/corrections/{id}/lineage",
+     Access::kRead,
+     nullptr,
+     GetLineage},
+    {"POST",
+     R"(/api/v1/corrections/(\d+)/replay)",
+     "POST /api/v1/corrections/{id}/replay",
+     Access::kWrite,
+     nullptr,
+     ReplayCorrection},
+    {"POST",
+     "/api/v1/batches",
+     "POST /api/v1/batches",
+     Access::kWrite,
+     nullptr,
+     CreateBatch},
+    {"GET",
+     R"(/api/v1/batches/(\d+))",
+     "GET /api/v1/batches/{id}",
+     Access::kRead,
+     nullptr,
+     GetBatch},
+    {"POST",
+     "/api/v1/simulations/measurement",
+     "POST /api/v1/simulations/measurement",
+     Access::kRead,
+     nullptr,
+     SimulateMeasurement},
+    {"POST",
+     "/api/v1/bevel/conversions",
+     "POST /api/v1/bevel/conversions",
+     Access::kRead,
+     BevelConversion,
+     nullptr},
+    {"POST",
+     "/api/v1/bevel/evaluate",
+     "POST /api/v1/bevel/evaluate",
+     Access::kRead,
+     BevelEvaluate,
+     nullptr},
+    {"POST",
+     "/api/v1/bevel/axis-sensitivity",
+     "POST /api/v1/bevel/axis-sensitivity",
+     Access::kRead,
+     BevelAxisSensitivity,
+     nullptr},
+    {"POST",
+     "/api/v1/simulations/closed-loop",
+     "POST /api/v1/simulations/closed-loop",
+     Access::kWrite,
+     nullptr,
+     SimulateClosedLoop},
+};
+
 }  // namespace
 
 class GearloopServer::Impl {
@@ -386,83 +492,20 @@ class GearloopServer::Impl {
                                    static_cast<int64_t>(batches_->Queued())),
                    "text/plain; version=0.0.4");
              });
-    Register("POST",
-             "/api/v1/nominal",
-             "POST /api/v1/nominal",
-             Access::kRead,
-             GrinderNominal);
-    Register("POST",
-             "/api/v1/evaluate",
-             "POST /api/v1/evaluate",
-             Access::kRead,
-             GrinderEvaluate);
-    Register("POST",
-             "/api/v1/sensitivity",
-             "POST /api/v1/sensitivity",
-             Access::kRead,
-             GrinderSensitivity);
-    RegisterService("POST",
-                    "/api/v1/corrections",
-                    "POST /api/v1/corrections",
-                    Access::kWrite,
-                    CreateCorrection);
-    RegisterService("GET",
-                    "/api/v1/corrections",
-                    "GET /api/v1/corrections",
-                    Access::kRead,
-                    ListCorrections);
-    RegisterService("GET",
-                    R"(/api/v1/corrections/(\d+))",
-                    "GET /api/v1/corrections/{id}",
-                    Access::kRead,
-                    GetCorrection);
-    RegisterService("GET",
-                    R"(/api/v1/corrections/(\d+)/lineage)",
-                    "GET /api/v1/corrections/{id}/lineage",
-                    Access::kRead,
-                    GetLineage);
-    RegisterService("POST",
-                    R"(/api/v1/corrections/(\d+)/replay)",
-                    "POST /api/v1/corrections/{id}/replay",
-                    Access::kWrite,
-                    ReplayCorrection);
-    RegisterService("POST",
-                    "/api/v1/batches",
-                    "POST /api/v1/batches",
-                    Access::kWrite,
-                    CreateBatch);
-    RegisterService("GET",
-                    R"(/api/v1/batches/(\d+))",
-                    "GET /api/v1/batches/{id}",
-                    Access::kRead,
-                    GetBatch);
-    RegisterService("POST",
-                    "/api/v1/simulations/measurement",
-                    "POST /api/v1/simulations/measurement",
-                    Access::kRead,
-                    SimulateMeasurement);
-    Register("POST",
-             "/api/v1/bevel/conversions",
-             "POST /api/v1/bevel/conversions",
-             Access::kRead,
-             BevelConversion);
-    Register("POST",
-             "/api/v1/bevel/evaluate",
-             "POST /api/v1/bevel/evaluate",
-             Access::kRead,
-             BevelEvaluate);
-    Register("POST",
-             "/api/v1/bevel/axis-sensitivity",
-             "POST /api/v1/bevel/axis-sensitivity",
-             Access::kRead,
-             BevelAxisSensitivity);
-    RegisterService("POST",
-                    "/api/v1/simulations/closed-loop",
-                    "POST /api/v1/simulations/closed-loop",
-                    Access::kWrite,
-                    SimulateClosedLoop);
-    // The dashboard (clients/web, embedded in the binary). Its pages hold no
-    // data: the API calls they make carry the token.
+    for (const ApiRoute& r : kApiRoutes) {
+      if (r.service != nullptr) {
+        RegisterService(r.method, r.pattern, r.route, r.access, r.service);
+      } else {
+        Register(r.method, r.pattern, r.route, r.access, r.handler);
+      }
+    }
+    RegisterDashboard();
+    RegisterMethodNotAllowed();
+  }
+
+  // The dashboard (clients/web, embedded in the binary). Its pages hold no
+  // data: the API calls they make carry the token.
+  void RegisterDashboard() {
     Register("GET",
              R"(/|/jobs/\d+/report|/static/[A-Za-z0-9._-]+)",
              "GET dashboard",
@@ -477,8 +520,6 @@ class GearloopServer::Impl {
                res.status = 200;
                res.set_content(body, content_type.c_str());
              });
-
-    RegisterMethodNotAllowed();
   }
 
   // A known path with a method it does not serve: 405 with Allow (cpp-httplib

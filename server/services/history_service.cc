@@ -21,40 +21,44 @@ ApiError NoStoredJob(const std::string& id_text) {
 
 }  // namespace
 
-bool ParseJobFilter(const httplib::Request& req,
+namespace {
+
+// Reads the integer query parameter key into *out when present; it must lie in
+// [min, max].
+bool ReadIntegerParam(const httplib::Request& req,
+                      const char* key,
+                      long long min,
+                      long long max,
+                      long long* out,
+                      ApiError* error) {
+  if (!req.has_param(key)) return true;
+  const std::string text = req.get_param_value(key);
+  const std::string field = std::string("query.") + key;
+  if (text.empty() || text.size() > 12 ||
+      text.find_first_not_of("-0123456789") != std::string::npos ||
+      text.find('-', 1) != std::string::npos || text == "-") {
+    *error = InvalidRequest(field, field + " must be an integer");
+    return false;
+  }
+  const long long value = std::stoll(text);
+  if (value < min || value > max) {
+    *error = InvalidValue(field,
+                          field + " must lie in [" + std::to_string(min) +
+                              ", " + std::to_string(max) + "]");
+    return false;
+  }
+  *out = value;
+  return true;
+}
+
+// Reads the gear filters: teeth, module_mm and flank.
+bool ReadGearFilter(const httplib::Request& req,
                     JobFilter* filter,
                     ApiError* error) {
-  static const std::regex kTime(
-      R"(\d{4}-\d{2}-\d{2}(T\d{2}:\d{2}(:\d{2}(\.\d{1,3})?)?Z?)?)");
-  auto integer =
-      [&](const char* key, long long min, long long max, long long* out) {
-        if (!req.has_param(key)) return true;
-        const std::string text = req.get_param_value(key);
-        const std::string field = std::string("query.") + key;
-        if (text.empty() || text.size() > 12 ||
-            text.find_first_not_of("-0123456789") != std::string::npos ||
-            text.find('-', 1) != std::string::npos || text == "-") {
-          *error = InvalidRequest(field, field + " must be an integer");
-          return false;
-        }
-        const long long value = std::stoll(text);
-        if (value < min || value > max) {
-          *error = InvalidValue(field,
-                                field + " must lie in [" + std::to_string(min) +
-                                    ", " + std::to_string(max) + "]");
-          return false;
-        }
-        *out = value;
-        return true;
-      };
-  long long limit = 50, offset = 0, teeth = 0;
-  if (!integer("limit", 1, 1000, &limit) ||
-      !integer("offset", 0, 1000000000, &offset))
-    return false;
-  filter->limit = static_cast<int>(limit);
-  filter->offset = static_cast<int>(offset);
+  long long teeth = 0;
   if (req.has_param("teeth")) {
-    if (!integer("teeth", 1, 1000000, &teeth)) return false;
+    if (!ReadIntegerParam(req, "teeth", 1, 1000000, &teeth, error))
+      return false;
     filter->gear_teeth = static_cast<int>(teeth);
   }
   if (req.has_param("module_mm")) {
@@ -81,8 +85,15 @@ bool ParseJobFilter(const httplib::Request& req,
     }
     filter->flank = flank;
   }
-  if (req.has_param("kind")) filter->kind = req.get_param_value("kind");
-  if (req.has_param("status")) filter->status = req.get_param_value("status");
+  return true;
+}
+
+// Reads created_from and created_to; the range must not be reversed.
+bool ReadCreatedRange(const httplib::Request& req,
+                      JobFilter* filter,
+                      ApiError* error) {
+  static const std::regex kTime(
+      R"(\d{4}-\d{2}-\d{2}(T\d{2}:\d{2}(:\d{2}(\.\d{1,3})?)?Z?)?)");
   for (const char* key : {"created_from", "created_to"}) {
     if (!req.has_param(key)) continue;
     const std::string text = req.get_param_value(key);
@@ -103,6 +114,23 @@ bool ParseJobFilter(const httplib::Request& req,
     return false;
   }
   return true;
+}
+
+}  // namespace
+
+bool ParseJobFilter(const httplib::Request& req,
+                    JobFilter* filter,
+                    ApiError* error) {
+  long long limit = 50, offset = 0;
+  if (!ReadIntegerParam(req, "limit", 1, 1000, &limit, error) ||
+      !ReadIntegerParam(req, "offset", 0, 1000000000, &offset, error))
+    return false;
+  filter->limit = static_cast<int>(limit);
+  filter->offset = static_cast<int>(offset);
+  if (!ReadGearFilter(req, filter, error)) return false;
+  if (req.has_param("kind")) filter->kind = req.get_param_value("kind");
+  if (req.has_param("status")) filter->status = req.get_param_value("status");
+  return ReadCreatedRange(req, filter, error);
 }
 
 void ListCorrections(const ServiceContext& context,
