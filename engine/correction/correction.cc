@@ -9,6 +9,8 @@
 //   (regularisation.cc), then
 //      the refinement (refinement.cc) or the rework passes (rework_qp.cc), or
 //      pso / lsq-plain (baseline_solvers.cc)
+//   -> SafeStep: the motion bound and the exact-model check that the next part
+//   is predicted better than with the current settings (safe_step.cc)
 //   -> PredictExactly: the exact model at the new parameters.
 #include "engine/correction/correction.h"
 
@@ -25,6 +27,7 @@
 #include "engine/correction/refinement.h"
 #include "engine/correction/regularisation.h"
 #include "engine/correction/rework_qp.h"
+#include "engine/correction/safe_step.h"
 
 namespace gearloop {
 namespace {
@@ -159,7 +162,28 @@ void PredictExactly(const CorrectionOptions& options,
   summary.message = not_converged;
 }
 
-// Solve and PredictExactly for one prepared problem.
+// The safe step of the regularised solver (safe_step.h): the motion bound,
+// then the largest fraction of the change whose exact prediction at the
+// linearisation point (the estimated machine state, or the commanded
+// parameters) is better than keeping the current settings.
+Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const Eigen::VectorXd& delta,
+                             CorrectionSummary* summary,
+                             std::string* no_safe_improvement) {
+  SafeStepOutcome outcome;
+  Eigen::VectorXd step = BoundAxisMotion(options, problem, delta, &outcome);
+  step = ChooseSafeStep(options, problem, step, &outcome);
+  summary->safe_step_checked = true;
+  summary->motion_scale = outcome.motion_scale;
+  summary->step_fraction = outcome.step_fraction;
+  summary->safe_step_current_rms_um = outcome.current_rms_um;
+  summary->safe_step_predicted_rms_um = outcome.predicted_rms_um;
+  if (!outcome.improved) *no_safe_improvement = outcome.message;
+  return step;
+}
+
+// Solve, SafeStep and PredictExactly for one prepared problem.
 CorrectionResult SolveProblem(const CorrectionOptions& options,
                               CorrectionProblem problem) {
   CorrectionResult result;
@@ -189,7 +213,16 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
       summary.linear_residual_rms_um = LinearPredictionRms(problem, delta);
       break;
   }
+  std::string no_safe_improvement;
+  if (options.safe_step && options.solver == CorrectionSolver::kRegularised) {
+    delta =
+        MakeStepSafe(options, problem, delta, &summary, &no_safe_improvement);
+  }
   PredictExactly(options, problem, delta, not_converged, &result);
+  if (!no_safe_improvement.empty()) {
+    summary.status = CorrectionStatus::kNoSafeImprovement;
+    summary.message = no_safe_improvement;
+  }
   return result;
 }
 

@@ -117,6 +117,7 @@
 #define GEARLOOP_ENGINE_CORRECTION_CORRECTION_H_
 
 #include <Eigen/Core>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -225,6 +226,22 @@ struct CorrectionOptions {
   // predicted 0.78 um and ground 3.8 um (BENCHMARKS.md, "Correction").
   double min_flank_effect_um = 0.03;
 
+  // The safe step (regularised solver; correction.cc, "SafeStep"): before
+  // answering, the next part is predicted on the exact model at the point the
+  // correction was linearised at (the estimated machine state, or the
+  // commanded parameters). A step is kept only where that prediction is better
+  // (lower rms over the used points) than keeping the current settings;
+  // otherwise it is halved, at most safe_step_halvings times,
+  // and when no fraction is better the current settings are kept with status
+  // no_safe_improvement. Before that, the whole change is scaled down so that
+  // no axis moves more than max_axis_motion_mm (axes in mm) or
+  // max_axis_motion_rad (axes in rad) anywhere over the roll range (0 = no
+  // bound). false turns the stage off (the bare solver, for studies).
+  bool safe_step = true;
+  int safe_step_halvings = 5;
+  double max_axis_motion_mm = 0.2;
+  double max_axis_motion_rad = 3e-3;
+
   // Floor of the Tikhonov level lambda, relative to the largest singular value
   // of the scaled S (0 = none), for exact data (probe_noise_um = 0) and GCV:
   // there lambda >= min_relative_regularisation * sigma_1. With a known noise >
@@ -290,6 +307,10 @@ enum class CorrectionStatus {
   kNotConverged,  // "not_converged": the message says why; the result may still
                   // be usable
   kInvalidInput,  // the options or input were rejected; nothing was computed
+  kNoSafeImprovement,  // "no_safe_improvement": no fraction of the correction
+                       // is predicted (exact model) to make a better part than
+                       // the current settings; the current settings are kept
+                       // and the message says why
 };
 const char* CorrectionStatusName(CorrectionStatus status);
 
@@ -351,12 +372,24 @@ struct CorrectionSummary {
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;
 
+  // The safe step (CorrectionOptions::safe_step): the factor applied to the
+  // solver's change for the motion bound (1 = within it), the fraction of the
+  // bounded change kept by the exact-model check (1 = all, 0 = none), the rms
+  // the exact model predicts for the kept change at the linearisation point,
+  // and the rms of keeping the current settings it was compared with.
+  bool safe_step_checked = false;
+  double motion_scale = 1.0;
+  double step_fraction = 1.0;
+  double safe_step_current_rms_um = 0.0;
+  double safe_step_predicted_rms_um = 0.0;
+
   int iterations = 0;  // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;
 
   bool IsSolutionUsable() const {
     return status == CorrectionStatus::kConverged ||
-           status == CorrectionStatus::kNotConverged;
+           status == CorrectionStatus::kNotConverged ||
+           status == CorrectionStatus::kNoSafeImprovement;
   }
   std::string BriefReport() const;
 };

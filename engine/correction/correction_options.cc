@@ -71,6 +71,8 @@ const char* CorrectionStatusName(CorrectionStatus status) {
       return "not_converged";
     case CorrectionStatus::kInvalidInput:
       return "invalid_input";
+    case CorrectionStatus::kNoSafeImprovement:
+      return "no_safe_improvement";
   }
   return "unknown";
 }
@@ -113,6 +115,12 @@ bool CorrectionOptions::IsValid(std::string* error) const {
   if (!(min_flank_effect_um > 0.0) || !std::isfinite(min_flank_effect_um)) {
     return fail("min_flank_effect_um must be finite and > 0");
   }
+  if (safe_step_halvings < 0 || safe_step_halvings > 30)
+    return fail("safe_step_halvings must lie in [0, 30]");
+  if (!(max_axis_motion_mm >= 0.0) || !std::isfinite(max_axis_motion_mm) ||
+      !(max_axis_motion_rad >= 0.0) || !std::isfinite(max_axis_motion_rad)) {
+    return fail("max_axis_motion_mm and max_axis_motion_rad must be >= 0");
+  }
   if (max_num_iterations < 0) return fail("max_num_iterations must be >= 0");
   if (max_rework_passes < 1) return fail("max_rework_passes must be >= 1");
   if (!(rework_tolerance_um >= 0.0))
@@ -145,6 +153,13 @@ std::string CorrectionSummary::BriefReport() const {
         << elapsed_ms << " ms";
     if (!outlier_indices.empty())
       out << ", " << outlier_indices.size() << " outlier(s)";
+    out << ", machine state "
+        << (machine_state_estimated ? "estimated" : "commanded");
+    if (safe_step_checked) {
+      out << ", safe step: motion x" << motion_scale << ", fraction "
+          << step_fraction << " (exact rms " << safe_step_current_rms_um
+          << " -> " << safe_step_predicted_rms_um << ")";
+    }
   }
   return out.str();
 }

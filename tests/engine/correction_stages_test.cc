@@ -16,6 +16,7 @@
 #include "engine/correction/problem.h"
 #include "engine/correction/regularisation.h"
 #include "engine/correction/rework_qp.h"
+#include "engine/correction/safe_step.h"
 
 namespace gearloop {
 namespace correction_internal {
@@ -382,6 +383,106 @@ TEST(MachineStateProblem, RecoversAHiddenOffset) {
   EXPECT_LT(result.summary.machine_state_misfit_rms_um, 1e-6);
   EXPECT_TRUE(
       result.parameters.isApprox(input.current_parameters + result.delta));
+}
+
+}  // namespace
+}  // namespace correction_internal
+}  // namespace gearloop
+
+// ---------------------------------------------------------------------------------------------
+// The safe step.
+
+namespace gearloop {
+namespace correction_internal {
+namespace {
+
+// The problem of a part whose error the linear model removes exactly with
+// `best` (e = -J best).
+CorrectionProblem SafeStepProblem(const LinearModel& model,
+                                  const Eigen::VectorXd& best) {
+  const int n = model.NumPoints();
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  ModelEvaluation eval;
+  model.Evaluate(best, false, &eval);
+  input.measured_um = -eval.deviations_um;
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  EXPECT_TRUE(PrepareCorrectionProblem(
+      CorrectionOptions(), input, &problem, &summary, &error))
+      << error;
+  return problem;
+}
+
+TEST(ChooseSafeStep, KeepsAStepThatImprovesTheExactPrediction) {
+  const LinearModel model(11);
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  const CorrectionProblem problem = SafeStepProblem(model, best);
+  SafeStepOutcome outcome;
+  const Eigen::VectorXd step =
+      ChooseSafeStep(CorrectionOptions(), problem, best, &outcome);
+  EXPECT_TRUE(outcome.improved);
+  EXPECT_EQ(outcome.step_fraction, 1.0);
+  EXPECT_NEAR(outcome.predicted_rms_um, 0.0, /*tol_um=*/1e-9);
+  EXPECT_EQ(step, best);
+}
+
+TEST(ChooseSafeStep, HalvesAnOvershootUntilThePartIsPredictedBetter) {
+  const LinearModel model(12);
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  const CorrectionProblem problem = SafeStepProblem(model, best);
+  SafeStepOutcome outcome;
+  // 2.5 x the exact answer leaves 1.5 x the error; half of it leaves 0.25 x.
+  const Eigen::VectorXd step =
+      ChooseSafeStep(CorrectionOptions(), problem, 2.5 * best, &outcome);
+  EXPECT_TRUE(outcome.improved);
+  EXPECT_EQ(outcome.step_fraction, 0.5);
+  EXPECT_NEAR(outcome.predicted_rms_um,
+              0.25 * outcome.current_rms_um,
+              /*tol_um=*/1e-9);
+  EXPECT_TRUE(step.isApprox(1.25 * best));
+}
+
+TEST(ChooseSafeStep, KeepsTheCurrentSettingsWhenNoFractionIsBetter) {
+  const LinearModel model(13);
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  const CorrectionProblem problem = SafeStepProblem(model, best);
+  SafeStepOutcome outcome;
+  // The wrong direction: every fraction makes the part worse.
+  const Eigen::VectorXd step =
+      ChooseSafeStep(CorrectionOptions(), problem, -best, &outcome);
+  EXPECT_FALSE(outcome.improved);
+  EXPECT_EQ(outcome.step_fraction, 0.0);
+  EXPECT_EQ(step, Eigen::VectorXd::Zero(5));
+  EXPECT_NE(outcome.message.find("current settings are kept"),
+            std::string::npos);
+}
+
+TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
+  const LinearModel model(14);
+  const CorrectionProblem problem =
+      SafeStepProblem(model, Eigen::VectorXd::Constant(5, 1e-3));
+  CorrectionOptions options;
+  options.max_axis_motion_mm = 0.2;
+  // Block P (mm): dP(phi) = 0.5 + 2 phi over [-0.2, 0.3]: largest 1.1 mm at
+  // phi = 0.3, so the change is scaled by 0.2 / 1.1.
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(5);
+  delta(0) = 0.5;
+  delta(1) = 2.0;
+  delta(4) = 7.0;  // a scalar block: not an axis, not bounded by itself
+  EXPECT_NEAR(AxisMotionRatio(options, problem, delta), 1.1 / 0.2, 1e-12);
+  SafeStepOutcome outcome;
+  const Eigen::VectorXd bounded =
+      BoundAxisMotion(options, problem, delta, &outcome);
+  EXPECT_NEAR(outcome.motion_scale, 0.2 / 1.1, 1e-12);
+  EXPECT_TRUE(bounded.isApprox(delta * (0.2 / 1.1)));
+  // Within the bound: unchanged.
+  EXPECT_EQ(BoundAxisMotion(options, problem, 0.1 * delta, &outcome),
+            0.1 * delta);
+  EXPECT_EQ(outcome.motion_scale, 1.0);
 }
 
 }  // namespace

@@ -1,0 +1,97 @@
+#include "engine/correction/safe_step.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gearloop {
+namespace correction_internal {
+namespace {
+
+// Samples of the roll range for the motion bound: the largest motion of a
+// polynomial of order <= 6 over the range lies within ~1 % of its value on 41
+// evenly spaced samples.
+constexpr int kMotionSamples = 41;
+
+// The bound of an axis in `unit` (0 = none).
+double MotionBound(const CorrectionOptions& options, const std::string& unit) {
+  if (unit == "mm") return options.max_axis_motion_mm;
+  if (unit == "rad") return options.max_axis_motion_rad;
+  return 0.0;
+}
+
+// The exact prediction at `problem` after `delta`: the rms over its used
+// points of e + d(p + delta) - d(p); infinity when a used point is lost.
+double ExactPredictionRms(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta) {
+  ModelEvaluation eval;
+  problem.model->Evaluate(problem.parameters + delta, false, &eval);
+  Eigen::VectorXd residual = problem.error_um;
+  for (int i : problem.used) {
+    if (eval.status[i] != PointStatus::kOk) return kInf;
+    residual(i) += eval.deviations_um(i) - problem.d0()(i);
+  }
+  return Rms(residual, problem.used);
+}
+
+}  // namespace
+
+double AxisMotionRatio(const CorrectionOptions& options,
+                       const CorrectionProblem& problem,
+                       const Eigen::VectorXd& delta) {
+  double ratio = 0.0;
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = MotionBound(options, block.unit);
+    if (!block.is_polynomial || !(bound > 0.0)) continue;
+    for (int s = 0; s < kMotionSamples; ++s) {
+      const double phi =
+          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
+                                     s / (kMotionSamples - 1);
+      double motion = 0.0, power = 1.0;
+      for (int k = 0; k < block.num_coefficients; ++k) {
+        motion += delta(block.first_index + k) * power;
+        power *= phi;
+      }
+      ratio = std::max(ratio, std::abs(motion) / bound);
+    }
+  }
+  return ratio;
+}
+
+Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
+                                const CorrectionProblem& problem,
+                                const Eigen::VectorXd& delta,
+                                SafeStepOutcome* outcome) {
+  const double ratio = AxisMotionRatio(options, problem, delta);
+  outcome->motion_scale = ratio > 1.0 ? 1.0 / ratio : 1.0;
+  return delta * outcome->motion_scale;
+}
+
+Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
+                               const CorrectionProblem& problem,
+                               const Eigen::VectorXd& delta,
+                               SafeStepOutcome* outcome) {
+  outcome->current_rms_um = Rms(problem.error_um, problem.used);
+  double alpha = 1.0;
+  for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
+    outcome->predicted_rms_um = ExactPredictionRms(problem, alpha * delta);
+    if (outcome->predicted_rms_um < outcome->current_rms_um) {
+      outcome->step_fraction = alpha;
+      return alpha * delta;
+    }
+    alpha *= 0.5;
+  }
+  outcome->improved = false;
+  outcome->step_fraction = 0.0;
+  outcome->predicted_rms_um = outcome->current_rms_um;
+  outcome->message =
+      "no fraction of the correction down to 1/" +
+      std::to_string(1 << options.safe_step_halvings) +
+      " is predicted by the exact model to make a better part than the "
+      "current settings (rms " +
+      std::to_string(outcome->current_rms_um) +
+      " um); the current settings are kept";
+  return Eigen::VectorXd::Zero(delta.size());
+}
+
+}  // namespace correction_internal
+}  // namespace gearloop
