@@ -42,7 +42,8 @@ bool ParseCorrection(const nlohmann::json& body,
 }
 
 // The engine call and its result as answered and stored.
-bool Solve(const CorrectionProblem& problem,
+bool Solve(const ServiceContext& context,
+           const CorrectionProblem& problem,
            const CorrectionRequest& request,
            CorrectionRun* run,
            ApiError* error) {
@@ -53,7 +54,7 @@ bool Solve(const CorrectionProblem& problem,
   input.measured_um = request.measured_um;
   input.measured_teeth_um = request.measured_teeth_um;
   input.target_um = request.target_um;
-  run->result = ComputeCorrection(request.options, input);
+  run->result = context.compute_correction(request.options, input);
   run->solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
@@ -172,7 +173,7 @@ bool RunCorrection(const ServiceContext& context,
         "no stored job " + std::to_string(*request.settings_source_job_id));
     return false;
   }
-  if (!Solve(problem, request, run, error)) return false;
+  if (!Solve(context, problem, request, run, error)) return false;
   if (context.record_solve_seconds)
     context.record_solve_seconds(run->solve_seconds);
   return true;

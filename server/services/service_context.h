@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/correction/correction.h"
 #include "storage/job_repository.h"
 
 namespace gearloop {
@@ -26,6 +27,13 @@ struct ServiceContext {
   // Called with the duration of every correction solve [s] (the solver
   // histogram); may be empty.
   std::function<void(double seconds)> record_solve_seconds;
+  // The correction solver: the engine's ComputeCorrection. A test may put a
+  // stub here to check a service's mapping of every outcome (statuses,
+  // refusals, what is stored) without the engine's numerics (as OSRM's
+  // request_handler test stubs its services).
+  std::function<CorrectionResult(const CorrectionOptions&,
+                                 const CorrectionInput&)>
+      compute_correction = ComputeCorrection;
   // One log line per solve (the engine is silent; STYLE.md).
   bool log_solves = true;
   // The batch queue: items waiting for a worker, and how to hand new ones over;

@@ -1,9 +1,11 @@
 // tests/server/services_test.cc: the services of server/services/ called
-// directly with a built httplib::Request, the real engine and a ":memory:" job
-// history, without a socket or the HTTP layer (as OSRM
-// unit_tests/server/request_handler.cpp tests its handler).
+// directly with a built httplib::Request, the real engine (or a stub solver in
+// ServiceContext::compute_correction) and a ":memory:" job history, without a
+// socket or the HTTP layer (as OSRM unit_tests/server/request_handler.cpp
+// tests its handler).
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -239,6 +241,81 @@ TEST(ParseId, TakesPositiveIdsOfAtMost18Digits) {
   EXPECT_FALSE(ParseId("0", &id));
   EXPECT_FALSE(ParseId("", &id));
   EXPECT_FALSE(ParseId("1234567890123456789", &id));
+}
+
+// A stub solver in place of the engine's: the service's mapping of each
+// outcome, without the engine's numerics. It answers every request with the
+// given status, no change and the measured error as the predicted residual.
+std::function<CorrectionResult(const CorrectionOptions&,
+                               const CorrectionInput&)>
+StubSolver(CorrectionStatus status, const std::string& message) {
+  return [status, message](const CorrectionOptions& options,
+                           const CorrectionInput& input) {
+    CorrectionResult result;
+    result.summary.status = status;
+    result.summary.message = message;
+    result.summary.solver = options.solver;
+    result.summary.residual_rms_um = 1.25;
+    result.summary.best_reachable_rms_um = 0.5;
+    result.summary.rank = 7;
+    result.parameters = input.current_parameters;
+    result.delta = Eigen::VectorXd::Zero(input.current_parameters.size());
+    result.predicted_residual_um = input.measured_um - input.target_um;
+    result.predicted_change_um =
+        Eigen::VectorXd::Zero(input.measured_um.size());
+    return result;
+  };
+}
+
+nlohmann::json FlatMeasurementRequest() {
+  nlohmann::json request = DefaultSetup();
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) rows.push_back(std::vector<double>(9, 1.5));
+  request["measurement"] = {{"deviations_um", rows}};
+  return request;
+}
+
+TEST_F(ServicesTest, StubSolverNoSafeImprovementIsStoredWithItsStatus) {
+  context_.compute_correction = StubSolver(CorrectionStatus::kNoSafeImprovement,
+                                           "the current settings are kept");
+  const Answer created = Call(CreateCorrection, FlatMeasurementRequest());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  EXPECT_EQ(created.body["status"], "no_safe_improvement");
+  EXPECT_EQ(created.body["result"]["status"], "no_safe_improvement");
+  EXPECT_EQ(created.body["result"]["message"], "the current settings are kept");
+  const std::optional<JobRecord> job =
+      repository_->ReadJob(created.body["id"].get<int64_t>());
+  ASSERT_TRUE(job.has_value());
+  EXPECT_EQ(job->status, "no_safe_improvement");
+  EXPECT_EQ(job->machine_kind, "flat-wheel-grinder");
+  EXPECT_EQ(job->residual_rms_um, 1.25);
+  EXPECT_EQ(job->rank, 7);
+  // No change: every axis coefficient of the delta is zero.
+  ASSERT_TRUE(created.body["result"]["delta"]["axes"].is_object());
+  for (const auto& axis : created.body["result"]["delta"]["axes"].items()) {
+    for (const auto& coefficient : axis.value()) EXPECT_EQ(coefficient, 0.0);
+  }
+}
+
+TEST_F(ServicesTest, StubSolverInvalidInputIsA422AndNothingIsStored) {
+  context_.compute_correction =
+      StubSolver(CorrectionStatus::kInvalidInput, "no usable grid point");
+  const Answer refused = Call(CreateCorrection, FlatMeasurementRequest());
+  EXPECT_EQ(refused.status, 422) << refused.body.dump();
+  EXPECT_EQ(refused.body["error"]["field"], "measurement");
+  EXPECT_NE(refused.body["error"]["message"].get<std::string>().find(
+                "no usable grid point"),
+            std::string::npos);
+  EXPECT_EQ(repository_->CountJobs(), 0);
+}
+
+TEST_F(ServicesTest, StubSolverNotConvergedIsStoredWithItsReason) {
+  context_.compute_correction = StubSolver(CorrectionStatus::kNotConverged,
+                                           "the refinement reached its limit");
+  const Answer created = Call(CreateCorrection, FlatMeasurementRequest());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  EXPECT_EQ(created.body["result"]["status"], "not_converged");
+  EXPECT_EQ(repository_->CountJobs(), 1);
 }
 
 }  // namespace
