@@ -115,11 +115,7 @@ class ReachProblem {
                double roll_min,
                double roll_max,
                const ReachOptions& options)
-      : model_(model),
-        state_(state),
-        target_(target_um),
-        roll_min_(roll_min),
-        roll_max_(roll_max) {
+      : model_(model), state_(state), target_(target_um) {
     blocks_ = model.ParameterBlocks();
     const int n = model.NumParameters();
     std::vector<int> free;
@@ -276,7 +272,6 @@ class ReachProblem {
   const MachineModel& model_;
   Eigen::VectorXd state_;
   Eigen::VectorXd target_;
-  double roll_min_, roll_max_;
   std::vector<ParameterBlock> blocks_;
   std::vector<int> free_;
   Eigen::MatrixXd basis_;   // parameters from free coordinates

@@ -201,9 +201,10 @@ TEST_F(ServicesTest, ClosedLoopStoresWhatTheMachineMeasuredForEachPart) {
               measured.body["measurement"]["deviations_um"])
         << k;
     // Part k was ground with the settings job k-1 computed.
-    if (k > 0)
+    if (k > 0) {
       EXPECT_EQ(job->settings_source_job_id,
                 iterations[k - 1]["job_id"].get<int64_t>());
+    }
   }
   EXPECT_FALSE(iterations[2].contains("job_id"));
 }
