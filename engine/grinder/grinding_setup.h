@@ -104,6 +104,14 @@ struct ValidationIssue {
   std::string message;
 };
 
+// Fills `issue` (if non-null) with `field` and `message` and returns false: the
+// refusal of every engine validator (grinder, shaving, metrology).
+bool FailValidation(ValidationIssue* issue,
+                    const std::string& field,
+                    const std::string& message);
+// A number as validation messages quote it: 6 significant digits.
+std::string FormatValidationNumber(double value);
+
 // Each returns true when valid; otherwise fills `issue` (if non-null) with the
 // first problem.
 bool ValidateGear(const GearData& gear, ValidationIssue* issue);

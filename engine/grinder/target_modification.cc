@@ -31,14 +31,6 @@ double Exponent(ReliefShape shape) {
 // max(0, t)^e.
 double Ramp(double t, double e) { return t > 0.0 ? std::pow(t, e) : 0.0; }
 
-bool Fail(ValidationIssue* issue, const char* field, const char* message) {
-  if (issue != nullptr) {
-    issue->field = field;
-    issue->message = message;
-  }
-  return false;
-}
-
 // Normalises v to [0, 1] over its own range; all zeros when the range is empty
 // (a grid that is one point wide in that direction cannot happen for a valid
 // grid, but stay finite).
@@ -71,37 +63,38 @@ bool ParseModificationKind(const std::string& name, ModificationKind* kind) {
 bool ValidateTargetModification(const TargetModification& m,
                                 ValidationIssue* issue) {
   if (!std::isfinite(m.amount_um))
-    return Fail(issue,
-                "amount_um",
-                "the amount must be a finite number of micrometres");
+    return FailValidation(issue,
+                          "amount_um",
+                          "the amount must be a finite number of micrometres");
   const bool uses_length = m.kind == ModificationKind::kTipRelief ||
                            m.kind == ModificationKind::kRootRelief ||
                            m.kind == ModificationKind::kEndRelief ||
                            m.kind == ModificationKind::kDiagonalEndRelief;
   if (uses_length && !(m.length_fraction > 0.0 && m.length_fraction <= 1.0)) {
-    return Fail(issue,
-                "length_fraction",
-                "the relief length fraction must lie in (0, 1]");
+    return FailValidation(issue,
+                          "length_fraction",
+                          "the relief length fraction must lie in (0, 1]");
   }
   if (m.kind == ModificationKind::kDiagonalEndRelief) {
     if (!std::isfinite(m.second_amount_um)) {
-      return Fail(issue,
-                  "second_amount_um",
-                  "the second amount must be a finite number of micrometres");
+      return FailValidation(
+          issue,
+          "second_amount_um",
+          "the second amount must be a finite number of micrometres");
     }
     if (!(m.second_length_fraction > 0.0 && m.second_length_fraction <= 1.0)) {
-      return Fail(issue,
-                  "second_length_fraction",
-                  "the second band fraction must lie in (0, 1]");
+      return FailValidation(issue,
+                            "second_length_fraction",
+                            "the second band fraction must lie in (0, 1]");
     }
     if (!std::isfinite(m.amount_gradient_um)) {
-      return Fail(
+      return FailValidation(
           issue, "amount_gradient_um", "the amount gradient must be finite");
     }
     if (!std::isfinite(m.second_amount_gradient_um)) {
-      return Fail(issue,
-                  "second_amount_gradient_um",
-                  "the amount gradient must be finite");
+      return FailValidation(issue,
+                            "second_amount_gradient_um",
+                            "the amount gradient must be finite");
     }
   }
   return true;

@@ -20,13 +20,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Num(double value) {
-  std::ostringstream out;
-  out.precision(6);
-  out << value;
-  return out.str();
-}
-
 // Least-squares slope of (t, y) [y per mm]; needs 2 distinct t.
 double LineSlope(const std::vector<double>& t, const std::vector<double>& y) {
   const double n = static_cast<double>(t.size());
@@ -63,17 +56,17 @@ bool Iso1328Options::IsValid(std::string* error) const {
     return fail(
         "profile evaluation length L_alpha must be >= 0 mm (0 = default), "
         "got " +
-        Num(profile_evaluation_length_mm));
+        FormatValidationNumber(profile_evaluation_length_mm));
   }
   if (!(helix_evaluation_length_mm >= 0.0) ||
       !std::isfinite(helix_evaluation_length_mm)) {
     return fail(
         "helix evaluation length L_beta must be >= 0 mm (0 = default), got " +
-        Num(helix_evaluation_length_mm));
+        FormatValidationNumber(helix_evaluation_length_mm));
   }
   if (!(class_resolution_um >= 0.0 && class_resolution_um <= 1.0)) {
     return fail("class_resolution_um must be in [0, 1] um, got " +
-                Num(class_resolution_um));
+                FormatValidationNumber(class_resolution_um));
   }
   return true;
 }
@@ -354,13 +347,16 @@ AccuracyClasses ClassifyFlank(const Iso1328Options& options,
   };
   outside(gear.teeth < 5 || gear.teeth > 1000,
           "z = " + std::to_string(gear.teeth) + " (5..1000)");
-  outside(d < 5.0 || d > 15000.0, "d = " + Num(d) + " mm (5..15000 mm)");
+  outside(d < 5.0 || d > 15000.0,
+          "d = " + FormatValidationNumber(d) + " mm (5..15000 mm)");
   outside(gear.normal_module_mm < 0.5 || gear.normal_module_mm > 70.0,
-          "m_n = " + Num(gear.normal_module_mm) + " mm (0.5..70 mm)");
-  outside(gear.face_width_mm < 4.0 || gear.face_width_mm > 1200.0,
-          "b = " + Num(gear.face_width_mm) + " mm (4..1200 mm)");
+          "m_n = " + FormatValidationNumber(gear.normal_module_mm) +
+              " mm (0.5..70 mm)");
+  outside(
+      gear.face_width_mm < 4.0 || gear.face_width_mm > 1200.0,
+      "b = " + FormatValidationNumber(gear.face_width_mm) + " mm (4..1200 mm)");
   outside(beta_deg > 45.0 + 1e-9,
-          "beta = " + Num(beta_deg) + " deg (<= 45 deg)");
+          "beta = " + FormatValidationNumber(beta_deg) + " deg (<= 45 deg)");
   if (!figures.ok) return c;
 
   std::vector<Iso1328Tolerances> tolerances;

@@ -25,13 +25,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Num(double value) {
-  std::ostringstream out;
-  out.precision(6);
-  out << value;
-  return out.str();
-}
-
 const char* KindName(TraceKind kind) {
   return kind == TraceKind::kProfile ? "profile" : "helix";
 }
@@ -125,8 +118,9 @@ bool EqualStepAbscissas(const MeasuredTrace& trace,
   const size_t n = abscissa->size();
   if (!std::isfinite(trace.begin_mm) || !std::isfinite(trace.end_mm) ||
       !(trace.begin_mm < trace.end_mm)) {
-    *message = what + " range " + Num(trace.begin_mm) + " .. " +
-               Num(trace.end_mm) + " mm must be finite and increasing";
+    *message = what + " range " + FormatValidationNumber(trace.begin_mm) +
+               " .. " + FormatValidationNumber(trace.end_mm) +
+               " mm must be finite and increasing";
     return false;
   }
   double t0 = trace.begin_mm;
@@ -135,9 +129,10 @@ bool EqualStepAbscissas(const MeasuredTrace& trace,
     t0 = RollLengthOfDiameterMm(gear, trace.begin_mm);
     t1 = RollLengthOfDiameterMm(gear, trace.end_mm);
     if (!std::isfinite(t0)) {
-      *message = "profile range starts at d = " + Num(trace.begin_mm) +
+      *message = "profile range starts at d = " +
+                 FormatValidationNumber(trace.begin_mm) +
                  " mm, inside the base circle d_b = " +
-                 Num(2.0 * gear.BaseRadiusMm()) + " mm";
+                 FormatValidationNumber(2.0 * gear.BaseRadiusMm()) + " mm";
       return false;
     }
   }
@@ -170,9 +165,9 @@ bool ListedAbscissas(const MeasuredTrace& trace,
     (*abscissa)[i] =
         trace.kind == TraceKind::kProfile ? RollLengthOfDiameterMm(gear, a) : a;
     if (!std::isfinite((*abscissa)[i])) {
-      *message = "profile point at d = " + Num(a) +
+      *message = "profile point at d = " + FormatValidationNumber(a) +
                  " mm lies inside the base circle d_b = " +
-                 Num(2.0 * gear.BaseRadiusMm()) + " mm";
+                 FormatValidationNumber(2.0 * gear.BaseRadiusMm()) + " mm";
       return false;
     }
   }
@@ -192,9 +187,10 @@ bool PlaceCurve(const MeasuredTrace& trace,
     for (double& a : *abscissa) a = AxialOfZ(datum, b, a);
     curve->position = RollLengthOfDiameterMm(gear, trace.position_mm);
     if (!std::isfinite(curve->position)) {
-      *message = "helix trace at d = " + Num(trace.position_mm) +
-                 " mm lies inside the base circle d_b = " +
-                 Num(2.0 * gear.BaseRadiusMm()) + " mm";
+      *message =
+          "helix trace at d = " + FormatValidationNumber(trace.position_mm) +
+          " mm lies inside the base circle d_b = " +
+          FormatValidationNumber(2.0 * gear.BaseRadiusMm()) + " mm";
       return false;
     }
   } else {
@@ -227,7 +223,7 @@ bool FillCurvePoints(const MeasuredTrace& trace,
   for (size_t i = 1; i < points.size(); ++i) {
     if (!(points[i].first > points[i - 1].first)) {
       *message = what + " has two values at the same abscissa " +
-                 Num(points[i].first) + " mm";
+                 FormatValidationNumber(points[i].first) + " mm";
       return false;
     }
   }
@@ -535,11 +531,12 @@ bool CheckCoverage(const std::vector<double>& rows_l,
     for (int j = 0; j < result->columns; ++j)
       count += std::isfinite(result->deviations_um[i * result->columns + j]);
     if (count < 3) {
-      result->message = "grid row " + std::to_string(i) +
-                        " (a helix trace at L = " + Num(rows_l[i]) +
-                        " mm) keeps " + std::to_string(count) +
-                        " points after interpolation; the figures need 3 (do "
-                        "the traces cover the grid?)";
+      result->message =
+          "grid row " + std::to_string(i) +
+          " (a helix trace at L = " + FormatValidationNumber(rows_l[i]) +
+          " mm) keeps " + std::to_string(count) +
+          " points after interpolation; the figures need 3 (do "
+          "the traces cover the grid?)";
       return false;
     }
   }
@@ -548,11 +545,12 @@ bool CheckCoverage(const std::vector<double>& rows_l,
     for (int i = 0; i < result->rows; ++i)
       count += std::isfinite(result->deviations_um[i * result->columns + j]);
     if (count < 3) {
-      result->message = "grid column " + std::to_string(j) +
-                        " (a profile trace at x = " + Num(columns_x[j]) +
-                        " mm) keeps " + std::to_string(count) +
-                        " points after interpolation; the figures need 3 (do "
-                        "the traces cover the grid?)";
+      result->message =
+          "grid column " + std::to_string(j) +
+          " (a profile trace at x = " + FormatValidationNumber(columns_x[j]) +
+          " mm) keeps " + std::to_string(count) +
+          " points after interpolation; the figures need 3 (do "
+          "the traces cover the grid?)";
       return false;
     }
   }
@@ -572,7 +570,7 @@ bool TraceGridOptions::IsValid(std::string* error) const {
   if (!(max_extrapolation_fraction >= 0.0 &&
         max_extrapolation_fraction <= 1.0)) {
     return fail("max_extrapolation_fraction must be in [0, 1], got " +
-                Num(max_extrapolation_fraction));
+                FormatValidationNumber(max_extrapolation_fraction));
   }
   if (min_trace_points < 3)
     return fail("min_trace_points must be >= 3, got " +
@@ -582,7 +580,8 @@ bool TraceGridOptions::IsValid(std::string* error) const {
                    sign.helix_right,
                    sign.helix_left}) {
     if (s != 1.0 && s != -1.0)
-      return fail("sign factors must be +1 or -1, got " + Num(s));
+      return fail("sign factors must be +1 or -1, got " +
+                  FormatValidationNumber(s));
   }
   return true;
 }
@@ -672,10 +671,11 @@ TraceGridResult InterpolateTraces(const TraceGridOptions& options,
   AverageTeeth(tooth_grids, num_points, &result);
   if (std::isfinite(result.max_crossing_mismatch_um) &&
       result.max_crossing_mismatch_um > 2.0) {
-    result.warnings.push_back("profile and helix traces disagree by up to " +
-                              Num(result.max_crossing_mismatch_um) +
-                              " um where they cross (more than 2 um usually "
-                              "means a wrong sign, tooth or flank)");
+    result.warnings.push_back(
+        "profile and helix traces disagree by up to " +
+        FormatValidationNumber(result.max_crossing_mismatch_um) +
+        " um where they cross (more than 2 um usually "
+        "means a wrong sign, tooth or flank)");
   }
   if (!CheckCoverage(rows_l, columns_x, &result)) return result;
   result.ok = true;

@@ -16,57 +16,43 @@ namespace {
 constexpr double kMmToUm = 1000.0;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool Fail(ValidationIssue* issue,
-          const std::string& field,
-          const std::string& message) {
-  if (issue != nullptr) {
-    issue->field = field;
-    issue->message = message;
-  }
-  return false;
-}
-
-std::string Num(double value) {
-  std::ostringstream out;
-  out.precision(6);
-  out << value;
-  return out.str();
-}
-
 // The §7 checks of one gear that ValidateGear words differently or not at all,
 // then ValidateGear with its "gear." prefix replaced by `name`.
 bool ValidateShavingGear(const GearData& gear,
                          const std::string& name,
                          ValidationIssue* issue) {
   if (gear.teeth <= 0)
-    return Fail(issue, name + ".teeth", "the number of teeth must be positive");
+    return FailValidation(
+        issue, name + ".teeth", "the number of teeth must be positive");
   if (!(gear.normal_module_mm > 0.0))
-    return Fail(issue,
-                name + ".normal_module_mm",
-                "the normal module must be positive");
+    return FailValidation(issue,
+                          name + ".normal_module_mm",
+                          "the normal module must be positive");
   if (!(gear.face_width_mm > 0.0))
-    return Fail(
+    return FailValidation(
         issue, name + ".face_width_mm", "the face width must be positive");
   if (!(gear.tip_radius_mm > 0.0))
-    return Fail(
+    return FailValidation(
         issue, name + ".tip_radius_mm", "the tip radius must be positive");
   if (!(gear.root_radius_mm > 0.0))
-    return Fail(
+    return FailValidation(
         issue, name + ".root_radius_mm", "the root radius must be positive");
   if (!std::isfinite(gear.helix_angle_rad) ||
       std::abs(gear.helix_angle_rad) * kDegPerRad >= 45.0 - 1e-9) {
-    return Fail(issue,
-                name + ".helix_angle_rad",
-                "the helix angle must be below 45 degrees, got " +
-                    Num(std::abs(gear.helix_angle_rad) * kDegPerRad) +
-                    " degrees");
+    return FailValidation(issue,
+                          name + ".helix_angle_rad",
+                          "the helix angle must be below 45 degrees, got " +
+                              FormatValidationNumber(
+                                  std::abs(gear.helix_angle_rad) * kDegPerRad) +
+                              " degrees");
   }
   if (gear.tip_radius_mm <= gear.root_radius_mm) {
-    return Fail(issue,
-                name + ".tip_radius_mm",
-                "the tip radius " + Num(gear.tip_radius_mm) +
-                    " mm must exceed the root radius " +
-                    Num(gear.root_radius_mm) + " mm");
+    return FailValidation(
+        issue,
+        name + ".tip_radius_mm",
+        "the tip radius " + FormatValidationNumber(gear.tip_radius_mm) +
+            " mm must exceed the root radius " +
+            FormatValidationNumber(gear.root_radius_mm) + " mm");
   }
   ValidationIssue inner;
   if (!ValidateGear(gear, &inner)) {
@@ -74,7 +60,7 @@ bool ValidateShavingGear(const GearData& gear,
     std::string field = inner.field;
     if (field.compare(0, prefix.size(), prefix) == 0)
       field = name + "." + field.substr(prefix.size());
-    return Fail(issue, field, inner.message);
+    return FailValidation(issue, field, inner.message);
   }
   return true;
 }
@@ -220,60 +206,66 @@ bool ShavingInput::IsValid(ValidationIssue* issue) const {
   if (!ValidateShavingGear(work_gear, "work_gear", issue)) return false;
   if (!ValidateShavingGear(cutter, "cutter", issue)) return false;
   if (!std::isfinite(wheel_check.h_s_mm) || wheel_check.h_s_mm <= 0.0) {
-    return Fail(issue,
-                "wheel_check.h_s_mm",
-                "the infeed allowance h_s must be positive, got " +
-                    Num(wheel_check.h_s_mm));
+    return FailValidation(issue,
+                          "wheel_check.h_s_mm",
+                          "the infeed allowance h_s must be positive, got " +
+                              FormatValidationNumber(wheel_check.h_s_mm));
   }
   if (!std::isfinite(wheel_check.traverse_mm_per_rad)) {
-    return Fail(issue,
-                "wheel_check.traverse_mm_per_rad",
-                "the wheel traverse must be finite");
+    return FailValidation(issue,
+                          "wheel_check.traverse_mm_per_rad",
+                          "the wheel traverse must be finite");
   }
   const double pitch_work = work_gear.normal_module_mm *
                             std::cos(work_gear.normal_pressure_angle_rad);
   const double pitch_cutter =
       cutter.normal_module_mm * std::cos(cutter.normal_pressure_angle_rad);
   if (std::abs(pitch_work - pitch_cutter) > 1e-9) {
-    return Fail(
+    return FailValidation(
         issue,
         "cutter.normal_module_mm",
         "not conjugate: the normal base pitches differ (m_n cos alpha_n " +
-            Num(pitch_work) + " mm on the work gear, " + Num(pitch_cutter) +
-            " mm on the cutter)");
+            FormatValidationNumber(pitch_work) + " mm on the work gear, " +
+            FormatValidationNumber(pitch_cutter) + " mm on the cutter)");
   }
   const double gamma = CrossedAxesAngleRad(work_gear, cutter);
   if (std::abs(gamma) * kDegPerRad < 0.1) {
-    return Fail(issue,
-                "cutter.helix_angle_rad",
-                "crossed-axes angle is zero: not plunge shaving (gamma = beta1 "
-                "+ beta_s = " +
-                    Num(gamma * kDegPerRad) + " degrees)");
+    return FailValidation(
+        issue,
+        "cutter.helix_angle_rad",
+        "crossed-axes angle is zero: not plunge shaving (gamma = beta1 "
+        "+ beta_s = " +
+            FormatValidationNumber(gamma * kDegPerRad) + " degrees)");
   }
   if (centre_distance_mm.has_value()) {
     const double a = *centre_distance_mm;
     const double outer = work_gear.tip_radius_mm + cutter.tip_radius_mm;
     const double inner = work_gear.BaseRadiusMm() + cutter.BaseRadiusMm();
     if (!std::isfinite(a) || a >= outer || a <= inner) {
-      return Fail(issue,
-                  "centre_distance_mm",
-                  "no contact: the centre distance " + Num(a) +
-                      " mm must lie between the sum of the base radii " +
-                      Num(inner) + " mm and the sum of the tip radii " +
-                      Num(outer) + " mm");
+      return FailValidation(
+          issue,
+          "centre_distance_mm",
+          "no contact: the centre distance " + FormatValidationNumber(a) +
+              " mm must lie between the sum of the base radii " +
+              FormatValidationNumber(inner) +
+              " mm and the sum of the tip radii " +
+              FormatValidationNumber(outer) + " mm");
     }
   }
   ValidationIssue inner;
   if (!ValidateDiagonalModification(diagonal_modification, &inner)) {
-    return Fail(issue, "diagonal_modification." + inner.field, inner.message);
+    return FailValidation(
+        issue, "diagonal_modification." + inner.field, inner.message);
   }
   if (!ValidateGrid(grid, issue)) return false;
   // The grid must lie on the cutter's involute (MODEL.md §4: L_form < L_a).
   if (cutter.FormRollLengthMm() >= cutter.TipRollLengthMm()) {
-    return Fail(issue,
-                "cutter.root_radius_mm",
-                "the rim at root radius " + Num(cutter.root_radius_mm) +
-                    " mm leaves no involute below the tip of the cutter");
+    return FailValidation(
+        issue,
+        "cutter.root_radius_mm",
+        "the rim at root radius " +
+            FormatValidationNumber(cutter.root_radius_mm) +
+            " mm leaves no involute below the tip of the cutter");
   }
   return true;
 }

@@ -11,14 +11,6 @@ namespace {
 
 constexpr double kUmToMm = 1e-3;
 
-bool Fail(ValidationIssue* issue, const char* field, const char* message) {
-  if (issue != nullptr) {
-    issue->field = field;
-    issue->message = message;
-  }
-  return false;
-}
-
 // One band: g(w) = max(0, s)^e with s = s0 + s_w w, and g', g'' with respect to
 // w.
 struct Band {
@@ -43,38 +35,40 @@ Band EvaluateBand(double s, double ds_dw, int exponent) {
 bool ValidateDiagonalModification(const DiagonalModification& m,
                                   ValidationIssue* issue) {
   if (!std::isfinite(m.root_um) || m.root_um < 0.0 || m.root_um > 200.0) {
-    return Fail(
+    return FailValidation(
         issue, "root_um", "the root-corner relief must lie in [0, 200] um");
   }
   if (!std::isfinite(m.tip_um) || m.tip_um < 0.0 || m.tip_um > 200.0) {
-    return Fail(
+    return FailValidation(
         issue, "tip_um", "the tip-corner relief must lie in [0, 200] um");
   }
   if (!(m.root_band > 0.0 && m.root_band <= 1.0)) {
-    return Fail(
+    return FailValidation(
         issue,
         "root_band",
         "the root band must be a fraction in (0, 1] of the contact-line range");
   }
   if (!(m.tip_band > 0.0 && m.tip_band <= 1.0)) {
-    return Fail(
+    return FailValidation(
         issue,
         "tip_band",
         "the tip band must be a fraction in (0, 1] of the contact-line range");
   }
   if (m.exponent != 1 && m.exponent != 2) {
-    return Fail(
+    return FailValidation(
         issue, "exponent", "the exponent must be 1 (linear) or 2 (parabolic)");
   }
   if (!std::isfinite(m.root_slope) || std::abs(m.root_slope) > 1.0) {
-    return Fail(issue,
-                "root_slope",
-                "the root slope along the contact line must lie in [-1, 1]");
+    return FailValidation(
+        issue,
+        "root_slope",
+        "the root slope along the contact line must lie in [-1, 1]");
   }
   if (!std::isfinite(m.tip_slope) || std::abs(m.tip_slope) > 1.0) {
-    return Fail(issue,
-                "tip_slope",
-                "the tip slope along the contact line must lie in [-1, 1]");
+    return FailValidation(
+        issue,
+        "tip_slope",
+        "the tip slope along the contact line must lie in [-1, 1]");
   }
   return true;
 }
