@@ -14,21 +14,10 @@
 #include "engine/core/units.h"
 #include "formats/gde.h"
 #include "formats/measurement_import.h"
+#include "tests/formats/metrology_samples.h"
 
 namespace gearloop {
 namespace {
-
-GearData SampleGear() {
-  GearData gear;
-  gear.teeth = 31;
-  gear.normal_module_mm = 4.5;
-  gear.normal_pressure_angle_rad = DegToRad(20.0);
-  gear.helix_angle_rad = -DegToRad(20.0);
-  gear.face_width_mm = 40.0;
-  gear.tip_radius_mm = 157.452 / 2.0;
-  gear.root_radius_mm = 137.202 / 2.0;
-  return gear;
-}
 
 // A smooth flank (crowning, slopes, twist) and a little waviness, in the
 // printout's 3 decimals.
@@ -40,7 +29,7 @@ double Flank(double l, double x, double s) {
 }
 
 std::string MakeMkaFile(int values) {
-  const GearData gear = SampleGear();
+  const GearData gear = testing::SampleGear();
   const double r_b = gear.BaseRadiusMm();
   auto roll = [&](double d) { return std::sqrt(d * d / 4 - r_b * r_b); };
   std::string out =
@@ -106,7 +95,7 @@ std::string MakeMkaFile(int values) {
 
 void BM_ImportMka480x5x2(benchmark::State& state) {
   const std::string file = MakeMkaFile(static_cast<int>(state.range(0)));
-  const GearData gear = SampleGear();
+  const GearData gear = testing::SampleGear();
   MeasurementImportOptions options;
   for (auto _ : state) {
     const MeasurementImportResult result =
@@ -119,7 +108,7 @@ void BM_ImportMka480x5x2(benchmark::State& state) {
 BENCHMARK(BM_ImportMka480x5x2)->Arg(480)->Unit(benchmark::kMillisecond);
 
 void BM_ImportGdeExport(benchmark::State& state) {
-  const GearData gear = SampleGear();
+  const GearData gear = testing::SampleGear();
   MeasurementImportOptions mka;
   const MeasurementImportResult measured =
       ImportMeasurementFile(mka, gear, MakeMkaFile(480));

@@ -25,17 +25,11 @@
 
 #include "server/codec/correction_codec.h"
 #include "server/codec/grinder_codec.h"
+#include "tests/fuzz/fuzz_check.h"
 
 namespace {
 
-// Aborts (a libFuzzer crash with the input saved) when `condition` does not
-// hold.
-void Check(bool condition, const char* what) {
-  if (!condition) {
-    std::fprintf(stderr, "contract violated: %s\n", what);
-    std::abort();
-  }
-}
+using gearloop::fuzz::Check;
 
 void CheckRefusal(const gearloop::ApiError& error) {
   Check(error.status == 400 || error.status == 422,

@@ -19,15 +19,11 @@
 #include <string>
 
 #include "clients/cli/csv_grid.h"
+#include "tests/fuzz/fuzz_check.h"
 
 namespace {
 
-void Check(bool condition, const char* what) {
-  if (!condition) {
-    std::fprintf(stderr, "contract violated: %s\n", what);
-    std::abort();
-  }
-}
+using gearloop::fuzz::Check;
 
 }  // namespace
 

@@ -19,32 +19,17 @@
 #include "engine/core/units.h"
 #include "formats/gde.h"
 #include "formats/measurement_import.h"
+#include "tests/formats/metrology_samples.h"
+#include "tests/fuzz/fuzz_check.h"
 
 namespace {
 
-void Check(bool condition, const char* what) {
-  if (!condition) {
-    std::fprintf(stderr, "contract violated: %s\n", what);
-    std::abort();
-  }
-}
-
-gearloop::GearData SampleGear() {
-  gearloop::GearData gear;
-  gear.teeth = 31;
-  gear.normal_module_mm = 4.5;
-  gear.normal_pressure_angle_rad = gearloop::DegToRad(20.0);
-  gear.helix_angle_rad = -gearloop::DegToRad(20.0);
-  gear.face_width_mm = 40.0;
-  gear.tip_radius_mm = 157.452 / 2.0;
-  gear.root_radius_mm = 137.202 / 2.0;
-  return gear;
-}
+using gearloop::fuzz::Check;
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static const gearloop::GearData gear = SampleGear();
+  static const gearloop::GearData gear = gearloop::testing::SampleGear();
   const std::string_view content(reinterpret_cast<const char*>(data), size);
 
   gearloop::MeasurementImportOptions options;
