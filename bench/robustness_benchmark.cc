@@ -11,9 +11,15 @@
 //       [--scenarios 200] [--bevel 10] [--seed 2026]
 //       [--orders default|all|both] [--threads 1] [--json FILE] [--verbose]
 //       [--only I] [--bound-wheel] [--reach-iterations 300]
+//       [--fix BLOCK]... [--no-state]
 //
 // --only I runs the flat-wheel scenario I alone, drawn as in the full run.
 // --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
+// --fix BLOCK (repeatable) fixes a parameter block in every configuration
+// (max_order[BLOCK] = -1); --no-state turns estimate_machine_state off. Both
+// are for studies; the figures in BENCHMARKS.md use neither.
+// --reach-iterations 1 skips most of the reference optimiser's work (its
+// figures are then meaningless) for a quick count of worse rounds (~25 s).
 //
 // --orders default: the solver's default options (default_max_order 3); all:
 // every order 0-6 open (default_max_order 6; the bevel generator's degree 5);
@@ -547,7 +553,8 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 2026;
   std::string orders = "both";
   const char* json = nullptr;
-  bool verbose = false, bound_wheel = false;
+  bool verbose = false, bound_wheel = false, no_state = false;
+  std::vector<std::string> fixed_blocks;
   int reach_iterations = bench::ReachOptions().max_iterations;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
@@ -567,6 +574,10 @@ int main(int argc, char** argv) {
       only = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--reach-iterations") == 0 && has_value) {
       reach_iterations = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--fix") == 0 && has_value) {
+      fixed_blocks.push_back(argv[++i]);
+    } else if (std::strcmp(argv[i], "--no-state") == 0) {
+      no_state = true;
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -593,6 +604,10 @@ int main(int argc, char** argv) {
     Config all{"every order 0-6 open", CorrectionOptions(), 6};
     all.options.default_max_order = 6;
     configs.push_back(all);
+  }
+  for (Config& c : configs) {
+    for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
+    if (no_state) c.options.estimate_machine_state = false;
   }
 
   // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone

@@ -59,6 +59,10 @@ struct ParameterBlock {
   // The change that counts as one unit of correction size (MODEL.md §6), in
   // `unit`.
   double default_scale = 1.0;
+  // A scalar block the correction leaves unchanged unless options.max_order
+  // names it: its effect on the flank hinges on a machine state the
+  // measurement cannot tell (the wheel parabola's vertex while a_w is small).
+  bool fixed_by_default = false;
 };
 
 class MachineModel {

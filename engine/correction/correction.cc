@@ -255,8 +255,11 @@ CorrectionResult Correct(const CorrectionOptions& options,
           options, input, &problem, &invalid.summary, &invalid.summary.message))
     return invalid;
   CorrectionResult result;
+  // Rework keeps its no-added-material constraint where the part is known,
+  // at the commanded parameters the measured part was ground with.
   if (options.estimate_machine_state &&
       options.solver == CorrectionSolver::kRegularised &&
+      options.mode == CorrectionMode::kNextPart &&
       SolveAtMachineState(options, problem, &result)) {
     return result;
   }

@@ -160,9 +160,11 @@ struct CorrectionOptions {
   // may change (0..num_coefficients-1), or -1 = fixed. For a scalar block: 0 =
   // free, -1 = fixed. `default_max_order` applies to every polynomial block not
   // named in `max_order` (clamped to the block's own degree); scalar blocks not
-  // named are free. Block names are the model's (ParameterBlock::name:
-  // "X".."C", "cone_angle", ...). Example, the published cutter case:
-  // default_max_order = 0, max_order = {{"C", 6}}.
+  // named are free, except those the model fixes by default
+  // (ParameterBlock::fixed_by_default: the grinder's wheel parabola a_w, d_w;
+  // name them with 0 to free them). Block names are the model's
+  // (ParameterBlock::name: "X".."C", "cone_angle", ...). Example, the published
+  // cutter case: default_max_order = 0, max_order = {{"C", 6}}.
   //
   // The default 3 (each axis up to its cubic term): a Legendre term of order k
   // moves the axis by its amplitude inside the roll range but accelerates it by
@@ -207,6 +209,8 @@ struct CorrectionOptions {
   // runs by its unknown errors; S and the exact change depend on that state,
   // and a correction computed at the commanded point is off by (S(real) -
   // S(commanded)) * delta.
+  // Next-part mode only: rework keeps its no-added-material constraint at the
+  // commanded parameters.
   bool estimate_machine_state = true;
 
   // Correction-size scales per block name, overriding
@@ -357,6 +361,9 @@ struct CorrectionSummary {
   std::vector<BlockCorrectionSize> block_sizes;
 
   std::vector<int> outlier_indices;  // grid points dropped as gross outliers
+  // Several teeth: grid points where a tooth's value stood out from the other
+  // teeth and was left out of the mean (with two teeth: the point itself).
+  std::vector<int> tooth_outlier_indices;
   std::vector<int>
       missing_indices;  // grid points without a usable measurement or contact
 

@@ -20,7 +20,38 @@ double Median(std::vector<double> v) {
   return m;
 }
 
+// Huber's tuning constant (95 % efficiency under Gaussian noise) and the
+// reweighting passes of the robust fit.
+constexpr double kHuberK = 1.345;
+constexpr int kRobustPasses = 5;
+
 }  // namespace
+
+LinearSolve RobustLinearFit(const CorrectionOptions& options,
+                            const CorrectionProblem& problem,
+                            const std::vector<int>& used,
+                            Eigen::VectorXd* robust_weights) {
+  CorrectionProblem weighted = problem;
+  LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
+  for (int pass = 0; pass < kRobustPasses && !used.empty(); ++pass) {
+    std::vector<double> misfit_um(used.size()), size(used.size());
+    for (size_t r = 0; r < used.size(); ++r) {
+      misfit_um[r] = ls.residual(r) / std::sqrt(weighted.weights(used[r]));
+      size[r] = std::abs(misfit_um[r]);
+    }
+    const double scale =
+        std::max(1.4826 * Median(size), std::max(problem.probe_noise_um, 1e-3));
+    for (size_t r = 0; r < used.size(); ++r) {
+      const int i = used[r];
+      weighted.weights(i) =
+          problem.weights(i) *
+          std::min(1.0, kHuberK * scale / std::max(size[r], 1e-12));
+    }
+    ls = SolveRegularisedLinear(options, weighted, used);
+  }
+  *robust_weights = weighted.weights;
+  return ls;
+}
 
 std::vector<double> StandardisedResiduals(const LinearSolve& ls,
                                           const Eigen::VectorXd& weights,
@@ -85,6 +116,40 @@ int FindGrossOutlier(const std::vector<double>& loo,
   return isolation[worst] <= limit ? -1 : static_cast<int>(worst);
 }
 
+std::vector<int> DropToothOutliers(const OutlierTest& test,
+                                   std::vector<Eigen::VectorXd>* teeth_um) {
+  std::vector<int> dropped;
+  if (teeth_um->size() < 2) return dropped;
+  const int n = static_cast<int>(teeth_um->front().size());
+  std::vector<double> medians(n, kNaN), spread;
+  for (int i = 0; i < n; ++i) {
+    std::vector<double> v;
+    for (const Eigen::VectorXd& tooth : *teeth_um)
+      if (i < tooth.size() && std::isfinite(tooth(i))) v.push_back(tooth(i));
+    if (v.size() < 2) continue;
+    medians[i] = Median(v);
+    for (double x : v) spread.push_back(std::abs(x - medians[i]));
+  }
+  const double sigma =
+      std::max(1.4826 * Median(spread), std::max(test.probe_noise_um, 0.0));
+  const double limit = std::max(test.threshold * sigma, test.min_um);
+  for (int i = 0; i < n; ++i) {
+    if (std::isnan(medians[i])) continue;
+    bool any = false;
+    for (Eigen::VectorXd& tooth : *teeth_um) {
+      if (i >= tooth.size() || !std::isfinite(tooth(i))) continue;
+      const double off = std::abs(tooth(i) - medians[i]);
+      // Two teeth are each |a - b| / 2 from their median: both go.
+      if (off > limit) {
+        tooth(i) = kNaN;
+        any = true;
+      }
+    }
+    if (any) dropped.push_back(i);
+  }
+  return dropped;
+}
+
 void RemoveGrossOutliers(const CorrectionOptions& options,
                          CorrectionProblem* problem,
                          CorrectionSummary* summary) {
@@ -95,9 +160,11 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
   const int max_drop =
       static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
   for (int drop = 0; drop < max_drop; ++drop) {
-    const LinearSolve ls = SolveRegularisedLinear(options, *problem, used);
+    Eigen::VectorXd robust_weights;
+    const LinearSolve ls =
+        RobustLinearFit(options, *problem, used, &robust_weights);
     const int worst =
-        FindGrossOutlier(StandardisedResiduals(ls, problem->weights, used),
+        FindGrossOutlier(StandardisedResiduals(ls, robust_weights, used),
                          used,
                          problem->model->GridRows(),
                          problem->model->GridColumns(),

@@ -18,6 +18,16 @@
 namespace gearloop {
 namespace correction_internal {
 
+// The regularised linear fit on `used` made robust to gross outliers: Huber
+// reweighting (k = 1.345, scale 1.4826 MAD of the misfits, at least the
+// probe noise), a few passes, so that outliers do not bend the fit toward
+// themselves and inflate the spread the test compares with. The weights the
+// last fit used go to `robust_weights` (for StandardisedResiduals).
+LinearSolve RobustLinearFit(const CorrectionOptions& options,
+                            const CorrectionProblem& problem,
+                            const std::vector<int>& used,
+                            Eigen::VectorXd* robust_weights);
+
 // Per row of `ls` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii), h
 // the hat matrix U diag(f) U' of the Tikhonov fit, so that each has the spread
 // of the probe noise [um].
@@ -50,6 +60,16 @@ int FindGrossOutlier(const std::vector<double>& standardised,
 void RemoveGrossOutliers(const CorrectionOptions& options,
                          CorrectionProblem* problem,
                          CorrectionSummary* summary);
+
+// Several measured teeth: at each grid point the values of the teeth are
+// compared with their median; with 3 or more teeth a value farther than
+// limit = max(threshold max(sigma^, sigma), min_um) from it is left out of the
+// mean, with 2 teeth that disagree by more than 2 limit the point is left out
+// (neither can be trusted). sigma^ = 1.4826 median |v - median| over all
+// values (the spread between teeth); sigma the probe noise when told. Returns
+// the grid points where anything was left out (ascending).
+std::vector<int> DropToothOutliers(const OutlierTest& test,
+                                   std::vector<Eigen::VectorXd>* teeth_um);
 
 }  // namespace correction_internal
 }  // namespace gearloop

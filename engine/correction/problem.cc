@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "engine/correction/legendre_coordinates.h"
+#include "engine/correction/outliers.h"
 #include "engine/correction/regularisation.h"
 
 namespace gearloop {
@@ -41,7 +42,7 @@ void ChooseRollRange(const CorrectionInput& input,
 
 // The coefficients that may change: orders 0..max order of each block
 // (max_order, else default_max_order clamped to the block's degree; scalar
-// blocks free unless named -1).
+// blocks free unless named -1, or fixed unless named when fixed_by_default).
 bool SelectFreeParameters(const CorrectionOptions& options,
                           const std::vector<ParameterBlock>& blocks,
                           std::vector<int>* free,
@@ -49,7 +50,7 @@ bool SelectFreeParameters(const CorrectionOptions& options,
   for (const ParameterBlock& b : blocks) {
     int order = b.is_polynomial ? std::min(options.default_max_order,
                                            b.num_coefficients - 1)
-                                : 0;
+                                : (b.fixed_by_default ? -1 : 0);
     const auto it = options.max_order.find(b.name);
     if (it != options.max_order.end())
       order = std::min(it->second, b.num_coefficients - 1);
@@ -138,14 +139,23 @@ std::string ValidateCorrectionInput(const CorrectionOptions& options,
   return "";
 }
 
-MeasuredFlank AverageMeasurement(const CorrectionInput& input) {
+MeasuredFlank AverageMeasurement(const CorrectionOptions& options,
+                                 const CorrectionInput& input) {
   const int n = input.model->NumPoints();
   MeasuredFlank flank;
   flank.measured_um = input.measured_um;
   flank.noise_share = Eigen::VectorXd::Ones(n);
   if (input.measured_teeth_um.empty()) return flank;
   Eigen::VectorXi counts;
-  flank.measured_um = AverageTeeth(input.measured_teeth_um, &counts);
+  std::vector<Eigen::VectorXd> teeth = input.measured_teeth_um;
+  if (options.outlier_threshold > 0.0 &&
+      options.solver == CorrectionSolver::kRegularised) {
+    flank.tooth_outliers = DropToothOutliers({options.outlier_threshold,
+                                              options.outlier_min_um,
+                                              options.probe_noise_um},
+                                             &teeth);
+  }
+  flank.measured_um = AverageTeeth(teeth, &counts);
   double count_sum = 0.0;
   int delivered = 0;
   for (int i = 0; i < n; ++i) {
@@ -198,11 +208,12 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   p->mode = options.mode;
   p->rule = ChooseRegularisationRule(options);
   p->probe_noise_um = options.probe_noise_um;
-  const MeasuredFlank flank = AverageMeasurement(input);
+  const MeasuredFlank flank = AverageMeasurement(options, input);
   p->measured_um = flank.measured_um;
   p->error_um = flank.measured_um - input.target_um;  // NaN where missing
   p->noise_share = flank.noise_share;
   p->mean_teeth_averaged = flank.mean_teeth_averaged;
+  p->tooth_outliers = flank.tooth_outliers;
   p->weights = options.point_weights.size() == n ? options.point_weights
                                                  : Eigen::VectorXd::Ones(n);
 
@@ -240,6 +251,7 @@ void ReportProblem(const CorrectionProblem& problem,
   summary->roll_min_rad = problem.roll_min_rad;
   summary->roll_max_rad = problem.roll_max_rad;
   summary->missing_indices = problem.missing;
+  summary->tooth_outlier_indices = problem.tooth_outliers;
   summary->num_free_parameters = problem.NumFree();
   summary->num_points_used = static_cast<int>(problem.used.size());
 }

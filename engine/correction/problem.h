@@ -36,6 +36,7 @@ struct MeasuredFlank {
                                 // teeth averaged; 1 if none)
   double mean_teeth_averaged =
       1.0;  // mean count over the delivered points (1 for a single grid)
+  std::vector<int> tooth_outliers;  // points where a tooth's value was left out
 };
 
 struct CorrectionProblem {
@@ -58,6 +59,7 @@ struct CorrectionProblem {
   Eigen::VectorXd weights;
   Eigen::VectorXd noise_share;
   double mean_teeth_averaged = 1.0;
+  std::vector<int> tooth_outliers;  // MeasuredFlank::tooth_outliers
 
   // Step 1: the roll range, the free coefficients and their coordinates.
   double roll_min_rad = 0.0;
@@ -93,7 +95,8 @@ std::string ValidateCorrectionInput(const CorrectionOptions& options,
                                     const CorrectionInput& input);
 
 // The measured flank of a (validated) input, averaging several teeth.
-MeasuredFlank AverageMeasurement(const CorrectionInput& input);
+MeasuredFlank AverageMeasurement(const CorrectionOptions& options,
+                                 const CorrectionInput& input);
 
 // The problem of a validated input at input.current_parameters: the model
 // evaluated there (S from input.jacobian_um if given), the roll range (input's,

@@ -354,6 +354,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
       {"correction_size", FiniteOrNull(s.correction_size)},
       {"block_sizes", block_sizes},
       {"outliers", PointList(s.outlier_indices, columns)},
+      {"tooth_outliers", PointList(s.tooth_outlier_indices, columns)},
       {"missing", PointList(s.missing_indices, columns)},
   };
 }

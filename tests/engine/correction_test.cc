@@ -607,6 +607,33 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
             CorrectionStatus::kInvalidInput);
 }
 
+// The wheel parabola is fixed unless named: by default 6 axes x 4 orders and
+// the cone angle are free, and a_w, d_w do not change; named with 0 they are
+// free again.
+TEST(ComputeCorrection, TheWheelParabolaIsFixedUnlessNamed) {
+  const CutterWithHiddenErrors c(6);
+  CorrectionInput input;
+  input.model = &c.grinder;
+  input.current_parameters = c.nominal;
+  input.measured_um =
+      SimulateMeasurement(c.grinder, c.nominal, c.hidden, {}).measured_um;
+  input.target_um =
+      EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 6.0}},
+                                  c.grinder.grid(),
+                                  c.setup.gear,
+                                  c.setup.flank);
+  CorrectionOptions options;
+  const CorrectionResult fixed = ComputeCorrection(options, input);
+  ASSERT_TRUE(fixed.summary.IsSolutionUsable()) << fixed.summary.message;
+  EXPECT_EQ(fixed.summary.num_free_parameters, 6 * 4 + 1);
+  EXPECT_EQ(fixed.delta(kParabolaCoefficientIndex), 0.0);
+  EXPECT_EQ(fixed.delta(kParabolaVertexIndex), 0.0);
+  options.max_order = {{"parabola_coefficient", 0}, {"parabola_vertex", 0}};
+  const CorrectionResult open = ComputeCorrection(options, input);
+  ASSERT_TRUE(open.summary.IsSolutionUsable()) << open.summary.message;
+  EXPECT_EQ(open.summary.num_free_parameters, 6 * 4 + 3);
+}
+
 TEST(ComputeCorrection, BoundsAreRespected) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
