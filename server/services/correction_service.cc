@@ -9,6 +9,8 @@
 #include "engine/core/axis_motion.h"
 #include "server/codec/correction_codec.h"
 #include "server/codec/job_codec.h"
+#include "server/codec/measurement_codec.h"
+#include "server/services/measurement_service.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
@@ -156,6 +158,15 @@ nlohmann::json CorrectionResultJson(
       GridToJson(predicted_change_um, {}, rows, columns);
   result["measured_um"] = GridToJson(measured_um, {}, rows, columns);
   result["target_um"] = GridToJson(target_um, {}, rows, columns);
+  if (problem.flank_quality_json) {
+    // ISO 1328-1 (METROLOGY.md §4): the measured flank against the design
+    // flank, against the target, and the predicted next part against the
+    // target (the predicted residual is already relative to it).
+    result["iso1328"] = {
+        {"measured", problem.flank_quality_json(measured_um, {})},
+        {"target_relative", problem.flank_quality_json(measured_um, target_um)},
+        {"predicted", problem.flank_quality_json(predicted_residual_um, {})}};
+  }
   return result;
 }
 
@@ -163,9 +174,17 @@ bool RunCorrection(const ServiceContext& context,
                    const nlohmann::json& body,
                    CorrectionRun* run,
                    ApiError* error) {
+  // A measuring-machine file is read onto the request's grid first; the stored
+  // request keeps the file, so that a replay reads it again.
+  nlohmann::json resolved;
+  nlohmann::json file_report;
+  if (HasMeasurementFile(body) &&
+      !ResolveMeasurementFile(body, &resolved, &file_report, error))
+    return false;
+  const nlohmann::json& parsed = file_report.is_null() ? body : resolved;
   CorrectionProblem problem;
   CorrectionRequest request;
-  if (!ParseCorrection(body, &problem, &request, error)) return false;
+  if (!ParseCorrection(parsed, &problem, &request, error)) return false;
   if (request.settings_source_job_id &&
       !context.repository->JobExists(*request.settings_source_job_id)) {
     *error = InvalidValue(
@@ -174,6 +193,10 @@ bool RunCorrection(const ServiceContext& context,
     return false;
   }
   if (!Solve(context, problem, request, run, error)) return false;
+  if (!file_report.is_null()) {
+    run->result_json["measurement_file"] = file_report;
+    run->job.result_json = run->result_json.dump();
+  }
   if (context.record_solve_seconds)
     context.record_solve_seconds(run->solve_seconds);
   return true;

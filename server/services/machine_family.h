@@ -70,6 +70,12 @@ struct CorrectionProblem {
   // without them.
   std::function<Eigen::VectorXd(const std::vector<TargetModification>&)>
       evaluate_modifications;
+  // The ISO 1328-1 figures and classes of a grid on the family's flank, on
+  // deviations - target when `target_um` is non-empty ({"figures", "classes"},
+  // codec FlankQualityToJson); empty for a family without an involute gear.
+  std::function<nlohmann::json(const Eigen::VectorXd& deviations_um,
+                               const Eigen::VectorXd& target_um)>
+      flank_quality_json;
 };
 
 // A simulated machine: the problem (commanded = current_parameters), its hidden
