@@ -435,5 +435,30 @@ TEST_F(MeasurementEndpointsTest, ExportRoundTripsThroughTheImport) {
   EXPECT_EQ(a.status, 404);
 }
 
+// POST /api/v1/evaluate carries the ISO figures of the ground flank: the
+// nominal settings grind the design flank (class 1), a changed wheel cone
+// angle tilts the profile and the class follows.
+TEST_F(MeasurementEndpointsTest, AnEvaluationCarriesTheIsoFigures) {
+  nlohmann::json body = {{"gear", SampleGearJson()},
+                         {"wheel", {{"radius_mm", 350}}},
+                         {"flank", "right"}};
+  const Answer nominal = Post("/api/v1/evaluate", body);
+  ASSERT_EQ(nominal.status, 200) << nominal.text.substr(0, 300);
+  const nlohmann::json& iso = nominal.body["iso1328"];
+  ASSERT_TRUE(iso["figures"].is_object()) << iso;
+  EXPECT_LT(std::abs(iso["figures"]["Fa_max_abs"].get<double>()), 0.1);
+  EXPECT_EQ(iso["classes"]["overall"], 1);
+
+  const Answer settings = Post("/api/v1/nominal", body);
+  ASSERT_EQ(settings.status, 200);
+  body["settings"] = settings.body["settings"];
+  body["settings"]["wheel"]["cone_angle_deg"] = 0.01;
+  const Answer tilted = Post("/api/v1/evaluate", body);
+  ASSERT_EQ(tilted.status, 200) << tilted.text.substr(0, 300);
+  const nlohmann::json& figures = tilted.body["iso1328"]["figures"];
+  EXPECT_GT(std::abs(figures["fHa_mean"].get<double>()), 1.0) << figures;
+  EXPECT_GT(tilted.body["iso1328"]["classes"]["overall"].get<int>(), 1);
+}
+
 }  // namespace
 }  // namespace gearloop
