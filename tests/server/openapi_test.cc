@@ -523,6 +523,56 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   }
 }
 
+// A correction from a measuring-machine file (issue 15) answers
+// CorrectionCreated with iso1328 and measurement_file, its stored job (whose
+// request keeps the file) matches Job, and a refused file is an Error with the
+// listed code invalid_file.
+TEST_F(OpenApiTest, MeasurementFileAnswersMatchTheirSchemas) {
+  nlohmann::json correction = {{"gear",
+                                {{"teeth", 31},
+                                 {"normal_module_mm", 4.5},
+                                 {"normal_pressure_angle_deg", 20},
+                                 {"helix_angle_deg", 20},
+                                 {"hand", "right"},
+                                 {"face_width_mm", 40},
+                                 {"tip_radius_mm", 78.726},
+                                 {"root_radius_mm", 68.601}}},
+                               {"wheel", {{"radius_mm", 350}}},
+                               {"flank", "right"}};
+  correction["measurement"] = {
+      {"file",
+       {{"format", "gde"},
+        {"content", testing::ReadSample("sample_topography.gde.xml")}}}};
+  const nlohmann::json created = Expect("correction from a file",
+                                        "POST",
+                                        "/api/v1/corrections",
+                                        correction.dump(),
+                                        "w",
+                                        201,
+                                        "POST /api/v1/corrections");
+  ASSERT_TRUE(created.contains("result"));
+  EXPECT_TRUE(created["result"].contains("iso1328"));
+  EXPECT_EQ(created["result"]["measurement_file"]["format"], "gde");
+  const std::string id = std::to_string(created["id"].get<int64_t>());
+  const nlohmann::json job = Expect("its job",
+                                    "GET",
+                                    "/api/v1/corrections/" + id,
+                                    "",
+                                    "r",
+                                    200,
+                                    "GET /api/v1/corrections/{id}");
+  EXPECT_EQ(job["request"]["measurement"]["file"]["format"], "gde");
+  correction["measurement"]["file"]["content"] = "<GDE><unclosed></GDE>";
+  const nlohmann::json refused = Expect("a broken file",
+                                        "POST",
+                                        "/api/v1/corrections",
+                                        correction.dump(),
+                                        "w",
+                                        422,
+                                        "POST /api/v1/corrections");
+  EXPECT_EQ(refused["error"]["code"], "invalid_file");
+}
+
 // The operations that take a bevel body as well (machine.kind
 // "free-form-bevel-generator") answer with their bevel schemas; a closed loop,
 // grinder and bevel, stored or not, answers ClosedLoopResponse or
