@@ -131,6 +131,23 @@ nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                             summary.roll_max_rad));
 }
 
+nlohmann::json CorrectionIso1328Json(
+    const CorrectionProblem& problem,
+    const Eigen::VectorXd& measured_um,
+    const Eigen::VectorXd& target_um,
+    const Eigen::VectorXd& predicted_residual_um,
+    double profile_evaluation_length_mm) {
+  // ISO 1328-1 (METROLOGY.md §4): the measured flank against the design
+  // flank, against the target, and the predicted next part against the target
+  // (the predicted residual is already relative to it).
+  const double l = profile_evaluation_length_mm;
+  return {
+      {"measured", problem.flank_quality_json(measured_um, {}, l)},
+      {"target_relative",
+       problem.flank_quality_json(measured_um, target_um, l)},
+      {"predicted", problem.flank_quality_json(predicted_residual_um, {}, l)}};
+}
+
 nlohmann::json CorrectionResultJson(
     const CorrectionProblem& problem,
     const CorrectionSummary& summary,
@@ -159,13 +176,8 @@ nlohmann::json CorrectionResultJson(
   result["measured_um"] = GridToJson(measured_um, {}, rows, columns);
   result["target_um"] = GridToJson(target_um, {}, rows, columns);
   if (problem.flank_quality_json) {
-    // ISO 1328-1 (METROLOGY.md §4): the measured flank against the design
-    // flank, against the target, and the predicted next part against the
-    // target (the predicted residual is already relative to it).
-    result["iso1328"] = {
-        {"measured", problem.flank_quality_json(measured_um, {})},
-        {"target_relative", problem.flank_quality_json(measured_um, target_um)},
-        {"predicted", problem.flank_quality_json(predicted_residual_um, {})}};
+    result["iso1328"] = CorrectionIso1328Json(
+        problem, measured_um, target_um, predicted_residual_um, 0.0);
   }
   return result;
 }
@@ -195,6 +207,16 @@ bool RunCorrection(const ServiceContext& context,
   if (!Solve(context, problem, request, run, error)) return false;
   if (!file_report.is_null()) {
     run->result_json["measurement_file"] = file_report;
+    // The figures with the file's own L_alpha, as its import gives them.
+    const nlohmann::json& length = file_report["profile_evaluation_length_mm"];
+    if (length.is_number() && problem.flank_quality_json) {
+      run->result_json["iso1328"] =
+          CorrectionIso1328Json(problem,
+                                request.measured_um,
+                                request.target_um,
+                                run->result.predicted_residual_um,
+                                length.get<double>());
+    }
     run->job.result_json = run->result_json.dump();
   }
   if (context.record_solve_seconds)

@@ -67,7 +67,7 @@ void GrinderEvaluate(const httplib::Request& req, httplib::Response& res) {
       deviations_um[i] = std::numeric_limits<double>::quiet_NaN();
   }
   answer["iso1328"] =
-      FlankQualityJson(setup.gear, setup.grid, deviations_um, {});
+      FlankQualityJson(setup.gear, setup.grid, deviations_um, {}, 0.0);
   RespondJson(res, 200, answer);
 }
 

@@ -79,8 +79,13 @@ void FillGrinderProblem(const nlohmann::json& body,
             modifications, BuildFlankGrid(setup), setup.gear, setup.flank);
       };
   problem->flank_quality_json = [setup](const Eigen::VectorXd& deviations_um,
-                                        const Eigen::VectorXd& target_um) {
-    return FlankQualityJson(setup.gear, setup.grid, deviations_um, target_um);
+                                        const Eigen::VectorXd& target_um,
+                                        double profile_evaluation_length_mm) {
+    return FlankQualityJson(setup.gear,
+                            setup.grid,
+                            deviations_um,
+                            target_um,
+                            profile_evaluation_length_mm);
   };
 }
 

@@ -126,7 +126,16 @@ bool BuildExport(const JobRecord& job, GdeExport* out, ApiError* error) {
   out->topographies.push_back({"target", 1, target});
   if (predicted.size() > 0)
     out->topographies.push_back({"predicted", 1, predicted});
-  const Iso1328Options iso;
+  // The L_alpha the result's figures used (a measuring file's own, or the
+  // default).
+  Iso1328Options iso;
+  const nlohmann::json length =
+      result.value("iso1328", nlohmann::json::object())
+          .value("measured", nlohmann::json::object())
+          .value("figures", nlohmann::json::object())
+          .value("profile_evaluation_length_mm", nlohmann::json());
+  if (length.is_number())
+    iso.profile_evaluation_length_mm = length.get<double>();
   const FlankFigures figures =
       ComputeFlankFigures(iso, out->gear, out->grid, measured, target);
   if (figures.ok) {
@@ -141,8 +150,10 @@ bool BuildExport(const JobRecord& job, GdeExport* out, ApiError* error) {
 nlohmann::json FlankQualityJson(const GearData& gear,
                                 const GridOptions& grid,
                                 const Eigen::VectorXd& deviations_um,
-                                const Eigen::VectorXd& target_um) {
-  const Iso1328Options options;
+                                const Eigen::VectorXd& target_um,
+                                double profile_evaluation_length_mm) {
+  Iso1328Options options;
+  options.profile_evaluation_length_mm = profile_evaluation_length_mm;
   const FlankFigures figures =
       ComputeFlankFigures(options, gear, grid, deviations_um, target_um);
   AccuracyClasses classes;
@@ -200,7 +211,11 @@ bool ResolveMeasurementFile(const nlohmann::json& body,
       {"warnings", report["warnings"]},
       {"not_measured", report["not_measured"]},
       {"teeth", report["teeth"]},
-      {"max_crossing_mismatch_um", report["max_crossing_mismatch_um"]}};
+      {"max_crossing_mismatch_um", report["max_crossing_mismatch_um"]},
+      {"profile_evaluation_length_mm",
+       imported.iso_options.profile_evaluation_length_mm > 0.0
+           ? nlohmann::json(imported.iso_options.profile_evaluation_length_mm)
+           : nlohmann::json(nullptr)}};
   return true;
 }
 

@@ -26,18 +26,22 @@
 namespace gearloop {
 
 // The ISO 1328-1 figures and classes (codec FlankQualityToJson) of a grid of
-// `gear` on `grid`, on deviations - target when `target_um` is non-empty.
+// `gear` on `grid`, on deviations - target when `target_um` is non-empty, with
+// the profile evaluation length L_alpha of a measuring file (0 = the default
+// 0.95 (L_a - L_form)).
 nlohmann::json FlankQualityJson(const GearData& gear,
                                 const GridOptions& grid,
                                 const Eigen::VectorXd& deviations_um,
-                                const Eigen::VectorXd& target_um);
+                                const Eigen::VectorXd& target_um,
+                                double profile_evaluation_length_mm = 0.0);
 
 // A correction body whose measurement is {"file": {...}}: reads the file onto
 // the body's gear, grid and flank and returns the body with measurement
 // {"deviations_um": grid} in `resolved`, and what the import reports
-// ({"format", "warnings", "not_measured", "max_crossing_mismatch_um"}) in
-// `file_report`. Only a flat-wheel grinder request has an involute gear to
-// read a file for (422 otherwise).
+// ({"format", "warnings", "not_measured", "teeth", "max_crossing_mismatch_um",
+// "profile_evaluation_length_mm"}: L_alpha of the file, null when it states
+// none) in `file_report`. Only a flat-wheel grinder request has an involute
+// gear to read a file for (422 otherwise).
 bool ResolveMeasurementFile(const nlohmann::json& body,
                             nlohmann::json* resolved,
                             nlohmann::json* file_report,

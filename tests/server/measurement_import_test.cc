@@ -314,15 +314,10 @@ TEST_F(MeasurementEndpointsTest, ACorrectionTakesAMeasurementFile) {
   EXPECT_EQ(result["measurement_file"]["format"], "mka");
   EXPECT_TRUE(result["measurement_file"]["warnings"].empty());
   const nlohmann::json& iso = result["iso1328"];
-  // The result's figures refer to the default L_alpha, 0.95 (L_a - L_form) =
-  // 24.9614 mm; the file's code 45 says 24.961 mm: the import's figures within
-  // 0.001 um.
-  const nlohmann::json& measured = iso["measured"]["figures"];
-  for (const auto& item : imported.body["figures"].items()) {
-    EXPECT_NEAR(
-        measured[item.key()].get<double>(), item.value().get<double>(), 0.001)
-        << item.key();
-  }
+  // The result's figures use the file's own L_alpha (code 45, 24.961 mm), as
+  // its import does.
+  EXPECT_EQ(result["measurement_file"]["profile_evaluation_length_mm"], 24.961);
+  EXPECT_EQ(iso["measured"]["figures"], imported.body["figures"]);
   EXPECT_EQ(iso["measured"]["classes"], imported.body["classes"]);
   EXPECT_EQ(iso["measured"]["classes"]["overall"], 6);
   // No target: relative to the target is the measured flank itself.
