@@ -219,7 +219,7 @@ async function main() {
     // 4b. Measuring machines' files (issue 15): a correction of the sample gear of shared/formats
     //     from its .mka file shows the file's ISO classes; the GDE file of the same flank given as
     //     the next part becomes a new linked job; the job downloads as GDE; the .mka file on a
-    //     job of another gear is refused, naming the header code.
+    //     job of another gear, dropped on the panel, is refused, naming the header code.
     const samples = path.join(REPO, "tests", "formats", "data");
     const sampleGear = { teeth: 31, normal_module_mm: 4.5, normal_pressure_angle_deg: 20, helix_angle_deg: 20, hand: "right", face_width_mm: 40, tip_radius_mm: 78.726, root_radius_mm: 68.601 };
     const fromFile = await api(base, "POST", "/api/v1/corrections", {
@@ -252,7 +252,12 @@ async function main() {
     );
     await showById(job.id);
     const errorsBefore = consoleErrors.length;
-    await page.setInputFiles("#next-part-file", path.join(samples, "sample_topography.mka"));
+    // Dropped on the panel this time (the same path as a chosen file).
+    await page.evaluate((text) => {
+      const data = new DataTransfer();
+      data.items.add(new File([text], "sample_topography.mka", { type: "application/octet-stream" }));
+      document.querySelector(".next-part").dispatchEvent(new DragEvent("drop", { dataTransfer: data, bubbles: true, cancelable: true }));
+    }, fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8"));
     await page.waitForSelector("#next-part-status.error", { timeout: 30000 });
     const refusal = await page.textContent("#next-part-status");
     // Chromium logs the refused request itself; that 422 is the answer this step asks for.
