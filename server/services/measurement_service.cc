@@ -96,7 +96,8 @@ bool BuildExport(const JobRecord& job, GdeExport* out, ApiError* error) {
   MachineKind kind = MachineKind::kFlatWheelGrinder;
   if (!ReadMachineKind(request, &kind, error) ||
       kind != MachineKind::kFlatWheelGrinder) {
-    *error = InvalidValue("query.format",
+    // About the job, not a field of the request.
+    *error = InvalidValue("",
                           "job " + std::to_string(job.id) +
                               " is not a flat-wheel grinder job: only an "
                               "involute gear's flank is written as GDE");
@@ -115,7 +116,7 @@ bool BuildExport(const JobRecord& job, GdeExport* out, ApiError* error) {
   const Eigen::VectorXd predicted =
       StoredGrid(result, "predicted_residual_um", rows, columns);
   if (measured.size() == 0 || target.size() == 0) {
-    *error = InvalidValue("query.format",
+    *error = InvalidValue("",
                           "job " + std::to_string(job.id) +
                               " was stored before results kept the measured "
                               "and target grids; replay it to export it");

@@ -428,6 +428,27 @@ TEST_F(MeasurementEndpointsTest, ExportRoundTripsThroughTheImport) {
   EXPECT_EQ(a.status, 400);
   a = Get("/api/v1/corrections/987654/export?format=gde");
   EXPECT_EQ(a.status, 404);
+
+  // A spiral-bevel job has no involute gear to write as GDE.
+  const nlohmann::json bevel = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", {{"side", "concave"}, {"published", true}}},
+      {"hidden_errors", {{"X_mm", {0.008}}}},
+      {"noise_um", 0.2},
+      {"seed", 11},
+      {"corrections", 1},
+      {"store", true}};
+  const Answer loop = Post("/api/v1/simulations/closed-loop", bevel);
+  ASSERT_EQ(loop.status, 200) << loop.text.substr(0, 300);
+  const nlohmann::json& round = loop.body["iterations"][0];
+  ASSERT_TRUE(round.contains("job_id")) << round.dump().substr(0, 300);
+  a = Get("/api/v1/corrections/" +
+          std::to_string(round["job_id"].get<int64_t>()) +
+          "/export?format=gde");
+  EXPECT_EQ(a.status, 422) << a.text.substr(0, 300);
+  EXPECT_NE(a.body["error"]["message"].get<std::string>().find(
+                "not a flat-wheel grinder job"),
+            std::string::npos);
 }
 
 // POST /api/v1/evaluate carries the ISO figures of the ground flank: the
