@@ -5,10 +5,14 @@
 // check, Gordon interpolation, ISO 1328-1 figures and classes). Goal: < 20 ms.
 //
 //   build/bench/measurement_import_benchmark
+//   build/bench/measurement_import_benchmark --write-mka FILE   (the file only,
+//   for bench/http_import_benchmark.py)
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <string>
 
 #include "engine/core/units.h"
@@ -134,4 +138,16 @@ BENCHMARK(BM_ImportGdeExport)->Unit(benchmark::kMillisecond);
 }  // namespace
 }  // namespace gearloop
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  // The benchmark's file, for timing the same import over HTTP.
+  if (argc == 3 && std::strcmp(argv[1], "--write-mka") == 0) {
+    std::ofstream out(argv[2], std::ios::binary);
+    out << gearloop::MakeMkaFile(480);
+    return out ? 0 : 1;
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -214,8 +214,21 @@ void PrintCorrectionSummary(const json& answer) {
             << Fixed(result.value("residual_rms_um", json())) << " um, max "
             << Fixed(result.value("residual_max_um", json())) << " um\n"
             << "  best reachable       rms "
-            << Fixed(result.value("best_reachable_rms_um", json())) << " um\n"
-            << "  solver " << Member(result, "solver") << ", mode "
+            << Fixed(result.value("best_reachable_rms_um", json())) << " um\n";
+  if (result.contains("iso1328") && result["iso1328"].is_object()) {
+    // ISO 1328-1 overall class of the measured part (against the target)
+    // and of the predicted next part.
+    const json& iso = result["iso1328"];
+    const auto overall = [&iso](const char* which) {
+      const json& quality = iso.value(which, json::object());
+      return quality.contains("classes") && quality["classes"].is_object()
+                 ? Text(quality["classes"].value("overall", json()))
+                 : std::string("-");
+    };
+    std::cout << "  ISO 1328-1 class     " << overall("target_relative")
+              << " measured, " << overall("predicted") << " predicted\n";
+  }
+  std::cout << "  solver " << Member(result, "solver") << ", mode "
             << Member(result, "mode") << ", rank " << Member(result, "rank")
             << ", condition "
             << Fixed(result.value("condition_number", json()), 1) << ", "
@@ -264,11 +277,13 @@ int BuildCorrectionRequest(const std::string& request_path,
   int rows = 5;
   int columns = 9;
   GridShape(*request, &rows, &columns);
-  json measurement;
-  if (!ReadMeasurementFile(
-          measurement_path, rows, columns, &measurement, &error))
-    return InputError(error);
-  (*request)["measurement"] = measurement;
+  if (!measurement_path.empty()) {
+    json measurement;
+    if (!ReadMeasurementFile(
+            measurement_path, rows, columns, &measurement, &error))
+      return InputError(error);
+    (*request)["measurement"] = measurement;
+  }
   if (args.Has("--target")) {
     json target;
     if (!ReadTargetFile(args.Value("--target"), rows, columns, &target, &error))

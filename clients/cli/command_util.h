@@ -95,7 +95,8 @@ int InputError(const std::string& message);
 // motion.
 void PrintCorrectionSummary(const nlohmann::json& answer);
 
-// Builds a correction request from the files; returns -1 when done, or an exit
+// Builds a correction request from the files (an empty `measurement_path`
+// leaves the measurement to the caller); returns -1 when done, or an exit
 // code.
 int BuildCorrectionRequest(const std::string& request_path,
                            const std::string& measurement_path,

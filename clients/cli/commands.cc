@@ -99,6 +99,13 @@ const std::vector<Command>& Commands() {
        RunEvaluate,
        "print the flank that given settings grind, on the grid"},
       {&kHealth, RunHealth, "check that the server is up"},
+      {&kImport,
+       RunImport,
+       "read a measuring machine's file (.mka, GDE) with its ISO 1328 figures"},
+      {&kCorrect,
+       RunCorrect,
+       "compute and store a correction from a measuring machine's file"},
+      {&kExport, RunExport, "write a stored job as a GDE file"},
   };
   return commands;
 }

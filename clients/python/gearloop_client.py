@@ -52,6 +52,7 @@ __all__ = [
     "Grid",
     "read_csv_grid",
     "read_measurement_file",
+    "read_machine_file",
     "format_csv_grid",
 ]
 
@@ -407,6 +408,76 @@ class Client:
                               corrections=corrections, target=target, options=options, store=store)
         body.update(extra)
         return self._request("POST", "/api/v1/simulations/closed-loop", body)
+
+    # --- measuring-machine files (shared/design/METROLOGY.md) ------------------------------------
+
+    def import_measurement(self, gear: Json, file: Json, flank: Optional[str] = None,
+                           grid: Optional[Json] = None, tooth: Optional[int] = None,
+                           datum_face: Optional[str] = None,
+                           sign_factors: Optional[Json] = None) -> Json:
+        """POST /api/v1/measurements/import: a gear measuring machine's file onto the grid.
+
+        Args:
+            gear: the gear the file is about (authoritative; the file's header must agree).
+            file: {"format": "mka" | "gde", "content": text}, e.g. read_machine_file(path).
+            flank, grid: as in a correction request (default right, 5 x 9).
+            tooth: one tooth (default: the mean of all teeth of the flank).
+            datum_face: "x_negative" | "x_positive" (default: the file's own, else x_negative).
+            sign_factors: {"profile_right", "profile_left", "helix_right", "helix_left"}: +1 / -1.
+
+        Returns:
+            {"deviations_um", "figures" (ISO 1328-1, um), "classes" (1..11, None = worse than 11),
+            "warnings", "not_measured", "teeth", "max_crossing_mismatch_um", ...}. A file the
+            server refuses raises GearloopApiError 422 (code "invalid_file", the message naming
+            the file line or element path), or 413 for one over 4 MiB.
+        """
+        body = _with_optional({"gear": gear, "format": file["format"], "content": file["content"]},
+                              flank=flank, grid=grid, tooth=tooth, datum_face=datum_face,
+                              sign_factors=sign_factors)
+        if "tooth" not in body and file.get("tooth") is not None:
+            body["tooth"] = file["tooth"]
+        return self._request("POST", "/api/v1/measurements/import", body)
+
+    def create_correction_from_file(self, request: Json, file: Json) -> Json:
+        """POST /api/v1/corrections with "measurement": {"file": file}: the server reads the
+        measuring machine's file ({"format", "content", optional "tooth", "datum_face",
+        "sign_factors"}) onto the request's grid; the stored job keeps it, so a replay reads it
+        again. The result carries "iso1328": the ISO 1328-1 figures and classes of the measured,
+        target-relative and predicted flank."""
+        body = dict(request)
+        body["measurement"] = {"file": dict(file)}
+        return self._request("POST", "/api/v1/corrections", body)
+
+    def export_correction(self, job_id: int, format: str = "gde") -> str:
+        """GET /api/v1/corrections/{id}/export?format=gde: the stored job as GDE XML text (gear
+        data, the measured, target and predicted nets, the ISO 1328-1 figures)."""
+        return self._request("GET", f"/api/v1/corrections/{int(job_id)}/export", query={"format": format},
+                             expect_json=False)
+
+
+def read_machine_file(path: str, format: Optional[str] = None) -> Json:
+    """A gear measuring machine's file as the API takes it: {"format", "content"}.
+
+    The format is "mka" for a .mka name and "gde" for .xml or .gde unless given. The bytes are
+    read as UTF-8 (a byte-order mark is kept; the server drops it) or, when they are not UTF-8,
+    as Latin-1 (older P-series exports)."""
+    if format is None:
+        lower = path.lower()
+        if lower.endswith(".mka"):
+            format = "mka"
+        elif lower.endswith(".xml") or lower.endswith(".gde"):
+            format = "gde"
+        else:
+            raise ValueError(f"cannot tell the format of {path} from its name: give format='mka' or 'gde'")
+    if format not in ("mka", "gde"):
+        raise ValueError(f"format must be 'mka' or 'gde', got {format!r}")
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    return {"format": format, "content": text}
 
 
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------

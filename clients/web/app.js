@@ -188,30 +188,49 @@
     return grid;
   }
 
+  // A gear measuring machine's file (Klingelnberg .mka, GDE .xml/.gde) as the API takes it:
+  // {"format", "content"}; null for any other name. UTF-8, else Latin-1 (older P-series exports).
+  async function machineFile(file) {
+    const format = /\.mka$/i.test(file.name) ? "mka" : /\.(xml|gde)$/i.test(file.name) ? "gde" : null;
+    if (!format) return null;
+    const bytes = await file.arrayBuffer();
+    let content;
+    try {
+      content = new TextDecoder("utf-8", { fatal: true }).decode(bytes);
+    } catch (e) {
+      content = new TextDecoder("iso-8859-1").decode(bytes);
+    }
+    return { format, content };
+  }
+
   // The closed loop by hand: the part ground with this job's corrected settings was measured;
-  // its file (CSV grid or JSON measurement file) becomes a new correction linked to this job.
+  // its file (CSV grid, JSON measurement file, or a measuring machine's .mka / GDE file, chosen
+  // or dropped on the panel) becomes a new correction linked to this job.
   function nextPartPanel(job) {
     const req = job.request || {};
     const grid = req.grid || {};
     const bevel = P.isBevel(job);
     const rows = (bevel ? (req.job || {}).grid || {} : grid).profile_points || 5;
     const columns = (bevel ? ((req.job || {}).grid || {}).lengthwise_points : grid.lead_points) || 9;
-    const input = P.html("input", { type: "file", accept: ".csv,.json,text/csv,application/json", id: "next-part-file" });
+    const input = P.html("input", { type: "file", accept: ".csv,.json,.mka,.xml,.gde,text/csv,application/json", id: "next-part-file" });
     const status = P.html("span", { class: "note", id: "next-part-status" });
     const panel = P.html("div", { class: "actions next-part" }, [
-      P.html("label", { for: "next-part-file", text: "Next part, ground with these settings \u2014 its measurement:" }),
+      P.html("label", { for: "next-part-file", text: "Next part, ground with these settings \u2014 its measurement (CSV, JSON, .mka, GDE; or drop it here):" }),
       input,
       status,
     ]);
-    input.addEventListener("change", async () => {
-      const file = input.files && input.files[0];
+    const submit = async (file) => {
       if (!file) return;
       status.className = "note";
       status.textContent = "reading " + file.name + "\u2026";
       try {
-        const text = await file.text();
+        const fromMachine = bevel ? null : await machineFile(file);
+        const text = fromMachine ? "" : await file.text();
         let measurement;
-        if (/\.json$/i.test(file.name)) {
+        if (fromMachine) {
+          // The server reads it onto this job's grid (POST /api/v1/corrections, measurement.file).
+          measurement = { file: fromMachine };
+        } else if (/\.json$/i.test(file.name)) {
           let data = JSON.parse(text);
           if (data && data.measurement) data = data.measurement;
           if (Array.isArray(data)) data = { deviations_um: data };
@@ -237,6 +256,17 @@
         status.className = "error";
         status.textContent = file.name + ": " + e.message;
       }
+    };
+    input.addEventListener("change", () => submit(input.files && input.files[0]));
+    panel.addEventListener("dragover", (e) => {
+      e.preventDefault();
+      panel.classList.add("dragging");
+    });
+    panel.addEventListener("dragleave", () => panel.classList.remove("dragging"));
+    panel.addEventListener("drop", (e) => {
+      e.preventDefault();
+      panel.classList.remove("dragging");
+      submit(e.dataTransfer && e.dataTransfer.files && e.dataTransfer.files[0]);
     });
     return panel;
   }
@@ -265,6 +295,23 @@
       if (grid && grid.length) box.appendChild(downloadLink("job" + job.id + "-" + name + ".csv", gridCsv(grid), "text/csv"));
     }
     box.appendChild(downloadLink("job" + job.id + ".json", JSON.stringify(job, null, 2), "application/json"));
+    // The GDE file of a grinder job (GET .../export?format=gde), fetched with the token.
+    if (!P.isBevel(job)) {
+      const gde = P.html("button", { type: "button", class: "button", id: "export-gde", text: "job" + job.id + ".gde.xml" });
+      gde.addEventListener("click", async () => {
+        const headers = token() ? { Authorization: "Bearer " + token() } : {};
+        const res = await fetch("/api/v1/corrections/" + job.id + "/export?format=gde", { headers });
+        const text = await res.text();
+        if (!res.ok) {
+          gde.replaceWith(message("GDE export refused: " + text));
+          return;
+        }
+        const link = downloadLink("job" + job.id + ".gde.xml", text, "application/xml");
+        gde.replaceWith(link);
+        link.click();
+      });
+      box.appendChild(gde);
+    }
     return box;
   }
 

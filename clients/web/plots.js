@@ -466,8 +466,63 @@
     return box;
   }
 
-  // The whole view of one job: summary, three topographies on one colour scale, the axis
-  // corrections and the convergence of its lineage.
+  // ISO 1328-1 figures (um) and accuracy classes of a grinder result (result.iso1328,
+  // shared/design/METROLOGY.md section 4): the measured flank, the measured flank against the
+  // target and the predicted next part against the target. Null for a job without them (a bevel
+  // job, or one stored before they were computed).
+  const ISO_ROWS = [
+    ["f_H\u03b1 slope", "fHa_mean", "fHa"],
+    ["f_f\u03b1 form", "ffa_max_abs", "ffa"],
+    ["F_\u03b1 total", "Fa_max_abs", "Fa"],
+    ["C_\u03b1 crowning", "Ca_mean", null],
+    ["f_H\u03b2 slope", "fHb_mean", "fHb"],
+    ["f_f\u03b2 form", "ffb_max_abs", "ffb"],
+    ["F_\u03b2 total", "Fb_max_abs", "Fb"],
+    ["C_\u03b2 crowning", "Cb_mean", null],
+    ["twist S_\u03b1", "twist_alpha", null],
+    ["twist S_\u03b2", "twist_beta", null],
+  ];
+  function isoTable(iso) {
+    if (!iso || typeof iso !== "object") return null;
+    const flanks = [
+      ["measured", iso.measured],
+      ["vs target", iso.target_relative],
+      ["predicted", iso.predicted],
+    ];
+    const table = html("table", { class: "delta iso1328" });
+    const head = html("tr", {}, [html("th", { text: "ISO 1328-1 [\u00b5m]" })]);
+    for (const [name] of flanks) {
+      head.appendChild(html("th", { text: name }));
+      head.appendChild(html("th", { text: "cl.", title: "ISO 1328-1 accuracy class (1..11)" }));
+    }
+    table.appendChild(head);
+    const cls = (q, key) => {
+      const v = q && q.classes ? q.classes[key] : undefined;
+      return isNum(v) ? String(v) : v === null ? ">11" : "";
+    };
+    for (const [label, figure, klass] of ISO_ROWS) {
+      const tr = html("tr", { "data-figure": figure }, [html("th", { text: label })]);
+      for (const [, q] of flanks) {
+        tr.appendChild(html("td", { text: q && q.figures ? fmt(q.figures[figure], 2) : "\u2013" }));
+        tr.appendChild(html("td", { class: "iso-class", text: klass ? cls(q, klass) : "" }));
+      }
+      table.appendChild(tr);
+    }
+    const overall = html("tr", { "data-figure": "overall", class: "iso-overall" }, [html("th", { text: "overall class" })]);
+    for (const [, q] of flanks) {
+      overall.appendChild(html("td", { text: "" }));
+      overall.appendChild(html("td", { class: "iso-class", text: cls(q, "overall") }));
+    }
+    table.appendChild(overall);
+    const notes = flanks.filter(([, q]) => q && q.message).map(([name, q]) => name + ": " + q.message);
+    const box = html("div", { class: "iso-box" }, [table]);
+    box.appendChild(html("p", { class: "note", text: "Slopes: mean over the traces; crowning, twist referred to L\u03b1, L\u03b2; form, total and classes: worst trace." }));
+    for (const n of notes) box.appendChild(html("p", { class: "note", text: n }));
+    return box;
+  }
+
+  // The whole view of one job: summary, three topographies on one colour scale with the ISO
+  // 1328-1 figures beside them, the axis corrections and the convergence of its lineage.
   function renderJob(job, lineage) {
     const r = job.result || {};
     const measured = measuredGrid(job);
@@ -479,7 +534,10 @@
     section.appendChild(summaryTable(job));
     section.appendChild(html("h3", { text: "Topographies (\u00b5m, + = material left on; one colour scale)" }));
     const maps = html("div", { class: "chart-row maps" });
+    // The ISO figures follow the measured map, so they sit beside it on a narrow page too.
+    const iso = isoTable(r.iso1328);
     if (measured) maps.appendChild(heatmap(measured, { title: "measured", maxAbs: maxAbs }));
+    if (iso) maps.appendChild(iso);
     if (target) maps.appendChild(heatmap(target, { title: "target", maxAbs: maxAbs }));
     if (residual) maps.appendChild(heatmap(residual, { title: "predicted residual", maxAbs: maxAbs }));
     section.appendChild(maps);
@@ -501,5 +559,5 @@
     return section;
   }
 
-  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
+  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
 })(window);

@@ -254,6 +254,27 @@ bool ParseGrindingSetup(const nlohmann::json& request,
   return true;
 }
 
+bool ParseGearGridAndFlank(const nlohmann::json& request,
+                           GearData* gear,
+                           GridOptions* grid,
+                           Flank* flank,
+                           ApiError* error) {
+  GrindingSetup s;
+  if (!ReadGear(request, &s, error) || !ReadGrid(request, &s, error) ||
+      !ReadFlank(request, &s, error)) {
+    return false;
+  }
+  ValidationIssue issue;
+  if (!ValidateGear(s.gear, &issue) || !ValidateGrid(s.grid, &issue)) {
+    *error = InvalidValue(ApiFieldPath(issue.field), issue.message);
+    return false;
+  }
+  *gear = s.gear;
+  *grid = s.grid;
+  *flank = s.flank;
+  return true;
+}
+
 namespace {
 
 // Reads the polynomial coefficients of the six axes; every axis is required

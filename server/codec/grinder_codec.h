@@ -35,6 +35,15 @@ bool ParseGrindingSetup(const nlohmann::json& request,
                         GrindingSetup* setup,
                         ApiError* error);
 
+// Reads "gear", "grid" (optional, defaults) and "flank" (optional, "right")
+// without a wheel or machine (a measured gear: POST
+// /api/v1/measurements/import), validated with ValidateGear and ValidateGrid.
+bool ParseGearGridAndFlank(const nlohmann::json& request,
+                           GearData* gear,
+                           GridOptions* grid,
+                           Flank* flank,
+                           ApiError* error);
+
 // Reads settings {"axes": {"X": [..7], ..., "C": [..]}, "wheel": {...}} found
 // at `path` (for error fields). Each axis takes 1..7 coefficients (missing
 // higher orders are 0); "wheel" is optional (a flat wheel).

@@ -20,6 +20,7 @@
 #include "server/services/correction_service.h"
 #include "server/services/grinder_service.h"
 #include "server/services/history_service.h"
+#include "server/services/measurement_service.h"
 #include "server/services/service_context.h"
 #include "server/services/simulation_service.h"
 #include "storage/job_repository.h"
@@ -183,6 +184,18 @@ const ApiRoute kApiRoutes[] = {
      Access::kWrite,
      nullptr,
      SimulateClosedLoop},
+    {"POST",
+     "/api/v1/measurements/import",
+     "POST /api/v1/measurements/import",
+     Access::kRead,
+     ImportMeasurement,
+     nullptr},
+    {"GET",
+     R"(/api/v1/corrections/(\d+)/export)",
+     "GET /api/v1/corrections/{id}/export",
+     Access::kRead,
+     nullptr,
+     ExportCorrection},
 };
 
 }  // namespace

@@ -9,6 +9,8 @@
 #include "engine/core/axis_motion.h"
 #include "server/codec/correction_codec.h"
 #include "server/codec/job_codec.h"
+#include "server/codec/measurement_codec.h"
+#include "server/services/measurement_service.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
@@ -129,6 +131,23 @@ nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                             summary.roll_max_rad));
 }
 
+nlohmann::json CorrectionIso1328Json(
+    const CorrectionProblem& problem,
+    const Eigen::VectorXd& measured_um,
+    const Eigen::VectorXd& target_um,
+    const Eigen::VectorXd& predicted_residual_um,
+    double profile_evaluation_length_mm) {
+  // ISO 1328-1 (METROLOGY.md §4): the measured flank against the design
+  // flank, against the target, and the predicted next part against the target
+  // (the predicted residual is already relative to it).
+  const double l = profile_evaluation_length_mm;
+  return {
+      {"measured", problem.flank_quality_json(measured_um, {}, l)},
+      {"target_relative",
+       problem.flank_quality_json(measured_um, target_um, l)},
+      {"predicted", problem.flank_quality_json(predicted_residual_um, {}, l)}};
+}
+
 nlohmann::json CorrectionResultJson(
     const CorrectionProblem& problem,
     const CorrectionSummary& summary,
@@ -156,6 +175,10 @@ nlohmann::json CorrectionResultJson(
       GridToJson(predicted_change_um, {}, rows, columns);
   result["measured_um"] = GridToJson(measured_um, {}, rows, columns);
   result["target_um"] = GridToJson(target_um, {}, rows, columns);
+  if (problem.flank_quality_json) {
+    result["iso1328"] = CorrectionIso1328Json(
+        problem, measured_um, target_um, predicted_residual_um, 0.0);
+  }
   return result;
 }
 
@@ -163,9 +186,17 @@ bool RunCorrection(const ServiceContext& context,
                    const nlohmann::json& body,
                    CorrectionRun* run,
                    ApiError* error) {
+  // A measuring-machine file is read onto the request's grid first; the stored
+  // request keeps the file, so that a replay reads it again.
+  nlohmann::json resolved;
+  nlohmann::json file_report;
+  if (HasMeasurementFile(body) &&
+      !ResolveMeasurementFile(body, &resolved, &file_report, error))
+    return false;
+  const nlohmann::json& parsed = file_report.is_null() ? body : resolved;
   CorrectionProblem problem;
   CorrectionRequest request;
-  if (!ParseCorrection(body, &problem, &request, error)) return false;
+  if (!ParseCorrection(parsed, &problem, &request, error)) return false;
   if (request.settings_source_job_id &&
       !context.repository->JobExists(*request.settings_source_job_id)) {
     *error = InvalidValue(
@@ -174,6 +205,20 @@ bool RunCorrection(const ServiceContext& context,
     return false;
   }
   if (!Solve(context, problem, request, run, error)) return false;
+  if (!file_report.is_null()) {
+    run->result_json["measurement_file"] = file_report;
+    // The figures with the file's own L_alpha, as its import gives them.
+    const nlohmann::json& length = file_report["profile_evaluation_length_mm"];
+    if (length.is_number() && problem.flank_quality_json) {
+      run->result_json["iso1328"] =
+          CorrectionIso1328Json(problem,
+                                request.measured_um,
+                                request.target_um,
+                                run->result.predicted_residual_um,
+                                length.get<double>());
+    }
+    run->job.result_json = run->result_json.dump();
+  }
   if (context.record_solve_seconds)
     context.record_solve_seconds(run->solve_seconds);
   return true;

@@ -63,6 +63,17 @@ nlohmann::json CorrectionResultJson(
     const Eigen::VectorXd& measured_um,
     const Eigen::VectorXd& target_um);
 
+// "iso1328" of a result: the ISO 1328-1 figures and classes of the measured
+// flank, of measured - target and of the predicted residual, with a measuring
+// file's profile evaluation length (0 = the default). Needs
+// problem.flank_quality_json.
+nlohmann::json CorrectionIso1328Json(
+    const CorrectionProblem& problem,
+    const Eigen::VectorXd& measured_um,
+    const Eigen::VectorXd& target_um,
+    const Eigen::VectorXd& predicted_residual_um,
+    double profile_evaluation_length_mm);
+
 // The axis motion of a correction `delta` over the roll range of `summary`
 // (AxisMotionToJson).
 nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,

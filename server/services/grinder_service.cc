@@ -1,10 +1,13 @@
 #include "server/services/grinder_service.h"
 
+#include <limits>
+
 #include "engine/core/sensitivity.h"
 #include "engine/core/units.h"
 #include "engine/grinder/flat_wheel_grinder.h"
 #include "engine/grinder/grinder_settings.h"
 #include "server/codec/grinder_codec.h"
+#include "server/services/measurement_service.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
@@ -56,7 +59,16 @@ void GrinderEvaluate(const httplib::Request& req, httplib::Response& res) {
   const FlatWheelGrinder grinder(setup);
   ModelEvaluation evaluation;
   grinder.Evaluate(settings.ToVector(), /*with_jacobian=*/false, &evaluation);
-  RespondJson(res, 200, EvaluationToJson(grinder.grid(), evaluation));
+  nlohmann::json answer = EvaluationToJson(grinder.grid(), evaluation);
+  // The ISO 1328-1 figures of the ground flank, without the points not reached.
+  Eigen::VectorXd deviations_um = evaluation.deviations_um;
+  for (int i = 0; i < deviations_um.size(); ++i) {
+    if (evaluation.status[i] != PointStatus::kOk)
+      deviations_um[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+  answer["iso1328"] =
+      FlankQualityJson(setup.gear, setup.grid, deviations_um, {}, 0.0);
+  RespondJson(res, 200, answer);
 }
 
 void GrinderSensitivity(const httplib::Request& req, httplib::Response& res) {

@@ -15,7 +15,7 @@ namespace gearloop {
 // The nominal settings of the setup and the gear's figures.
 void GrinderNominal(const httplib::Request& req, httplib::Response& res);
 // The flank ground with "settings" (default nominal) on the grid
-// (EvaluationToJson).
+// (EvaluationToJson) and its ISO 1328-1 figures and classes ("iso1328").
 void GrinderEvaluate(const httplib::Request& req, httplib::Response& res);
 // The Jacobian of the flank in the settings and its singular values
 // (SensitivityToJson).

@@ -12,6 +12,7 @@
 #include "server/codec/bevel_codec.h"
 #include "server/codec/grinder_codec.h"
 #include "server/codec/simulation_codec.h"
+#include "server/services/measurement_service.h"
 
 namespace gearloop {
 namespace {
@@ -77,6 +78,15 @@ void FillGrinderProblem(const nlohmann::json& body,
         return EvaluateTargetModifications(
             modifications, BuildFlankGrid(setup), setup.gear, setup.flank);
       };
+  problem->flank_quality_json = [setup](const Eigen::VectorXd& deviations_um,
+                                        const Eigen::VectorXd& target_um,
+                                        double profile_evaluation_length_mm) {
+    return FlankQualityJson(setup.gear,
+                            setup.grid,
+                            deviations_um,
+                            target_um,
+                            profile_evaluation_length_mm);
+  };
 }
 
 // The setup and the settings (default nominal) of a grinder request.

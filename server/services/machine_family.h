@@ -70,6 +70,14 @@ struct CorrectionProblem {
   // without them.
   std::function<Eigen::VectorXd(const std::vector<TargetModification>&)>
       evaluate_modifications;
+  // The ISO 1328-1 figures and classes of a grid on the family's flank, on
+  // deviations - target when `target_um` is non-empty ({"figures", "classes"},
+  // codec FlankQualityToJson), with a measuring file's profile evaluation
+  // length (0 = the default); empty for a family without an involute gear.
+  std::function<nlohmann::json(const Eigen::VectorXd& deviations_um,
+                               const Eigen::VectorXd& target_um,
+                               double profile_evaluation_length_mm)>
+      flank_quality_json;
 };
 
 // A simulated machine: the problem (commanded = current_parameters), its hidden

@@ -15,6 +15,14 @@ from gearloop_client import read_csv_grid
 from server_fixture import EXAMPLES, RunningServer, free_port, write_token_file
 
 CLI = os.environ.get("GEARLOOP_CLI_BIN", "")
+# The sample files of shared/formats (copies kept in tests/formats/data) and their gear.
+SAMPLES = Path(__file__).resolve().parent.parent / "formats" / "data"
+SAMPLE_SETUP = {
+    "gear": {"teeth": 31, "normal_module_mm": 4.5, "normal_pressure_angle_deg": 20, "helix_angle_deg": 20,
+             "hand": "right", "face_width_mm": 40, "tip_radius_mm": 78.726, "root_radius_mm": 68.601},
+    "wheel": {"radius_mm": 350},
+    "flank": "right",
+}
 
 
 class CliTest(unittest.TestCase):
@@ -59,7 +67,8 @@ class CliTest(unittest.TestCase):
         for word in ("submit", "batch", "closed-loop", "report", "exit codes", "--token"):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
-                        "nominal", "evaluate", "bevel-convert", "bevel-closed-loop"):
+                        "nominal", "evaluate", "bevel-convert", "bevel-closed-loop", "import", "correct",
+                        "export"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -323,6 +332,77 @@ class CliTest(unittest.TestCase):
         stdout = self.run_cli("report", str(job["id"]))
         self.assertEqual(stdout.stdout, html)
 
+
+    # --- measuring-machine files (issue 15, METROLOGY.md) -----------------------------------------
+
+    def sample_setup(self) -> Path:
+        """The sample gear of shared/formats/README.md as a request file (with a wheel, for correct)."""
+        path = self.dir / "sample_setup.json"
+        path.write_text(json.dumps(SAMPLE_SETUP))
+        return path
+
+    def test_import_prints_the_grid_figures_and_classes(self) -> None:
+        setup = str(self.sample_setup())
+        csv_out = self.dir / "imported.csv"
+        human = self.run_cli("import", str(SAMPLES / "sample_topography.mka"), "--setup", setup, "--csv", str(csv_out))
+        self.assertEqual(human.returncode, 0, human.stderr)
+        self.assertIn("row 1 root", human.stdout)
+        self.assertIn("f_Ha mean (slope)", human.stdout)
+        self.assertRegex(human.stdout, r"overall class\s+6")
+        grid = read_csv_grid(str(csv_out))
+        self.assertAlmostEqual(grid[0][0], -11.5, places=2)
+        done = self.run_cli("--json", "import", str(SAMPLES / "sample_topography.gde.xml"), "--setup", setup)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        answer = json.loads(done.stdout)
+        self.assertEqual(answer["classes"]["overall"], 6)
+        self.assertAlmostEqual(answer["deviations_um"][0][0], grid[0][0], places=2)
+        # A Latin-1 export of the same file (umlauts in the header labels; Greek letters become ?)
+        # reads the same.
+        latin1 = self.dir / "latin1.mka"
+        latin1.write_bytes((SAMPLES / "sample_topography.mka").read_text(encoding="utf-8-sig").encode("latin-1", errors="replace"))
+        again = self.run_cli("--json", "import", str(latin1), "--setup", setup)
+        self.assertEqual(again.returncode, 0, again.stderr)
+        self.assertEqual(json.loads(again.stdout)["deviations_um"], json.loads(
+            self.run_cli("--json", "import", str(SAMPLES / "sample_topography.mka"), "--setup", setup).stdout)[
+            "deviations_um"])
+
+    def test_import_refusals(self) -> None:
+        setup = str(self.sample_setup())
+        broken = self.dir / "broken.mka"
+        text = (SAMPLES / "sample_topography.mka").read_text(encoding="utf-8-sig")
+        broken.write_text(text.replace("-16.458", "-16,458", 1), encoding="utf-8")
+        self.assert_server_refused("422 invalid_file at content: file:line ", "import", str(broken), "--setup", setup)
+        self.assertEqual(self.run_cli("import", str(broken)).returncode, 1)                   # no --setup
+        self.assertEqual(self.run_cli("import", str(self.dir / "x.txt"), "--setup", setup).returncode, 1)
+        self.assertEqual(self.run_cli("import", str(self.dir / "nope.mka"), "--setup", setup).returncode, 4)
+
+    def test_correct_from_a_measurement_file_and_export_gde(self) -> None:
+        setup = str(self.sample_setup())
+        done = self.run_cli("--json", "correct", setup, "--measurement-file", str(SAMPLES / "sample_topography.mka"))
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        job = json.loads(done.stdout)
+        self.assertEqual(job["result"]["iso1328"]["measured"]["classes"]["overall"], 6)
+        self.assertEqual(job["result"]["measurement_file"]["format"], "mka")
+        human = self.run_cli("show", str(job["id"]))
+        self.assertEqual(human.returncode, 0, human.stderr)
+        self.assertIn("ISO 1328-1 class     6 measured", human.stdout)
+
+        exported = self.dir / "job.gde.xml"
+        done = self.run_cli("export", str(job["id"]), "--format", "gde", "-o", str(exported))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn('kind="predicted"', exported.read_text())
+        back = self.run_cli("--json", "import", str(exported), "--setup", setup)
+        self.assertEqual(back.returncode, 0, back.stderr)
+        imported = json.loads(back.stdout)["deviations_um"]
+        for row, stored in zip(imported, job["result"]["measured_um"]):
+            for a, b in zip(row, stored):
+                self.assertAlmostEqual(a, b, delta=0.001)
+        stdout = self.run_cli("export", str(job["id"]), "--format", "gde")
+        self.assertEqual(stdout.returncode, 0)
+        self.assertEqual(stdout.stdout, exported.read_text())
+        self.assertEqual(self.run_cli("export", str(job["id"])).returncode, 1)
+        self.assert_server_refused("404 not_found", "export", "987654", "--format", "gde")
+        self.assertEqual(self.run_cli("correct", setup).returncode, 1)   # no --measurement-file
 
 class CliTokenTest(unittest.TestCase):
     def test_token_is_sent_and_refusals_are_api_errors(self) -> None:

@@ -6,8 +6,13 @@ import copy
 import unittest
 
 from gearloop_client import (BEVEL_MACHINE_KIND, Client, GearloopApiError, GearloopTransportError,
-                             format_csv_grid, read_csv_grid, read_measurement_file)
-from server_fixture import EXAMPLES, RunningServer, example_json, free_port, write_token_file
+                             format_csv_grid, read_csv_grid, read_machine_file, read_measurement_file)
+from server_fixture import EXAMPLES, REPO, RunningServer, example_json, free_port, write_token_file
+
+# The sample files of shared/formats (copies kept in tests/formats/data) and their gear.
+SAMPLES = REPO / "tests" / "formats" / "data"
+SAMPLE_GEAR = {"teeth": 31, "normal_module_mm": 4.5, "normal_pressure_angle_deg": 20, "helix_angle_deg": 20,
+               "hand": "right", "face_width_mm": 40, "tip_radius_mm": 78.726, "root_radius_mm": 68.601}
 
 
 class PythonClientTest(unittest.TestCase):
@@ -123,6 +128,44 @@ class PythonClientTest(unittest.TestCase):
         with self.assertRaises(ValueError):
             Client("127.0.0.1:8080")
 
+
+    def test_measuring_machine_files(self) -> None:
+        mka = read_machine_file(str(SAMPLES / "sample_topography.mka"))
+        gde = read_machine_file(str(SAMPLES / "sample_topography.gde.xml"))
+        self.assertEqual((mka["format"], gde["format"]), ("mka", "gde"))
+        a = self.client.import_measurement(SAMPLE_GEAR, mka)
+        b = self.client.import_measurement(SAMPLE_GEAR, gde, flank="right")
+        for row_a, row_b in zip(a["deviations_um"], b["deviations_um"]):
+            for x, y in zip(row_a, row_b):
+                self.assertAlmostEqual(x, y, delta=0.001)
+        self.assertEqual(a["classes"], b["classes"])
+        self.assertEqual(a["classes"]["overall"], 6)
+        self.assertAlmostEqual(a["figures"]["Fb_max_abs"], 10.0, delta=0.01)
+        left = self.client.import_measurement(SAMPLE_GEAR, mka, flank="left", tooth=1)
+        self.assertAlmostEqual(left["figures"]["fHa_mean_grid"], -3.0, delta=0.01)
+
+        broken = dict(mka, content=mka["content"].replace("-16.458", "-16,458", 1))
+        with self.assertRaises(GearloopApiError) as refused:
+            self.client.import_measurement(SAMPLE_GEAR, broken)
+        self.assertEqual((refused.exception.status, refused.exception.code), (422, "invalid_file"))
+        self.assertIn("file:line ", refused.exception.message)
+        with self.assertRaises(ValueError):
+            read_machine_file(str(SAMPLES / "sample_topography.mka"), format="csv")
+
+        request = {"gear": SAMPLE_GEAR, "wheel": {"radius_mm": 350}, "flank": "right"}
+        job = self.client.create_correction_from_file(request, mka)
+        iso = job["result"]["iso1328"]
+        self.assertEqual(iso["measured"]["classes"]["overall"], 6)
+        self.assertLessEqual(iso["predicted"]["classes"]["overall"], 6)
+        xml = self.client.export_correction(job["id"])
+        self.assertIn('kind="measured"', xml)
+        back = self.client.import_measurement(SAMPLE_GEAR, {"format": "gde", "content": xml})
+        for row, stored in zip(back["deviations_um"], job["result"]["measured_um"]):
+            for x, y in zip(row, stored):
+                self.assertAlmostEqual(x, y, delta=0.001)
+        with self.assertRaises(GearloopApiError) as wrong:
+            self.client.export_correction(job["id"], format="mka")
+        self.assertEqual(wrong.exception.status, 422)
 
 def grid_rms(grid) -> float:
     values = [v for row in grid for v in row if v is not None]

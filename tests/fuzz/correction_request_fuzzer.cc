@@ -7,6 +7,8 @@
 //   ParseJsonBody -> ParseGrindingSetup -> ParseCorrectionRequest (corrections,
 //   replays, batch items) ParseJsonBody -> ParseGrindingSetup ->
 //   ParseMachineSettings   (nominal, evaluate, sensitivity)
+//   ParseJsonBody -> ParseMeasurementImportRequest, ParseMeasurementFileRequest
+//   (measurements/import, a correction's measurement.file)
 //
 // Besides the sanitizers' own findings it checks the codec's contract: a
 // refusal is a 400 or a 422 with a code from the closed list and an error body
@@ -25,6 +27,7 @@
 
 #include "server/codec/correction_codec.h"
 #include "server/codec/grinder_codec.h"
+#include "server/codec/measurement_codec.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {
@@ -43,6 +46,39 @@ void CheckRefusal(const gearloop::ApiError& error) {
   const std::string rendered = gearloop::ErrorBody(error).dump(
       -1, ' ', false, nlohmann::json::error_handler_t::replace);
   Check(!rendered.empty(), "the error body renders");
+}
+
+void CheckFileFields(const gearloop::MeasurementFileRequest& file) {
+  Check(file.format == "mka" || file.format == "gde", "a known file format");
+  Check(file.tooth >= 0, "a tooth number >= 0");
+  for (double factor : {file.sign.profile_right,
+                        file.sign.profile_left,
+                        file.sign.helix_right,
+                        file.sign.helix_left})
+    Check(factor == 1.0 || factor == -1.0, "sign factors are +1 or -1");
+}
+
+// The import body (POST /api/v1/measurements/import) and a correction's
+// measurement.file (server/codec/measurement_codec.h).
+void CheckMeasurementFile(const nlohmann::json& body) {
+  gearloop::MeasurementImportRequest import;
+  gearloop::ApiError error;
+  if (gearloop::ParseMeasurementImportRequest(body, &import, &error)) {
+    CheckFileFields(import.file);
+  } else {
+    CheckRefusal(error);
+  }
+  if (!gearloop::HasMeasurementFile(body)) return;
+  gearloop::MeasurementFileRequest file;
+  error = gearloop::ApiError();
+  if (gearloop::ParseMeasurementFileRequest(body.at("measurement").at("file"),
+                                            "measurement.file",
+                                            &file,
+                                            &error)) {
+    CheckFileFields(file);
+  } else {
+    CheckRefusal(error);
+  }
 }
 
 }  // namespace
@@ -88,6 +124,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } else {
     CheckRefusal(error);
   }
+
+  CheckMeasurementFile(body);
 
   gearloop::GrindingSetup setup;
   gearloop::MachineSettings settings;

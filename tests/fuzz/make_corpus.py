@@ -95,6 +95,13 @@ def main():
                                                   target={"deviations_um": measurement})))
     n_requests += write(requests, json.dumps(dict(request, settings={"axes": {"X": [0, 0.1], "C": [0, 0, 1e-4]},
                                                                      "wheel": {"cone_angle_deg": 0.01}})))
+    # Measuring-machine files in a request (issue 15): an import body and a correction with one.
+    with open(os.path.join(ROOT, "tests/formats/data/sample_topography.mka"), encoding="utf-8-sig") as f:
+        mka = f.read()
+    file = {"format": "mka", "content": mka[:2000], "tooth": 1, "datum_face": "x_negative",
+            "sign_factors": {"helix_right": -1}}
+    n_requests += write(requests, json.dumps(dict(file, gear=request["gear"], flank="left")))
+    n_requests += write(requests, json.dumps(dict(request, measurement={"file": file})))
     with open(os.path.join(ROOT, "tests/server/data/hostile_requests.jsonl")) as f:
         for line in f:
             case = json.loads(line)

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/formats/metrology_samples.h"
 #include "tests/server/openapi_schema.h"
 #include "tests/server/server_test_util.h"
 
@@ -279,6 +280,8 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/bevel/conversions",
       "POST /api/v1/bevel/evaluate",
       "POST /api/v1/bevel/axis-sensitivity",
+      "POST /api/v1/measurements/import",
+      "GET /api/v1/corrections/{id}/export",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -340,7 +343,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   const std::string bevel = R"({"job": {"side": "convex", "published": true}})";
   const std::string bevel_impossible =
       R"({"job": {"side": "convex", "published": true, "machine": {"ratio_of_roll": 0}}})";
-  const std::map<std::string, Call> calls = {
+  std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
       {"POST /api/v1/nominal",
@@ -391,6 +394,33 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         bevel_impossible,
         "{\"job\": 1}"}},
   };
+
+  // A measuring-machine file (issue 15): the sample gear and its .mka file.
+  nlohmann::json import = {
+      {"gear",
+       {{"teeth", 31},
+        {"normal_module_mm", 4.5},
+        {"normal_pressure_angle_deg", 20},
+        {"helix_angle_deg", 20},
+        {"hand", "right"},
+        {"face_width_mm", 40},
+        {"tip_radius_mm", 78.726},
+        {"root_radius_mm", 68.601}}},
+      {"flank", "right"},
+      {"format", "mka"},
+      {"content", testing::ReadSample("sample_topography.mka")}};
+  nlohmann::json import_broken = import;
+  import_broken["content"] = "HEADER KS.MK.FILE\n   21 :mn: 4,5\n";
+  calls.insert({"POST /api/v1/measurements/import",
+                {"/api/v1/measurements/import",
+                 import.dump(),
+                 import_broken.dump(),
+                 "{\"gear\": 1}"}});
+  calls.insert({"GET /api/v1/corrections/{id}/export",
+                {"/api/v1/corrections/" + job_id + "/export?format=gde",
+                 "",
+                 "x",
+                 "&format=xml"}});
 
   for (const Operation& op : api_.operations) {
     const std::string key = op.method + " " + op.path;
@@ -491,6 +521,56 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
              "r",
              *op.statuses.begin() < 300 ? *op.statuses.begin() : 200);
   }
+}
+
+// A correction from a measuring-machine file (issue 15) answers
+// CorrectionCreated with iso1328 and measurement_file, its stored job (whose
+// request keeps the file) matches Job, and a refused file is an Error with the
+// listed code invalid_file.
+TEST_F(OpenApiTest, MeasurementFileAnswersMatchTheirSchemas) {
+  nlohmann::json correction = {{"gear",
+                                {{"teeth", 31},
+                                 {"normal_module_mm", 4.5},
+                                 {"normal_pressure_angle_deg", 20},
+                                 {"helix_angle_deg", 20},
+                                 {"hand", "right"},
+                                 {"face_width_mm", 40},
+                                 {"tip_radius_mm", 78.726},
+                                 {"root_radius_mm", 68.601}}},
+                               {"wheel", {{"radius_mm", 350}}},
+                               {"flank", "right"}};
+  correction["measurement"] = {
+      {"file",
+       {{"format", "gde"},
+        {"content", testing::ReadSample("sample_topography.gde.xml")}}}};
+  const nlohmann::json created = Expect("correction from a file",
+                                        "POST",
+                                        "/api/v1/corrections",
+                                        correction.dump(),
+                                        "w",
+                                        201,
+                                        "POST /api/v1/corrections");
+  ASSERT_TRUE(created.contains("result"));
+  EXPECT_TRUE(created["result"].contains("iso1328"));
+  EXPECT_EQ(created["result"]["measurement_file"]["format"], "gde");
+  const std::string id = std::to_string(created["id"].get<int64_t>());
+  const nlohmann::json job = Expect("its job",
+                                    "GET",
+                                    "/api/v1/corrections/" + id,
+                                    "",
+                                    "r",
+                                    200,
+                                    "GET /api/v1/corrections/{id}");
+  EXPECT_EQ(job["request"]["measurement"]["file"]["format"], "gde");
+  correction["measurement"]["file"]["content"] = "<GDE><unclosed></GDE>";
+  const nlohmann::json refused = Expect("a broken file",
+                                        "POST",
+                                        "/api/v1/corrections",
+                                        correction.dump(),
+                                        "w",
+                                        422,
+                                        "POST /api/v1/corrections");
+  EXPECT_EQ(refused["error"]["code"], "invalid_file");
 }
 
 // The operations that take a bevel body as well (machine.kind

@@ -81,8 +81,15 @@ int RunSubmit(const ParsedArgs& args,
   int built = BuildCorrectionRequest(
       args.positional[0], args.positional[1], args, &request);
   if (built >= 0) return built;
+  return SubmitCorrectionRequest(client, request, args, global);
+}
+
+int SubmitCorrectionRequest(ApiClient* client,
+                            json request,
+                            const ParsedArgs& args,
+                            const GlobalOptions& global) {
   json source_settings;
-  built = FillSourceSettings(client, &request, &source_settings);
+  const int built = FillSourceSettings(client, &request, &source_settings);
   if (built >= 0) return built;
   const ApiResponse answer = client->Post("/api/v1/corrections", request);
   const int failure = CheckAnswer(answer);

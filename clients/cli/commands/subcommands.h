@@ -23,6 +23,12 @@ extern const CommandSpec kSubmit;
 int RunSubmit(const ParsedArgs& args,
               ApiClient* client,
               const GlobalOptions& global);
+// The request of submit or correct, with --settings-from, --residual-csv and
+// --settings-out of `args`, sent and printed.
+int SubmitCorrectionRequest(ApiClient* client,
+                            nlohmann::json request,
+                            const ParsedArgs& args,
+                            const GlobalOptions& global);
 extern const CommandSpec kReplay;
 int RunReplay(const ParsedArgs& args,
               ApiClient* client,
@@ -79,6 +85,19 @@ int RunEvaluate(const ParsedArgs& args,
                 ApiClient* client,
                 const GlobalOptions& global);
 
+// commands/measurements.cc: gear measuring machines' files (.mka, GDE).
+extern const CommandSpec kImport;
+int RunImport(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
+extern const CommandSpec kCorrect;
+int RunCorrect(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global);
+extern const CommandSpec kExport;
+int RunExport(const ParsedArgs& args,
+              ApiClient* client,
+              const GlobalOptions& global);
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;
 int RunHealth(const ParsedArgs& args,

@@ -156,6 +156,18 @@ async function main() {
     const xMotion = job.result.axis_motion.axes.X;
     check("axis motion table, one row per axis", motionRows.map((r) => r.axis).join() === "X,Y,Z,A,B,C" && motionRows.every((r) => r.cells.length === 11), JSON.stringify(motionRows.map((r) => r.axis)));
     check("axis motion in um", motionRows.length > 0 && Number(motionRows[0].cells[0]) === Number(xMotion.change_um[0].toFixed(2)) && Number(motionRows[0].cells[10]) === Number(xMotion.max_abs_um.toFixed(2)), JSON.stringify(motionRows[0]));
+    // The ISO 1328-1 figures and classes beside the maps: measured, against the target, predicted.
+    const isoRows = await page.$$eval("table.iso1328 tr[data-figure]", (trs) =>
+      trs.map((tr) => ({ figure: tr.getAttribute("data-figure"), cells: Array.from(tr.querySelectorAll("td")).map((td) => td.textContent) }))
+    );
+    const isoClass = (v) => (typeof v === "number" ? String(v) : ">11");
+    const fa = isoRows.find((r) => r.figure === "Fa_max_abs");
+    const iso = job.result.iso1328;
+    check(
+      "ISO 1328-1 figures and classes beside the maps",
+      fa !== undefined && Number(fa.cells[0]) === Number(iso.measured.figures.Fa_max_abs.toFixed(2)) && fa.cells[1] === isoClass(iso.measured.classes.Fa) && fa.cells[5] === isoClass(iso.predicted.classes.Fa),
+      JSON.stringify(fa)
+    );
     const csv = await page.evaluate(async (name) => {
       const link = document.querySelector("a[download='" + name + "']");
       return link ? (await fetch(link.href)).text() : "";
@@ -203,6 +215,54 @@ async function main() {
     await page.click("text=Simulate a closed loop on this setup");
     await page.waitForSelector("svg.closed-loop, section.simulation p.error", { timeout: 180000 });
     check("simulated closed loop plotted", (await page.$$("svg.closed-loop")).length === 1, await page.textContent("section.simulation"));
+
+    // 4b. Measuring machines' files (issue 15): a correction of the sample gear of shared/formats
+    //     from its .mka file shows the file's ISO classes; the GDE file of the same flank given as
+    //     the next part becomes a new linked job; the job downloads as GDE; the .mka file on a
+    //     job of another gear, dropped on the panel, is refused, naming the header code.
+    const samples = path.join(REPO, "tests", "formats", "data");
+    const sampleGear = { teeth: 31, normal_module_mm: 4.5, normal_pressure_angle_deg: 20, helix_angle_deg: 20, hand: "right", face_width_mm: 40, tip_radius_mm: 78.726, root_radius_mm: 68.601 };
+    const fromFile = await api(base, "POST", "/api/v1/corrections", {
+      gear: sampleGear,
+      wheel: { radius_mm: 350 },
+      flank: "right",
+      measurement: { file: { format: "mka", content: fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8") } },
+    });
+    const showById = async (id) => {
+      await page.evaluate((n) => {
+        window.location.hash = "job=" + n;
+      }, id);
+      await page.waitForSelector("body[data-job-shown='" + id + "']", { timeout: 30000 });
+    };
+    await showById(fromFile.id);
+    const overall = await page.$$eval("table.iso1328 tr.iso-overall td.iso-class", (tds) => tds.map((td) => td.textContent));
+    check("the .mka sample's measured flank is class 6", overall[0] === "6" && overall[1] === "6", JSON.stringify(overall));
+    await page.screenshot({ path: path.join(outDir, "dashboard-iso1328.png"), fullPage: true });
+    await page.click("#export-gde");
+    await page.waitForSelector("a[download='job" + fromFile.id + ".gde.xml']", { timeout: 30000 });
+    const gdeText = await page.evaluate(async (name) => (await fetch(document.querySelector("a[download='" + name + "']").href)).text(), "job" + fromFile.id + ".gde.xml");
+    check("the job downloads as GDE", /<GDE/.test(gdeText) && /kind="predicted"/.test(gdeText), gdeText.slice(0, 120));
+    await page.setInputFiles("#next-part-file", path.join(samples, "sample_topography.gde.xml"));
+    await page.waitForFunction((old) => Number(document.body.getAttribute("data-job-shown")) > old, fromFile.id, { timeout: 60000 });
+    const gdeJob = await api(base, "GET", "/api/v1/corrections/" + (await page.getAttribute("body", "data-job-shown")));
+    check(
+      "a GDE file as the next part",
+      gdeJob.request.measurement.file.format === "gde" && gdeJob.settings_source_job_id === fromFile.id && gdeJob.result.iso1328.measured.classes.overall === 6,
+      JSON.stringify({ id: gdeJob.id, source: gdeJob.settings_source_job_id })
+    );
+    await showById(job.id);
+    const errorsBefore = consoleErrors.length;
+    // Dropped on the panel this time (the same path as a chosen file).
+    await page.evaluate((text) => {
+      const data = new DataTransfer();
+      data.items.add(new File([text], "sample_topography.mka", { type: "application/octet-stream" }));
+      document.querySelector(".next-part").dispatchEvent(new DragEvent("drop", { dataTransfer: data, bubbles: true, cancelable: true }));
+    }, fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8"));
+    await page.waitForSelector("#next-part-status.error", { timeout: 30000 });
+    const refusal = await page.textContent("#next-part-status");
+    // Chromium logs the refused request itself; that 422 is the answer this step asks for.
+    for (const e of consoleErrors.splice(errorsBefore)) if (!/status of 422/.test(e)) consoleErrors.push(e);
+    check("a file of another gear is refused with its header line", /422 invalid_file at measurement\.file\.content: file:line \d+: .*code 2[1-6]/.test(refusal), refusal);
 
     // 5. The printable report of the measured job.
     await page.goto(base + "/jobs/" + job.id + "/report", { waitUntil: "load" });

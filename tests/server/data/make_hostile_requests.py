@@ -204,6 +204,74 @@ add("batch: 1001 items", {"items": [{}] * 1001}, 422, path="/api/v1/batches")
 add("batch: item a number", {"items": [1]}, 400, path="/api/v1/batches")
 add("replay of a missing job", "{}", 404, path="/api/v1/corrections/424242/replay")
 
+# 12. Measuring-machine files (issue 15): POST /api/v1/measurements/import and a correction's
+#     measurement.file; every refusal a 4xx (invalid_file 422 naming the line or element path).
+#     A file over 4 MiB (413) is tested in tests/server/measurement_import_test.cc, not kept here.
+IMPORT = "/api/v1/measurements/import"
+SAMPLE_GEAR = {"teeth": 31, "normal_module_mm": 4.5, "normal_pressure_angle_deg": 20, "helix_angle_deg": 20,
+               "hand": "right", "face_width_mm": 40, "tip_radius_mm": 78.726, "root_radius_mm": 68.601}
+MKA_HEAD = ("HEADER KS.MK.FILE\r\nUNDEFINED  -2147483.648\r\n   21 :mn: 4.5\r\n   22 :z: 31\r\n"
+            "   23 :beta: 20\r\n   24 :alpha: 20\r\n   26 :b: 40\r\n   41 :da: 140.5 140.5\r\n"
+            "   44 :de: 157 157\r\n   61 :ba: 1 1\r\n   64 :be: 39 39\r\n")
+# One well-formed profile trace, so that the checks behind the reader (ranges, base circle, the
+# request's gear) are reached.
+MKA_TRACE = "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / 3 Werte  / z= 20.000\r\n 1.0 2.0 3.0\r\n"
+
+
+def import_body(format, content, **extra):
+    return dict({"gear": SAMPLE_GEAR, "flank": "right", "format": format, "content": content}, **extra)
+
+
+for name, content in [
+        ("empty", ""), ("whitespace", " \r\n "), ("value file", "HEADER KS.MW.FILE\r\n"),
+        ("no header", "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / 2 Werte  / z= 3.000\r\n 1 2\r\n"),
+        ("NUL byte", "HEADER KS.MK.FILE\x00\r\n"), ("control characters", "HEADER KS.MK.FILE\r\n\x07\x1b[2J"),
+        ("decimal comma", MKA_HEAD.replace("4.5", "4,5")), ("NaN header", MKA_HEAD.replace("4.5", "NaN")),
+        ("inf header", MKA_HEAD.replace("4.5", "1e999")), ("repeated code", MKA_HEAD + "   21 :mn: 4.5\r\n"),
+        ("huge value count", MKA_HEAD + "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / 999999999 Werte  / z= 3.000\r\n"),
+        ("negative value count", MKA_HEAD + "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / -5 Werte  / z= 3.000\r\n"),
+        ("too few values", MKA_HEAD + "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / 48 Werte  / z= 3.000\r\n 1 2 3\r\n"),
+        ("one value", MKA_HEAD + "TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 rechts / 1 Werte  / z= 3.000\r\n 1\r\n"),
+        ("range the wrong way", MKA_HEAD.replace("157 157", "130 130") + MKA_TRACE),
+        ("inside the base circle", MKA_HEAD.replace("140.5 140.5", "100 100") + MKA_TRACE),
+        ("no traces", MKA_HEAD),
+        ("module contradicts the request", MKA_HEAD.replace("4.5", "5.0") + MKA_TRACE)]:
+    add(f"import mka: {name}", import_body("mka", content), "4xx", path=IMPORT)
+GDE_HEAD = '<?xml version="1.0"?>'
+for name, content in [
+        ("not XML", "GDE"), ("unclosed", GDE_HEAD + "<GDE><GEAR_DATA>"), ("wrong root", GDE_HEAD + "<VDI/>"),
+        ("deep nesting", GDE_HEAD + "<GDE>" + "<a>" * 5000 + "</a>" * 5000 + "</GDE>"),
+        ("entity expansion", GDE_HEAD + '<!DOCTYPE GDE [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;">'
+         '<!ENTITY c "&b;&b;&b;&b;&b;&b;">]><GDE>&c;&c;&c;&c;</GDE>'),
+        ("external entity", GDE_HEAD + '<!DOCTYPE GDE [<!ENTITY x SYSTEM "file:///etc/passwd">]><GDE>&x;</GDE>'),
+        ("no net", GDE_HEAD + '<GDE version="3.4"><GEAR_DATA/></GDE>'),
+        ("bad number", GDE_HEAD + '<GDE><GEAR_DATA><GEOMETRY><BASIC_GEOMETRY><number_of_teeth>3l</number_of_teeth>'
+         '</BASIC_GEOMETRY></GEOMETRY></GEAR_DATA></GDE>'),
+        ("unknown unit", GDE_HEAD + '<GDE><GEAR_DATA><GEOMETRY><BASIC_GEOMETRY><normal_module unit="furlong">4.5'
+         '</normal_module></BASIC_GEOMETRY></GEOMETRY></GEAR_DATA></GDE>')]:
+    add(f"import gde: {name}", import_body("gde", content), "4xx", path=IMPORT)
+for name, body, expect in [
+        ("format unknown", import_body("csv", MKA_HEAD), 422), ("format a number", import_body(3, MKA_HEAD), 400),
+        ("content a number", import_body("mka", 42), 400), ("content null", import_body("mka", None), 400),
+        ("no content", {"gear": SAMPLE_GEAR, "format": "mka"}, 400), ("no gear", {"format": "mka", "content": "x"}, 400),
+        ("tooth huge", import_body("mka", MKA_HEAD, tooth=10 ** 12), 422),
+        ("tooth text", import_body("mka", MKA_HEAD, tooth="1"), 400),
+        ("datum face unknown", import_body("mka", MKA_HEAD, datum_face="top"), 422),
+        ("sign factor 0", import_body("mka", MKA_HEAD, sign_factors={"helix_right": 0}), 422),
+        ("sign factors a list", import_body("mka", MKA_HEAD, sign_factors=[1, -1]), 400),
+        ("flank up", import_body("mka", MKA_HEAD, flank="up"), 422),
+        ("grid 1 point", import_body("mka", MKA_HEAD, grid={"profile_points": 1}), 422)]:
+    add(f"import: {name}", body, expect, path=IMPORT)
+add("correction: measurement file broken", dict(copy.deepcopy(BASE), measurement={"file": {"format": "mka",
+    "content": "HEADER KS.MK.FILE\r\n   21 :mn: x\r\n"}}), 422)
+add("correction: measurement file and grid", dict(copy.deepcopy(BASE), measurement={
+    "file": {"format": "mka", "content": MKA_HEAD}, "deviations_um": BASE["measurement"]["deviations_um"]}), 400)
+add("correction: measurement file a string", dict(copy.deepcopy(BASE), measurement={"file": "part.mka"}), 400)
+add("correction: bevel with a measurement file", {"machine": {"kind": "free-form-bevel-generator"},
+    "job": {"side": "convex", "published": True}, "measurement": {"file": {"format": "mka", "content": MKA_HEAD}}},
+    422)
+add("export of a missing job", "", 404, method="GET", path="/api/v1/corrections/424242/export?format=gde")
+
 for case in cases:
     sys.stdout.write(json.dumps(case, ensure_ascii=True) + "\n")
 sys.stderr.write(f"{len(cases)} cases\n")
