@@ -21,6 +21,7 @@
 #include "server/services/grinder_service.h"
 #include "server/services/history_service.h"
 #include "server/services/service_context.h"
+#include "server/services/shaving_service.h"
 #include "server/services/simulation_service.h"
 #include "storage/job_repository.h"
 
@@ -183,6 +184,12 @@ const ApiRoute kApiRoutes[] = {
      Access::kWrite,
      nullptr,
      SimulateClosedLoop},
+    {"POST",
+     "/api/v1/shaving/cutter-target",
+     "POST /api/v1/shaving/cutter-target",
+     Access::kRead,
+     ShavingCutterTarget,
+     nullptr},
 };
 
 }  // namespace
