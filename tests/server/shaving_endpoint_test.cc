@@ -288,5 +288,168 @@ TEST_F(ShavingEndpointTest, WrongShapesAre400WithTheirField) {
   EXPECT_EQ(answer.body["error"]["field"], "diagonal_modification.exponent");
 }
 
+// POST /api/v1/corrections with target {"shaving": ...}: the gear being ground
+// is the published cutter (API.md's example gear); the server resolves the
+// cutter target, stores it in the job's request, and a replay uses the stored
+// grid.
+nlohmann::json ShavingCorrection() {
+  nlohmann::json body = testing_util::DefaultSetup();
+  nlohmann::json zeros = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) zeros.push_back(std::vector<double>(9, 0.0));
+  body["measurement"] = {{"deviations_um", zeros}};
+  body["options"] = {{"probe_noise_um", 0.2}};
+  body["target"] = {{"shaving", PublishedShavingRequest()}};
+  return body;
+}
+
+TEST_F(ShavingEndpointTest, CorrectionResolvesAndStoresTheShavingTarget) {
+  const Answer target = Post(kPath, PublishedShavingRequest());
+  ASSERT_EQ(target.status, 200);
+  const nlohmann::json& stock = target.body["stock_target_um"];
+
+  const Answer created = Post("/api/v1/corrections", ShavingCorrection());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  // The target the solver corrected towards is the cutter's stock target; the
+  // points the pinion does not generate (row 0) are null and carry no weight.
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 9; ++c) {
+      if (stock[r][c].is_null()) {
+        EXPECT_TRUE(result["target_um"][r][c].is_null());
+      } else {
+        EXPECT_NEAR(result["target_um"][r][c].get<double>(),
+                    stock[r][c].get<double>(),
+                    1e-9);
+      }
+    }
+  }
+  EXPECT_TRUE(result["target_um"][0][4].is_null());
+  EXPECT_DOUBLE_EQ(result["target_um"][1][0].get<double>(), 0.0);
+
+  // The stored job's request carries the resolved grid beside the shaving
+  // request.
+  const int64_t id = created.body["id"].get<int64_t>();
+  const Answer job = Get("/api/v1/corrections/" + std::to_string(id));
+  ASSERT_EQ(job.status, 200);
+  const nlohmann::json& stored = job.body["request"]["target"];
+  EXPECT_EQ(stored["shaving"], PublishedShavingRequest());
+  ASSERT_TRUE(stored.contains("stock_target_um"));
+  EXPECT_EQ(stored["stock_target_um"].size(), 5u);
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 9; ++c) {
+      EXPECT_EQ(stored["stock_target_um"][r][c].is_null(),
+                stock[r][c].is_null());
+      if (stock[r][c].is_number()) {
+        EXPECT_NEAR(stored["stock_target_um"][r][c].get<double>(),
+                    stock[r][c].get<double>(),
+                    1e-9);
+      }
+    }
+  }
+
+  // A replay with other options solves again towards the same stored target.
+  const Answer replay =
+      Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
+           {{"options", {{"solver", "lsq-plain"}}}});
+  ASSERT_EQ(replay.status, 201) << replay.body.dump();
+  EXPECT_EQ(replay.body["result"]["target_um"], result["target_um"]);
+}
+
+// The replay takes the stored stock_target_um as it is and recomputes nothing:
+// a job whose stored grid differs from what the engine would compute is
+// replayed towards the stored grid.
+TEST_F(ShavingEndpointTest, ReplayUsesTheStoredTargetWithoutRecomputing) {
+  nlohmann::json body = ShavingCorrection();
+  nlohmann::json stored_grid = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 9; ++c) {
+      if (r == 2 && c == 3) {
+        row.push_back(nullptr);  // a point stored as not generated
+      } else {
+        row.push_back(-1.0 - 0.5 * r - 0.1 * c);
+      }
+    }
+    stored_grid.push_back(row);
+  }
+  body["target"]["stock_target_um"] = stored_grid;
+  const Answer created = Post("/api/v1/corrections", body);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  EXPECT_EQ(created.body["result"]["target_um"], stored_grid);
+  const int64_t id = created.body["id"].get<int64_t>();
+  const Answer replay =
+      Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
+           {{"options", {{"probe_noise_um", 0.5}}}});
+  ASSERT_EQ(replay.status, 201) << replay.body.dump();
+  EXPECT_EQ(replay.body["result"]["target_um"], stored_grid);
+  const Answer job = Get("/api/v1/corrections/" +
+                         std::to_string(replay.body["id"].get<int64_t>()));
+  ASSERT_EQ(job.status, 200);
+  EXPECT_EQ(job.body["request"]["target"]["stock_target_um"], stored_grid);
+
+  // A replay with a new shaving target resolves that one.
+  nlohmann::json other = PublishedShavingRequest();
+  other["diagonal_modification"]["root_um"] = 0;
+  const Answer retarget =
+      Post("/api/v1/corrections/" + std::to_string(id) + "/replay",
+           {{"target", {{"shaving", other}}}});
+  ASSERT_EQ(retarget.status, 201) << retarget.body.dump();
+  const Answer computed = Post(kPath, other);
+  ASSERT_EQ(computed.status, 200);
+  EXPECT_NEAR(retarget.body["result"]["target_um"][4][8].get<double>(),
+              computed.body["stock_target_um"][4][8].get<double>(),
+              1e-9);
+  EXPECT_TRUE(retarget.body["result"]["target_um"][0][0].is_null());
+}
+
+TEST_F(ShavingEndpointTest, ShavingTargetOfAnotherGearOrGridIs422) {
+  struct Case {
+    const char* what;
+    nlohmann::json patch;
+    const char* field;
+  };
+  const std::vector<Case> cases = {
+      {"cutter teeth",
+       {{"target", {{"shaving", {{"cutter", {{"teeth", 41}}}}}}}},
+       "target.shaving.cutter.teeth"},
+      {"cutter radius",
+       {{"target", {{"shaving", {{"cutter", {{"tip_radius_mm", 121}}}}}}}},
+       "target.shaving.cutter.tip_radius_mm"},
+      {"grid",
+       {{"target", {{"shaving", {{"grid", {{"lead_points", 7}}}}}}}},
+       "target.shaving.grid"},
+      {"left flank", {{"flank", "left"}}, "flank"},
+      {"modification",
+       {{"target",
+         {{"shaving", {{"diagonal_modification", {{"root_um", 300}}}}}}}},
+       "target.shaving.diagonal_modification.root_um"},
+      {"parallel axes",
+       {{"target", {{"shaving", {{"work_gear", {{"helix_angle_deg", 15}}}}}}}},
+       "target.shaving.cutter.helix_angle_deg"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    nlohmann::json body = ShavingCorrection();
+    body.merge_patch(c.patch);
+    const Answer answer = Post("/api/v1/corrections", body);
+    ASSERT_EQ(answer.status, 422) << answer.body.dump();
+    EXPECT_EQ(answer.body["error"]["field"], c.field)
+        << answer.body["error"]["message"];
+  }
+  // A missing cutter is a shape error of the shaving body.
+  nlohmann::json body = ShavingCorrection();
+  body["target"]["shaving"].erase("cutter");
+  Answer answer = Post("/api/v1/corrections", body);
+  EXPECT_EQ(answer.status, 400);
+  EXPECT_EQ(answer.body["error"]["field"], "target.shaving.cutter");
+  // The closed-loop simulation does not resolve shaving targets.
+  nlohmann::json loop = testing_util::DefaultSetup();
+  loop["corrections"] = 1;
+  loop["target"] = {{"shaving", PublishedShavingRequest()}};
+  answer = Post("/api/v1/simulations/closed-loop", loop);
+  EXPECT_EQ(answer.status, 422);
+  EXPECT_EQ(answer.body["error"]["field"], "target.shaving");
+}
+
 }  // namespace
 }  // namespace gearloop
