@@ -99,6 +99,9 @@ const std::vector<Command>& Commands() {
        RunEvaluate,
        "print the flank that given settings grind, on the grid"},
       {&kHealth, RunHealth, "check that the server is up"},
+      {&kShavingTarget,
+       RunShavingTarget,
+       "compute the plunge-shaving cutter target of a modified work gear"},
   };
   return commands;
 }
