@@ -11,6 +11,7 @@
 #ifndef GEARLOOP_SERVER_SERVICES_SHAVING_SERVICE_H_
 #define GEARLOOP_SERVER_SERVICES_SHAVING_SERVICE_H_
 
+#include <Eigen/Core>
 #include <string>
 
 #include "engine/shaving/cutter_target.h"
@@ -25,6 +26,14 @@ bool ResolveShavingTarget(const ShavingInput& input,
                           ShavingResult* result,
                           ApiError* error);
 
+// delta1 [um] of the work gear's diagonal modification (SHAVING.md §2,
+// negative = relief) on the work gear's own MODEL.md §4 grid with the options
+// of input.grid (fractions of its roll-length range and face width),
+// row-major: what the designer drew, beside the cutter target it needs.
+Eigen::VectorXd WorkModificationGrid(const ShavingInput& input);
+
+// 200 with ShavingResultToJson plus "work_modification_um"
+// (WorkModificationGrid).
 void ShavingCutterTarget(const httplib::Request& req, httplib::Response& res);
 
 }  // namespace gearloop

@@ -4,6 +4,7 @@
 // and every 422 of §7 with its field.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -146,6 +147,24 @@ TEST_F(ShavingEndpointTest, PublishedCaseAnswersTheCertifiedGrids) {
       b["wheel_radius_min_mm"]["traversing"].get<double>(), 336.97, 5e-3);
   EXPECT_NEAR(b["contact_angle_deg"].get<double>(), 5.236, 5e-4);
   EXPECT_GE(b["elapsed_ms"].get<double>(), 0.0);
+  // The pinion's modification on its own grid: relief (<= 0) in the two
+  // corners bounded by contact lines, none in the middle; with beta1 < 0 the
+  // tip corner is at the -x face end, the root corner at +x.
+  const nlohmann::json& relief = b["work_modification_um"];
+  ASSERT_EQ(relief.size(), 5u);
+  double most = 0.0;
+  for (const auto& row : relief) {
+    for (const auto& v : row) {
+      ASSERT_TRUE(v.is_number());
+      EXPECT_LE(v.get<double>(), 0.0);
+      most = std::min(most, v.get<double>());
+    }
+  }
+  EXPECT_LT(most, -1.0);
+  EXPECT_GE(most, -20.0);
+  EXPECT_LT(relief[4][0].get<double>(), -1.0);  // tip, -x
+  EXPECT_LT(relief[0][8].get<double>(), -1.0);  // root, +x
+  EXPECT_DOUBLE_EQ(relief[2][4].get<double>(), 0.0);
 }
 
 TEST_F(ShavingEndpointTest, DefaultsAreTheStandardInstallationAndNoRelief) {
