@@ -95,6 +95,14 @@ def main():
                                                   target={"deviations_um": measurement})))
     n_requests += write(requests, json.dumps(dict(request, settings={"axes": {"X": [0, 0.1], "C": [0, 0, 1e-4]},
                                                                      "wheel": {"cone_angle_deg": 0.01}})))
+    # The plunge-shaving cutter target (issue 18): its own body, and as a correction's target,
+    # resolved (with the stock_target_um the server stores) or not.
+    with open(os.path.join(ROOT, "clients/examples/shaving.json")) as f:
+        shaving = json.load(f)
+    n_requests += write(requests, json.dumps(shaving))
+    n_requests += write(requests, json.dumps(dict(valid, target={"shaving": shaving})))
+    stored = [[None] * 9] + [[-1.5] * 9] * 4
+    n_requests += write(requests, json.dumps(dict(valid, target={"shaving": shaving, "stock_target_um": stored})))
     with open(os.path.join(ROOT, "tests/server/data/hostile_requests.jsonl")) as f:
         for line in f:
             case = json.loads(line)
