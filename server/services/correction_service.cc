@@ -55,6 +55,15 @@ bool ResolveCorrectionShavingTarget(const CorrectionProblem& problem,
   }
   const Eigen::VectorXd& resolved = *request->target_shaving_resolved_um;
   const std::vector<bool>& generated = request->target_shaving_generated;
+  bool any_generated = false;
+  for (int i = 0; i < points; ++i)
+    any_generated = any_generated || generated[i];
+  if (!any_generated) {
+    *error = InvalidValue("target.stock_target_um",
+                          "the stored shaving target has no point generated "
+                          "by the work gear (all null)");
+    return false;
+  }
   Eigen::VectorXd& weights = request->options.point_weights;
   if (weights.size() == 0) weights.setOnes(points);
   request->target_um.setZero(points);

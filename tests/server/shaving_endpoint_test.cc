@@ -455,6 +455,15 @@ TEST_F(ShavingEndpointTest, ShavingTargetOfAnotherGearOrGridIs422) {
     EXPECT_EQ(answer.body["error"]["field"], c.field)
         << answer.body["error"]["message"];
   }
+  // A stored grid without a generated point leaves nothing to correct.
+  nlohmann::json all_null = ShavingCorrection();
+  all_null["target"]["stock_target_um"] = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r)
+    all_null["target"]["stock_target_um"].push_back(
+        std::vector<std::nullptr_t>(9, nullptr));
+  Answer refused = Post("/api/v1/corrections", all_null);
+  EXPECT_EQ(refused.status, 422) << refused.body.dump();
+  EXPECT_EQ(refused.body["error"]["field"], "target.stock_target_um");
   // A missing cutter is a shape error of the shaving body.
   nlohmann::json body = ShavingCorrection();
   body["target"]["shaving"].erase("cutter");
