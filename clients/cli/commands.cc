@@ -106,6 +106,9 @@ const std::vector<Command>& Commands() {
        RunCorrect,
        "compute and store a correction from a measuring machine's file"},
       {&kExport, RunExport, "write a stored job as a GDE file"},
+      {&kShavingTarget,
+       RunShavingTarget,
+       "compute the plunge-shaving cutter target of a modified work gear"},
   };
   return commands;
 }

@@ -480,6 +480,39 @@ def read_machine_file(path: str, format: Optional[str] = None) -> Json:
     return {"format": format, "content": text}
 
 
+    # --- plunge-shaving cutter target (SHAVING.md) ------------------------------------------------
+
+    def shaving_cutter_target(self, work_gear: Json, cutter: Json,
+                              diagonal_modification: Optional[Json] = None,
+                              centre_distance_mm: Optional[float] = None, grid: Optional[Json] = None,
+                              wheel_check: Optional[Json] = None) -> Json:
+        """POST /api/v1/shaving/cutter-target: the cutter flank that shaves a modified work gear.
+
+        Args:
+            work_gear: the work gear ("pinion"), a gear object (degrees, unsigned helix with
+                "hand"); tip_radius_mm / root_radius_mm may be left out (r_j + m_n, r_j - 1.25 m_n).
+            cutter: the plunge-shaving cutter, a gear object (its root radius is the radius the
+                grinding wheel's rim reaches).
+            diagonal_modification: {"root_um", "tip_um", "root_band", "tip_band", "exponent",
+                "root_slope", "tip_slope"}; None = no modification.
+            centre_distance_mm: None = the standard installation r_j1 + r_js.
+            grid: the cutter's grid (None = 5 x 9 default).
+            wheel_check: {"h_s_mm", "traverse_mm_per_rad"} for the minimum wheel radii.
+
+        Returns:
+            {"crossed_axes_angle_deg", "centre_distance_mm", "delta_s_um", "base_um",
+            "stock_target_um" (the correction target; None where the work gear does not generate
+            the point), "outside_work_flank", "not_converged" ([row, column] lists), "contacts",
+            "contact_line_length_mm", "wheel_radius_min_mm" ({"fixed", "traversing"}),
+            "elapsed_ms", ...}. The same body is accepted by create_correction as
+            request["target"] = {"shaving": body}.
+        """
+        body = _with_optional({"work_gear": work_gear, "cutter": cutter},
+                              diagonal_modification=diagonal_modification,
+                              centre_distance_mm=centre_distance_mm, grid=grid,
+                              wheel_check=wheel_check)
+        return self._request("POST", "/api/v1/shaving/cutter-target", body)
+
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------
 
 

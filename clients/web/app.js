@@ -353,8 +353,61 @@
     }
   }
 
-  // #job=ID shows that job; without one the newest job is shown.
+  // The published plunge-shaving case (SHAVING.md; clients/examples/shaving.json).
+  const SHAVING_EXAMPLE = {
+    work_gear: { teeth: 19, normal_module_mm: 6, normal_pressure_angle_deg: 20, helix_angle_deg: 9.91, hand: "right", face_width_mm: 75 },
+    cutter: { teeth: 37, normal_module_mm: 6, normal_pressure_angle_deg: 20, helix_angle_deg: 15, hand: "left", face_width_mm: 78, tip_radius_mm: 120.9157, root_radius_mm: 107.1569 },
+    diagonal_modification: { root_um: 20, tip_um: 20, root_band: 0.3, tip_band: 0.3, exponent: 2, root_slope: 0, tip_slope: 0 },
+    wheel_check: { h_s_mm: 2, traverse_mm_per_rad: 0 },
+  };
+
+  // #shaving: the cutter target of a diagonally modified pinion (POST /api/v1/shaving/cutter-target),
+  // from a request the user edits; the pinion modification and the cutter target side by side.
+  function showShaving() {
+    state.selected = null;
+    state.ticket = (state.ticket || 0) + 1;
+    document.body.removeAttribute("data-job-shown");
+    document.body.removeAttribute("data-shaving-shown");
+    const detail = $("detail");
+    detail.textContent = "";
+    detail.appendChild(P.html("h2", { text: "Plunge-shaving cutter target" }));
+    const request = P.html("textarea", { id: "shaving-request", rows: 12, cols: 90, spellcheck: "false" });
+    request.value = JSON.stringify(SHAVING_EXAMPLE, null, 2);
+    const compute = P.html("button", { type: "button", id: "shaving-compute", text: "Compute the cutter target" });
+    const out = P.html("div", { id: "shaving-result" });
+    detail.appendChild(P.html("p", { class: "note", text: "The work gear (pinion), its diagonal modification and the cutter (SHAVING.md); the answer is the cutter flank that shaves that pinion, as the grinding target." }));
+    detail.appendChild(request);
+    detail.appendChild(P.html("div", { class: "actions" }, [compute]));
+    detail.appendChild(out);
+    compute.addEventListener("click", async () => {
+      let body;
+      try {
+        body = JSON.parse(request.value);
+      } catch (e) {
+        out.textContent = "";
+        out.appendChild(message("The request is not JSON: " + e.message));
+        return;
+      }
+      compute.disabled = true;
+      out.textContent = "";
+      out.appendChild(message("Computing\u2026", "loading"));
+      try {
+        const answer = await api("POST", "/api/v1/shaving/cutter-target", body);
+        out.textContent = "";
+        out.appendChild(P.renderShaving(answer));
+        document.body.setAttribute("data-shaving-shown", "1");
+      } catch (e) {
+        out.textContent = "";
+        out.appendChild(message("Refused: " + e.message));
+      } finally {
+        compute.disabled = false;
+      }
+    });
+  }
+
+  // #job=ID shows that job; #shaving the shaving view; without either the newest job is shown.
   function route() {
+    if (window.location.hash === "#shaving") return showShaving();
     const m = /job=(\d+)/.exec(window.location.hash);
     if (m) showJob(Number(m[1]));
     else if (state.newest !== null && state.newest !== undefined) showJob(state.newest);

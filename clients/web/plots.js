@@ -559,5 +559,35 @@
     return section;
   }
 
-  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, measuredGrid, targetGrid, html, svg, fmt, colour };
+  // POST /api/v1/shaving/cutter-target's answer (SHAVING.md): the mesh and wheel figures, and side
+  // by side the pinion's diagonal modification on its own flank and the cutter target it needs.
+  function renderShaving(answer) {
+    const a = answer || {};
+    const section = html("section", { class: "shaving-view" });
+    const radii = a.wheel_radius_min_mm || {};
+    const rows = [
+      ["crossed-axes angle", fmt(a.crossed_axes_angle_deg, 3) + " deg"],
+      ["centre distance", fmt(a.centre_distance_mm, 4) + " mm"],
+      ["contact-line length", fmt(a.contact_line_length_mm, 3) + " mm"],
+      ["minimum wheel radius", "fixed " + fmt(radii.fixed, 2) + " mm, traversing " + fmt(radii.traversing, 2) + " mm"],
+      ["points generated", String(a.generated) + " of " + String(a.points)],
+    ];
+    const notGenerated = (a.outside_work_flank || []).length + (a.not_converged || []).length;
+    if (notGenerated) rows.push(["not generated", (a.outside_work_flank || []).length + " outside the work flank, " + (a.not_converged || []).length + " not converged (no value)"]);
+    section.appendChild(
+      html(
+        "table",
+        { class: "summary shaving-summary" },
+        rows.map((r) => html("tr", {}, [html("th", { text: r[0] }), html("td", { text: r[1] })]))
+      )
+    );
+    section.appendChild(html("h3", { text: "Pinion modification and the cutter target (\u00b5m, + = material left on)" }));
+    const maps = html("div", { class: "chart-row maps shaving-maps" });
+    maps.appendChild(heatmap(a.work_modification_um || [], { title: "pinion modification", subtitle: "diagonal relief on the work gear's flank (negative = relief)" }));
+    maps.appendChild(heatmap(a.stock_target_um || [], { title: "cutter target", subtitle: "stock-referenced: the grinding correction's target" }));
+    section.appendChild(maps);
+    return section;
+  }
+
+  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, renderShaving, measuredGrid, targetGrid, html, svg, fmt, colour };
 })(window);

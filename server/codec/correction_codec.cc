@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "engine/core/units.h"
+#include "server/codec/shaving_codec.h"
 
 namespace gearloop {
 namespace {
@@ -250,6 +251,54 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body,
   return false;
 }
 
+bool HasShavingTarget(const nlohmann::json& body) {
+  return body.contains("target") && body.at("target").is_object() &&
+         body.at("target").contains("shaving");
+}
+
+bool ParseShavingTarget(const nlohmann::json& body,
+                        int rows,
+                        int columns,
+                        CorrectionRequest* request,
+                        ApiError* error) {
+  if (!HasShavingTarget(body)) return true;
+  const nlohmann::json& target = body.at("target");
+  for (const auto& item : target.items()) {
+    if (item.key() != "shaving" && item.key() != "stock_target_um") {
+      *error =
+          InvalidRequest(JoinPath("target", item.key()),
+                         "a shaving target holds \"shaving\" (and the resolved "
+                         "\"stock_target_um\" the server stores), not " +
+                             item.key());
+      return false;
+    }
+  }
+  ShavingInput input;
+  if (!ReadShavingInput(target.at("shaving"),
+                        "target.shaving",
+                        &input,
+                        &request->target_shaving_grid_given,
+                        error))
+    return false;
+  request->target_shaving = input;
+  if (target.contains("stock_target_um")) {
+    Eigen::VectorXd values;
+    std::vector<bool> present;
+    if (!ParseGridValues(target.at("stock_target_um"),
+                         "target.stock_target_um",
+                         rows,
+                         columns,
+                         /*allow_null=*/true,
+                         &values,
+                         &present,
+                         error))
+      return false;
+    request->target_shaving_resolved_um = values;
+    request->target_shaving_generated = present;
+  }
+  return true;
+}
+
 bool HasTargetModifications(const nlohmann::json& body) {
   return body.contains("target") && body.at("target").is_object() &&
          body.at("target").contains("modifications");
@@ -269,6 +318,13 @@ bool ParseCorrectionTarget(
     *error = InvalidRequest("target",
                             "target must be an object {\"deviations_um\": "
                             "grid} or {\"modifications\": [...]}");
+    return false;
+  }
+  if (target.contains("shaving")) {
+    *error = InvalidValue("target.shaving",
+                          "a shaving target is resolved by POST "
+                          "/api/v1/corrections only; give its stock_target_um "
+                          "as target.deviations_um here");
     return false;
   }
   if (target.contains("deviations_um")) {
@@ -628,9 +684,18 @@ bool ParseCorrectionRequest(const nlohmann::json& body,
                           "target.deviations_um");
     return false;
   }
-  if (!ParseCorrectionTarget(
-          body, rows, columns, &r.target_um, &r.target_modifications, error) ||
-      !ParseCorrectionOptions(body, rows, columns, &r.options, error) ||
+  if (HasShavingTarget(body)) {
+    r.target_um.setZero(rows * columns);
+    if (!ParseShavingTarget(body, rows, columns, &r, error)) return false;
+  } else if (!ParseCorrectionTarget(body,
+                                    rows,
+                                    columns,
+                                    &r.target_um,
+                                    &r.target_modifications,
+                                    error)) {
+    return false;
+  }
+  if (!ParseCorrectionOptions(body, rows, columns, &r.options, error) ||
       !ParseSettingsSourceJobId(body, &r.settings_source_job_id, error)) {
     return false;
   }

@@ -39,6 +39,7 @@
 #include "engine/core/axis_motion.h"
 #include "engine/correction/correction.h"
 #include "engine/grinder/target_modification.h"
+#include "engine/shaving/cutter_target.h"
 #include "server/codec/json_read.h"
 
 namespace gearloop {
@@ -53,6 +54,17 @@ struct CorrectionRequest {
   // which the machine family evaluates on its flank.
   Eigen::VectorXd target_um;
   std::optional<std::vector<TargetModification>> target_modifications;
+  // target {"shaving": {...}} (SHAVING.md, flat-wheel grinder): the shaving
+  // request as read, not yet validated (the service fits it to the machine's
+  // gear and grid, then validates and resolves it into target_um).
+  std::optional<ShavingInput> target_shaving;
+  bool target_shaving_grid_given = false;
+  // target.stock_target_um beside "shaving": the target resolved before (the
+  // server writes it into the stored request), row-major, with the points the
+  // work gear generates (false = null, weight 0). Used as is: nothing is
+  // recomputed.
+  std::optional<Eigen::VectorXd> target_shaving_resolved_um;
+  std::vector<bool> target_shaving_generated;
   CorrectionOptions options;
   std::optional<int64_t> settings_source_job_id;
 };
@@ -97,7 +109,8 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body,
 // {"deviations_um": grid}, or {"modifications": [{kind, amount_um,
 // length_fraction, shape, second_amount_um, second_length_fraction,
 // amount_gradient_um, second_amount_gradient_um}]} into `modifications` (each
-// validated; `target_um` is then zero).
+// validated; `target_um` is then zero). A {"shaving": ...} target is a 422
+// here: only a correction resolves it (ParseShavingTarget and the service).
 bool ParseCorrectionTarget(
     const nlohmann::json& body,
     int rows,
@@ -105,6 +118,19 @@ bool ParseCorrectionTarget(
     Eigen::VectorXd* target_um,
     std::optional<std::vector<TargetModification>>* modifications,
     ApiError* error);
+
+// Reads target {"shaving": {...}, "stock_target_um": grid (optional)} of
+// `body` into request->target_shaving (codec/shaving_codec.h; fields
+// "target.shaving.*") and, when given, the resolved grid (nulls allowed) into
+// target_shaving_resolved_um / target_shaving_generated. Absent: nothing set.
+bool ParseShavingTarget(const nlohmann::json& body,
+                        int rows,
+                        int columns,
+                        CorrectionRequest* request,
+                        ApiError* error);
+
+// True when body.target is an object holding "shaving".
+bool HasShavingTarget(const nlohmann::json& body);
 
 // True when body.target is an object holding "modifications".
 bool HasTargetModifications(const nlohmann::json& body);

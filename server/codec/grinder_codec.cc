@@ -38,30 +38,32 @@ std::string ApiFieldPath(const std::string& engine_field) {
 
 namespace {
 
-// Reads gear.hand into the sign of the helix angle (MODEL.md §1: beta > 0 is
+// Reads <path>.hand into the sign of the helix angle (MODEL.md §1: beta > 0 is
 // a left-hand helix); a helical gear needs it.
 bool ReadGearHand(const nlohmann::json& gear,
+                  const std::string& path,
                   double helix_angle_deg,
                   double* sign,
                   ApiError* error) {
   std::string hand;
   bool hand_found = false;
-  if (!ReadString(gear, "gear", "hand", false, &hand, error, &hand_found))
+  if (!ReadString(gear, path, "hand", false, &hand, error, &hand_found))
     return false;
+  const std::string field = JoinPath(path, "hand");
   if (hand_found) {
     if (hand == "left") {
       *sign = 1.0;
     } else if (hand == "right") {
       *sign = -1.0;
     } else {
-      *error =
-          InvalidValue("gear.hand", "gear.hand must be \"left\" or \"right\"");
+      *error = InvalidValue(field, field + " must be \"left\" or \"right\"");
       return false;
     }
   } else if (helix_angle_deg != 0.0) {
-    *error = InvalidRequest("gear.hand",
-                            "missing required field gear.hand (a helical gear "
-                            "needs \"left\" or \"right\")");
+    *error = InvalidRequest(field,
+                            "missing required field " + field +
+                                " (a helical gear needs \"left\" or "
+                                "\"right\")");
     return false;
   }
   return true;
@@ -71,68 +73,79 @@ bool ReadGearHand(const nlohmann::json& gear,
 bool ReadGear(const nlohmann::json& request,
               GrindingSetup* s,
               ApiError* error) {
+  return ReadGearData(
+      request, "gear", /*radii_required=*/true, &s->gear, error);
+}
+
+}  // namespace
+
+bool ReadGearData(const nlohmann::json& request,
+                  const std::string& key,
+                  bool radii_required,
+                  GearData* out,
+                  ApiError* error) {
   const nlohmann::json* gear = nullptr;
-  if (!RequireObject(request, "", "gear", /*required=*/true, &gear, error))
+  if (!RequireObject(request, "", key.c_str(), /*required=*/true, &gear, error))
     return false;
+  const std::string& path = key;
   long long teeth = 0;
   double pressure_angle_deg = 0.0;
   double helix_angle_deg = 0.0;
-  if (!ReadInteger(*gear, "gear", "teeth", true, &teeth, error) ||
+  if (!ReadInteger(*gear, path, "teeth", true, &teeth, error) ||
       !ReadNumber(*gear,
-                  "gear",
+                  path,
                   "normal_module_mm",
                   true,
-                  &s->gear.normal_module_mm,
+                  &out->normal_module_mm,
                   error) ||
       !ReadNumber(*gear,
-                  "gear",
+                  path,
                   "normal_pressure_angle_deg",
                   true,
                   &pressure_angle_deg,
                   error) ||
       !ReadNumber(
-          *gear, "gear", "helix_angle_deg", true, &helix_angle_deg, error) ||
+          *gear, path, "helix_angle_deg", true, &helix_angle_deg, error) ||
+      !ReadNumber(
+          *gear, path, "face_width_mm", true, &out->face_width_mm, error) ||
       !ReadNumber(*gear,
-                  "gear",
-                  "face_width_mm",
-                  true,
-                  &s->gear.face_width_mm,
-                  error) ||
-      !ReadNumber(*gear,
-                  "gear",
+                  path,
                   "tip_radius_mm",
-                  true,
-                  &s->gear.tip_radius_mm,
+                  radii_required,
+                  &out->tip_radius_mm,
                   error) ||
       !ReadNumber(*gear,
-                  "gear",
+                  path,
                   "root_radius_mm",
-                  true,
-                  &s->gear.root_radius_mm,
+                  radii_required,
+                  &out->root_radius_mm,
                   error)) {
     return false;
   }
   if (teeth < -1000000 || teeth > 1000000) {
-    *error = InvalidValue(
-        "gear.teeth",
-        "gear.teeth is out of range, got " + std::to_string(teeth));
+    *error = InvalidValue(JoinPath(path, "teeth"),
+                          JoinPath(path, "teeth") + " is out of range, got " +
+                              std::to_string(teeth));
     return false;
   }
-  s->gear.teeth = static_cast<int>(teeth);
+  out->teeth = static_cast<int>(teeth);
   if (helix_angle_deg < 0.0) {
-    *error = InvalidValue(
-        "gear.helix_angle_deg",
-        "gear.helix_angle_deg is unsigned (give the hand in gear.hand), got " +
-            nlohmann::json(helix_angle_deg).dump());
+    const std::string field = JoinPath(path, "helix_angle_deg");
+    *error = InvalidValue(field,
+                          field + " is unsigned (give the hand in " +
+                              JoinPath(path, "hand") + "), got " +
+                              nlohmann::json(helix_angle_deg).dump());
     return false;
   }
   double sign = 0.0;
-  if (!ReadGearHand(*gear, helix_angle_deg, &sign, error)) return false;
-  s->gear.normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
+  if (!ReadGearHand(*gear, path, helix_angle_deg, &sign, error)) return false;
+  out->normal_pressure_angle_rad = pressure_angle_deg * kRadPerDeg;
   // MODEL.md §1: beta > 0 is a left-hand helix.
-  s->gear.helix_angle_rad = sign * helix_angle_deg * kRadPerDeg;
+  out->helix_angle_rad = sign * helix_angle_deg * kRadPerDeg;
   return true;
 }
+
+namespace {
 
 // Reads the wheel radius.
 bool ReadWheel(const nlohmann::json& request,
@@ -176,11 +189,19 @@ bool ReadMachine(const nlohmann::json& request,
 bool ReadGrid(const nlohmann::json& request,
               GrindingSetup* s,
               ApiError* error) {
+  return ReadGridOptions(request, &s->grid, error);
+}
+
+}  // namespace
+
+bool ReadGridOptions(const nlohmann::json& request,
+                     GridOptions* grid_options,
+                     ApiError* error) {
   const nlohmann::json* grid = nullptr;
   if (!RequireObject(request, "", "grid", false, &grid, error)) return false;
   if (grid != nullptr) {
-    long long profile_points = s->grid.profile_points;
-    long long lead_points = s->grid.lead_points;
+    long long profile_points = grid_options->profile_points;
+    long long lead_points = grid_options->lead_points;
     if (!ReadInteger(
             *grid, "grid", "profile_points", false, &profile_points, error) ||
         !ReadInteger(
@@ -188,14 +209,14 @@ bool ReadGrid(const nlohmann::json& request,
         !ReadRange(*grid,
                    "grid",
                    "profile_range",
-                   &s->grid.profile_begin,
-                   &s->grid.profile_end,
+                   &grid_options->profile_begin,
+                   &grid_options->profile_end,
                    error) ||
         !ReadRange(*grid,
                    "grid",
                    "lead_range",
-                   &s->grid.lead_begin,
-                   &s->grid.lead_end,
+                   &grid_options->lead_begin,
+                   &grid_options->lead_end,
                    error)) {
       return false;
     }
@@ -210,11 +231,13 @@ bool ReadGrid(const nlohmann::json& request,
           InvalidValue("grid.lead_points", "grid.lead_points is out of range");
       return false;
     }
-    s->grid.profile_points = static_cast<int>(profile_points);
-    s->grid.lead_points = static_cast<int>(lead_points);
+    grid_options->profile_points = static_cast<int>(profile_points);
+    grid_options->lead_points = static_cast<int>(lead_points);
   }
   return true;
 }
+
+namespace {
 
 // Reads the flank, right unless given.
 bool ReadFlank(const nlohmann::json& request,

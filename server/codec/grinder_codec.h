@@ -43,6 +43,23 @@ bool ParseGearGridAndFlank(const nlohmann::json& request,
                            GridOptions* grid,
                            Flank* flank,
                            ApiError* error);
+// Reads the gear object at request[key] (teeth, normal_module_mm,
+// normal_pressure_angle_deg, helix_angle_deg unsigned with hand,
+// face_width_mm, tip_radius_mm, root_radius_mm) into `gear`; error fields are
+// "<key>.<name>". Without `radii_required` absent radii leave their members
+// as they were (the caller's default). No validation beyond types.
+bool ReadGearData(const nlohmann::json& request,
+                  const std::string& key,
+                  bool radii_required,
+                  GearData* gear,
+                  ApiError* error);
+
+// Reads the optional "grid" of `request` (profile_points, lead_points,
+// profile_range, lead_range) over the defaults already in `grid`; the engine
+// validates it (ValidateGrid).
+bool ReadGridOptions(const nlohmann::json& request,
+                     GridOptions* grid,
+                     ApiError* error);
 
 // Reads settings {"axes": {"X": [..7], ..., "C": [..]}, "wheel": {...}} found
 // at `path` (for error fields). Each axis takes 1..7 coefficients (missing

@@ -22,6 +22,7 @@
 #include "server/services/history_service.h"
 #include "server/services/measurement_service.h"
 #include "server/services/service_context.h"
+#include "server/services/shaving_service.h"
 #include "server/services/simulation_service.h"
 #include "storage/job_repository.h"
 
@@ -196,6 +197,12 @@ const ApiRoute kApiRoutes[] = {
      Access::kRead,
      nullptr,
      ExportCorrection},
+    {"POST",
+     "/api/v1/shaving/cutter-target",
+     "POST /api/v1/shaving/cutter-target",
+     Access::kRead,
+     ShavingCutterTarget,
+     nullptr},
 };
 
 }  // namespace

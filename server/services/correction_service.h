@@ -26,6 +26,9 @@
 namespace gearloop {
 
 struct CorrectionRun {
+  // The request as it is stored: the body with a shaving target resolved
+  // (target.stock_target_um written in), so that a replay recomputes nothing.
+  nlohmann::json request;
   CorrectionResult result;
   nlohmann::json result_json;
   // Filled except id, created_utc, kind, request_json, server_version and

@@ -1,5 +1,6 @@
 #include "server/services/machine_family.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -38,6 +39,64 @@ class MachineFamily {
 
 nlohmann::json GrinderParametersToJson(const Eigen::VectorXd& parameters) {
   return MachineSettingsToJson(MachineSettings::FromVector(parameters));
+}
+
+// A shaving target's cutter and grid against the setup being ground (see
+// CorrectionProblem::fit_shaving_target).
+bool FitShavingTargetToSetup(const GrindingSetup& setup,
+                             bool grid_given,
+                             ShavingInput* input,
+                             ApiError* error) {
+  if (setup.flank != Flank::kRight) {
+    *error = InvalidValue("flank",
+                          "a shaving target is the cutter's right flank "
+                          "(SHAVING.md); grind the right flank with it");
+    return false;
+  }
+  const GearData& gear = setup.gear;
+  const GearData& cutter = input->cutter;
+  const struct {
+    const char* name;
+    double cutter;
+    double gear;
+  } fields[] = {
+      {"teeth",
+       static_cast<double>(cutter.teeth),
+       static_cast<double>(gear.teeth)},
+      {"normal_module_mm", cutter.normal_module_mm, gear.normal_module_mm},
+      {"normal_pressure_angle_deg",
+       cutter.normal_pressure_angle_rad,
+       gear.normal_pressure_angle_rad},
+      {"helix_angle_deg", cutter.helix_angle_rad, gear.helix_angle_rad},
+      {"face_width_mm", cutter.face_width_mm, gear.face_width_mm},
+      {"tip_radius_mm", cutter.tip_radius_mm, gear.tip_radius_mm},
+      {"root_radius_mm", cutter.root_radius_mm, gear.root_radius_mm},
+  };
+  for (const auto& f : fields) {
+    if (std::abs(f.cutter - f.gear) > 1e-9 * std::max(1.0, std::abs(f.gear))) {
+      *error = InvalidValue(
+          std::string("target.shaving.cutter.") + f.name,
+          std::string("the shaving cutter must be the gear being ground: "
+                      "target.shaving.cutter.") +
+              f.name + " differs from gear." + f.name);
+      return false;
+    }
+  }
+  if (!grid_given) {
+    input->grid = setup.grid;
+    return true;
+  }
+  const GridOptions& a = input->grid;
+  const GridOptions& b = setup.grid;
+  if (a.profile_points != b.profile_points || a.lead_points != b.lead_points ||
+      a.profile_begin != b.profile_begin || a.profile_end != b.profile_end ||
+      a.lead_begin != b.lead_begin || a.lead_end != b.lead_end) {
+    *error = InvalidValue("target.shaving.grid",
+                          "target.shaving.grid must be the correction's grid "
+                          "(leave it out to use it)");
+    return false;
+  }
+  return true;
 }
 
 // The grinder's model and renderings for `setup`, ground with `settings`.
@@ -87,6 +146,10 @@ void FillGrinderProblem(const nlohmann::json& body,
                             target_um,
                             profile_evaluation_length_mm);
   };
+  problem->fit_shaving_target =
+      [setup](bool grid_given, ShavingInput* input, ApiError* error) {
+        return FitShavingTargetToSetup(setup, grid_given, input, error);
+      };
 }
 
 // The setup and the settings (default nominal) of a grinder request.

@@ -28,6 +28,7 @@
 #include "engine/bevel/freeform_machine.h"
 #include "engine/core/machine_model.h"
 #include "engine/grinder/target_modification.h"
+#include "engine/shaving/cutter_target.h"
 #include "engine/simulation/measurement_simulator.h"
 #include "server/codec/json_read.h"
 #include "server/codec/machine_kind.h"
@@ -78,6 +79,12 @@ struct CorrectionProblem {
                                const Eigen::VectorXd& target_um,
                                double profile_evaluation_length_mm)>
       flank_quality_json;
+  // Fits a shaving target (target.shaving, SHAVING.md) to the machine: the
+  // cutter must be the gear being ground, on the right flank; an absent grid
+  // (grid_given false) becomes the problem's, a given one must equal it. 422
+  // naming the field otherwise. Empty for a family without an involute cutter.
+  std::function<bool(bool grid_given, ShavingInput* input, ApiError* error)>
+      fit_shaving_target;
 };
 
 // A simulated machine: the problem (commanded = current_parameters), its hidden

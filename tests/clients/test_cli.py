@@ -318,6 +318,31 @@ class CliTest(unittest.TestCase):
                 if value is not None:
                     self.assertLess(abs(value), 1e-3)
 
+    def test_shaving_target_summary_table_and_csv(self) -> None:
+        grid_csv = self.dir / "shaving_target.csv"
+        done = self.run_cli("shaving-target", str(EXAMPLES / "shaving.json"), "--csv", str(grid_csv))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        for words in ("crossed-axes angle 5.090 deg", "contact-line length 75.342 mm",
+                      "fixed wheel 355.78 mm", "traversing wheel 336.97 mm", "36 of 45 grid points",
+                      "outside the work flank: (1,1)", "cutter target"):
+            self.assertIn(words, done.stdout)
+        grid = read_csv_grid(str(grid_csv))
+        self.assertEqual(grid[0], [None] * 9)
+        values = [v for row in grid[1:] for v in row]
+        self.assertEqual(max(values), 0.0)
+        # stock = delta_s - max(delta_s): row 1, column 9 = 8.94 - 12.29 (certified, +-0.05 um each).
+        self.assertAlmostEqual(grid[1][8], 8.936 - 12.289, delta=0.01)
+        as_json = self.run_cli("--json", "shaving-target", str(EXAMPLES / "shaving.json"), "--grid", "base")
+        self.assertEqual(as_json.returncode, 0, as_json.stderr)
+        self.assertIn("base_um", json.loads(as_json.stdout))
+        bad = self.dir / "shaving_bad.json"
+        request = json.loads((EXAMPLES / "shaving.json").read_text())
+        request["centre_distance_mm"] = 400
+        bad.write_text(json.dumps(request))
+        self.assert_server_refused("centre_distance_mm", "shaving-target", str(bad))
+        done = self.run_cli("shaving-target", str(EXAMPLES / "shaving.json"), "--grid", "other")
+        self.assertEqual(done.returncode, 1)
+
     def test_report_is_self_contained(self) -> None:
         job = self.submit()
         out = self.dir / "job.html"

@@ -97,6 +97,33 @@ class PythonClientTest(unittest.TestCase):
             self.client.get_correction(999999)
         self.assertEqual(caught.exception.status, 404)
 
+    def test_shaving_cutter_target_and_a_correction_towards_it(self) -> None:
+        shaving = example_json("shaving.json")
+        answer = self.client.shaving_cutter_target(
+            shaving["work_gear"], shaving["cutter"], diagonal_modification=shaving["diagonal_modification"],
+            wheel_check=shaving["wheel_check"])
+        self.assertAlmostEqual(answer["crossed_axes_angle_deg"], 5.09, places=9)
+        self.assertAlmostEqual(answer["wheel_radius_min_mm"]["fixed"], 355.78, delta=5e-3)
+        self.assertAlmostEqual(answer["contact_line_length_mm"], 75.342, delta=5e-4)
+        # SHAVING.md §4, certified row 1 of the modified pinion (+-0.05 um).
+        for got, want in zip(answer["delta_s_um"][1], [12.29, 7.46, 3.88, 1.59, 0.58, 0.87, 2.48, 5.20, 8.94]):
+            self.assertAlmostEqual(got, want, delta=0.05)
+        self.assertEqual(answer["outside_work_flank"], [[0, c] for c in range(9)])
+        self.assertEqual(answer["stock_target_um"][0], [None] * 9)
+        self.assertEqual(max(v for row in answer["stock_target_um"] for v in row if v is not None), 0.0)
+
+        request = copy.deepcopy(self.request)
+        request["target"] = {"shaving": shaving}
+        job = self.client.create_correction(request)
+        self.assertEqual(job["result"]["target_um"], answer["stock_target_um"])
+        stored = self.client.get_correction(job["id"])["request"]["target"]
+        self.assertEqual(stored["stock_target_um"], answer["stock_target_um"])
+
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.shaving_cutter_target(shaving["work_gear"], shaving["cutter"], centre_distance_mm=400)
+        self.assertEqual(caught.exception.status, 422)
+        self.assertEqual(caught.exception.field, "centre_distance_mm")
+
     def test_batch_runs_in_background(self) -> None:
         second = copy.deepcopy(self.request)
         second["measurement"]["deviations_um"][0][0] = 3.0

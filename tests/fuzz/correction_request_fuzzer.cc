@@ -4,6 +4,7 @@
 // runs through the same codec calls, without the network, the model and the
 // solve:
 //
+//   ParseJsonBody -> ParseShavingInput (shaving/cutter-target)
 //   ParseJsonBody -> ParseGrindingSetup -> ParseCorrectionRequest (corrections,
 //   replays, batch items) ParseJsonBody -> ParseGrindingSetup ->
 //   ParseMachineSettings   (nominal, evaluate, sensitivity)
@@ -28,6 +29,7 @@
 #include "server/codec/correction_codec.h"
 #include "server/codec/grinder_codec.h"
 #include "server/codec/measurement_codec.h"
+#include "server/codec/shaving_codec.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {
@@ -126,6 +128,32 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
 
   CheckMeasurementFile(body);
+  // The body as a plunge-shaving cutter target (POST
+  // /api/v1/shaving/cutter-target): an accepted one passes the engine's own
+  // check, with its radii filled in.
+  gearloop::ShavingInput shaving;
+  error = gearloop::ApiError();
+  if (gearloop::ParseShavingInput(body, "", &shaving, &error)) {
+    gearloop::ValidationIssue issue;
+    Check(shaving.IsValid(&issue), "an accepted shaving request is valid");
+    Check(shaving.work_gear.tip_radius_mm > 0.0 &&
+              shaving.cutter.root_radius_mm > 0.0,
+          "the radii are set");
+  } else {
+    CheckRefusal(error);
+  }
+  // A shaving target of a correction: read whole or refused.
+  if (request.target_shaving) {
+    Check(request.target_um.size() ==
+              static_cast<Eigen::Index>(correction_setup.grid.profile_points) *
+                  correction_setup.grid.lead_points,
+          "a shaving target leaves a target of the grid's size");
+    if (request.target_shaving_resolved_um) {
+      Check(request.target_shaving_generated.size() ==
+                static_cast<size_t>(request.target_shaving_resolved_um->size()),
+            "the stored grid marks every point generated or not");
+    }
+  }
 
   gearloop::GrindingSetup setup;
   gearloop::MachineSettings settings;

@@ -102,6 +102,14 @@ def main():
             "sign_factors": {"helix_right": -1}}
     n_requests += write(requests, json.dumps(dict(file, gear=request["gear"], flank="left")))
     n_requests += write(requests, json.dumps(dict(request, measurement={"file": file})))
+    # The plunge-shaving cutter target (issue 18): its own body, and as a correction's target,
+    # resolved (with the stock_target_um the server stores) or not.
+    with open(os.path.join(ROOT, "clients/examples/shaving.json")) as f:
+        shaving = json.load(f)
+    n_requests += write(requests, json.dumps(shaving))
+    n_requests += write(requests, json.dumps(dict(valid, target={"shaving": shaving})))
+    stored = [[None] * 9] + [[-1.5] * 9] * 4
+    n_requests += write(requests, json.dumps(dict(valid, target={"shaving": shaving, "stock_target_um": stored})))
     with open(os.path.join(ROOT, "tests/server/data/hostile_requests.jsonl")) as f:
         for line in f:
             case = json.loads(line)

@@ -282,6 +282,7 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/bevel/axis-sensitivity",
       "POST /api/v1/measurements/import",
       "GET /api/v1/corrections/{id}/export",
+      "POST /api/v1/shaving/cutter-target",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -343,6 +344,16 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   const std::string bevel = R"({"job": {"side": "convex", "published": true}})";
   const std::string bevel_impossible =
       R"({"job": {"side": "convex", "published": true, "machine": {"ratio_of_roll": 0}}})";
+  // SHAVING.md §1: the published pinion (standard radii) and its cutter.
+  const nlohmann::json shaving = nlohmann::json::parse(R"({
+    "work_gear": {"teeth": 19, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+                  "helix_angle_deg": 9.91, "hand": "right", "face_width_mm": 75},
+    "cutter": {"teeth": 37, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+               "helix_angle_deg": 15, "hand": "left", "face_width_mm": 78,
+               "tip_radius_mm": 120.9157, "root_radius_mm": 107.1569},
+    "diagonal_modification": {"root_um": 20, "tip_um": 20}})");
+  nlohmann::json shaving_impossible = shaving;
+  shaving_impossible["centre_distance_mm"] = 400;
   std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
@@ -393,6 +404,11 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         bevel,
         bevel_impossible,
         "{\"job\": 1}"}},
+      {"POST /api/v1/shaving/cutter-target",
+       {"/api/v1/shaving/cutter-target",
+        shaving.dump(),
+        shaving_impossible.dump(),
+        "{\"work_gear\": 1}"}},
   };
 
   // A measuring-machine file (issue 15): the sample gear and its .mka file.

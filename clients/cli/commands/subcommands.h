@@ -98,6 +98,12 @@ extern const CommandSpec kExport;
 int RunExport(const ParsedArgs& args,
               ApiClient* client,
               const GlobalOptions& global);
+// commands/shaving.cc: the plunge-shaving cutter target.
+extern const CommandSpec kShavingTarget;
+int RunShavingTarget(const ParsedArgs& args,
+                     ApiClient* client,
+                     const GlobalOptions& global);
+
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;
 int RunHealth(const ParsedArgs& args,

@@ -315,6 +315,30 @@ async function main() {
     check("bevel axis curves", ["X", "Y", "Z", "A", "B"].every((a) => bevelCurves.includes(a)) && !bevelCurves.includes("C"), JSON.stringify(bevelCurves));
     await page.screenshot({ path: path.join(outDir, "dashboard-bevel.png"), fullPage: true });
 
+    // 6b. The shaving view: the published pinion's diagonal modification and the cutter target it
+    // needs, side by side (POST /api/v1/shaving/cutter-target).
+    await page.goto(base + "/#shaving", { waitUntil: "load" });
+    await page.waitForSelector("#shaving-compute", { timeout: 30000 });
+    await page.click("#shaving-compute");
+    await page.waitForSelector("body[data-shaving-shown]", { timeout: 30000 });
+    const shavingMaps = await page.$$eval("div.shaving-maps svg.heatmap", (svgs) =>
+      svgs.map((s) => ({ title: s.querySelector(".plot-title").textContent, cells: s.querySelectorAll("rect.cell").length, missing: s.querySelectorAll("rect.cell.missing").length, values: Array.from(s.querySelectorAll(".cell-value")).map((t) => t.textContent) }))
+    );
+    check("shaving: two maps side by side", shavingMaps.map((m) => m.title).join(",") === "pinion modification,cutter target", JSON.stringify(shavingMaps.map((m) => m.title)));
+    const shavingAnswer = await api(base, "POST", "/api/v1/shaving/cutter-target", JSON.parse(await page.inputValue("#shaving-request")));
+    // The tip row is drawn first: the cutter target's top-left cell is row 5, L1.
+    check(
+      "shaving: cutter target numbers, root row not generated",
+      shavingMaps.length === 2 && shavingMaps[1].cells === 45 && shavingMaps[1].missing === 9 && Number(shavingMaps[1].values[0]) === Number(shavingAnswer.stock_target_um[4][0].toFixed(2)),
+      JSON.stringify(shavingMaps[1] && shavingMaps[1].values.slice(0, 9))
+    );
+    check("shaving: pinion relief drawn", shavingMaps.length === 2 && shavingMaps[0].cells === 45 && shavingMaps[0].missing === 0 && Number(shavingMaps[0].values[0]) === Number(shavingAnswer.work_modification_um[4][0].toFixed(2)), JSON.stringify(shavingMaps[0] && shavingMaps[0].values.slice(0, 9)));
+    const boxes = await page.$$eval("div.shaving-maps svg.heatmap", (svgs) => svgs.map((s) => s.getBoundingClientRect()).map((r) => ({ top: r.top, left: r.left, right: r.right })));
+    check("shaving: the maps side by side", boxes.length === 2 && Math.abs(boxes[0].top - boxes[1].top) < 1 && boxes[0].right <= boxes[1].left, JSON.stringify(boxes));
+    const shavingText = await page.textContent("section.shaving-view");
+    check("shaving: crossed-axes angle and wheel radii", /5\.090 deg/.test(shavingText) && /fixed 355\.78 mm/.test(shavingText) && /75\.342 mm/.test(shavingText), shavingText.slice(0, 300));
+    await page.screenshot({ path: path.join(outDir, "dashboard-shaving.png"), fullPage: true });
+
     // 7. Unknown pages stay 404 and the API is untouched by the static routes.
     const missing = await fetch(base + "/static/nope.js");
     check("unknown asset is 404", missing.status === 404);
