@@ -454,32 +454,6 @@ class Client:
         return self._request("GET", f"/api/v1/corrections/{int(job_id)}/export", query={"format": format},
                              expect_json=False)
 
-
-def read_machine_file(path: str, format: Optional[str] = None) -> Json:
-    """A gear measuring machine's file as the API takes it: {"format", "content"}.
-
-    The format is "mka" for a .mka name and "gde" for .xml or .gde unless given. The bytes are
-    read as UTF-8 (a byte-order mark is kept; the server drops it) or, when they are not UTF-8,
-    as Latin-1 (older P-series exports)."""
-    if format is None:
-        lower = path.lower()
-        if lower.endswith(".mka"):
-            format = "mka"
-        elif lower.endswith(".xml") or lower.endswith(".gde"):
-            format = "gde"
-        else:
-            raise ValueError(f"cannot tell the format of {path} from its name: give format='mka' or 'gde'")
-    if format not in ("mka", "gde"):
-        raise ValueError(f"format must be 'mka' or 'gde', got {format!r}")
-    with open(path, "rb") as f:
-        data = f.read()
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
-    return {"format": format, "content": text}
-
-
     # --- plunge-shaving cutter target (SHAVING.md) ------------------------------------------------
 
     def shaving_cutter_target(self, work_gear: Json, cutter: Json,
@@ -515,6 +489,30 @@ def read_machine_file(path: str, format: Optional[str] = None) -> Json:
 
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------
 
+
+def read_machine_file(path: str, format: Optional[str] = None) -> Json:
+    """A gear measuring machine's file as the API takes it: {"format", "content"}.
+
+    The format is "mka" for a .mka name and "gde" for .xml or .gde unless given. The bytes are
+    read as UTF-8 (a byte-order mark is kept; the server drops it) or, when they are not UTF-8,
+    as Latin-1 (older P-series exports)."""
+    if format is None:
+        lower = path.lower()
+        if lower.endswith(".mka"):
+            format = "mka"
+        elif lower.endswith(".xml") or lower.endswith(".gde"):
+            format = "gde"
+        else:
+            raise ValueError(f"cannot tell the format of {path} from its name: give format='mka' or 'gde'")
+    if format not in ("mka", "gde"):
+        raise ValueError(f"format must be 'mka' or 'gde', got {format!r}")
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    return {"format": format, "content": text}
 
 def read_csv_grid(path_or_text: str, rows: int = 5, columns: int = 9, allow_missing: bool = True,
                   is_text: bool = False) -> Grid:

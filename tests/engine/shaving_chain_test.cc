@@ -117,20 +117,22 @@ TEST(ShavingChain, PinionModificationToCorrectedCutterInThreeRounds) {
   const CorrectionResult one_step = ComputeCorrection(exact, input);
   std::cout << "best reachable against the cutter target: "
             << one_step.summary.best_reachable_rms_um << " um rms\n";
-  // The first part (nominal settings, hidden errors) is far from the target;
-  // after three corrections the true error is 1.05 um rms: NOT below the
-  // issue's 1 um (default_max_order 3). On the way the second corrected part
-  // overshoots (29 um rms, nearly a uniform offset) before the third
-  // correction brings it back: the solver's behaviour on this target (a
-  // large, not converged refinement from part 1), see README "From the pinion
-  // to the grinding target".
+  // The first part (nominal settings, hidden errors) is far from the target.
+  // With the default freedoms (orders 0-3, the wheel parabola fixed since
+  // issue 13: its vertex error cannot be measured) the loop goes 8.09 ->
+  // 2.41 -> 2.41 -> 2.41 um rms: no part worse than the one before, and the
+  // final error at what one exact step from nominal reaches with these
+  // freedoms (2.41 um). NOT the issue's 1 um: with the parabola free the loop
+  // ended at 1.05 um but made the third part worse on the way (2.18 -> 29.4
+  // um rms), which the correction must not do.
   EXPECT_GT(rms[0], 4.0);
-  EXPECT_LT(rms[1], 2.5);
-  EXPECT_LT(rms[3], 1.1);
-  EXPECT_LT(rms[3], 0.15 * rms[0]);
-  // Three rounds end below what one linear step from nominal could reach.
-  EXPECT_GT(one_step.summary.best_reachable_rms_um, 2.0);
-  EXPECT_LT(rms[3], one_step.summary.best_reachable_rms_um);
+  for (size_t k = 1; k < rms.size(); ++k)
+    EXPECT_LE(rms[k], rms[k - 1] + std::max(0.1, 0.1 * rms[k - 1]))
+        << "part " << k << " is worse than the one before";
+  EXPECT_LT(rms[3], 0.35 * rms[0]);
+  // Three rounds end within 5 % of what one noise-free step from nominal
+  // reaches with the same freedoms.
+  EXPECT_LT(rms[3], 1.05 * one_step.summary.best_reachable_rms_um);
 }
 
 }  // namespace
