@@ -323,6 +323,14 @@ struct BlockCorrectionSize {
   double size = 0.0;  // sqrt(mean (dC/s)^2) or |dp|/s
 };
 
+struct PredictionBand {
+  double noise_sigma_um = 0.0;
+  bool noise_stated = false;
+  double expected_true_rms_um = 0.0;
+  double true_rms_low_um[2] = {0.0, 0.0};   // 1 sigma, 2 sigma
+  double true_rms_high_um[2] = {0.0, 0.0};  // 1 sigma, 2 sigma
+};
+
 struct CorrectionSummary {
   CorrectionStatus status = CorrectionStatus::kInvalidInput;
   std::string message;
@@ -378,6 +386,14 @@ struct CorrectionSummary {
   bool machine_state_estimated = false;
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;
+  double machine_state_dof = 0.0;  // effective dof of the state fit
+
+  // How sure the prediction is (engine/correction/prediction_band.h): the
+  // probe noise used (stated, or estimated from the state's or the
+  // correction's misfit), the expected true rms of the next part (the
+  // predicted rms less the noise the fit absorbed) and its 1- and 2-sigma
+  // bands [um]. The model's own error is not in it.
+  PredictionBand prediction_band;
 
   // The safe step (CorrectionOptions::safe_step): the factor applied to the
   // solver's change for the motion bound (1 = within it), the fraction of the
@@ -409,6 +425,9 @@ struct CorrectionResult {
                                           // measurement/contact
   Eigen::VectorXd
       predicted_change_um;  // exact d(new) - d(current), NaN where not reached
+  // 1-sigma band of predicted_residual_um per point [um] (the probe noise
+  // there, summary.prediction_band), NaN where there is no prediction.
+  Eigen::VectorXd predicted_residual_sigma_um;
   CorrectionSummary summary;
 };
 
