@@ -285,8 +285,7 @@ struct Summary {
       motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
   std::vector<std::string> worse_list;
   std::vector<double> ratio, cpu, achieved_over_predicted,
-      achieved_over_expected, best, final_rms, initial, max_linear,
-      max_angular;
+      achieved_over_expected, best, final_rms, initial, max_linear, max_angular;
 };
 
 Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,

@@ -11,7 +11,8 @@
 //      pso / lsq-plain (baseline_solvers.cc)
 //   -> SafeStep: the motion bound and the exact-model check that the next part
 //   is predicted better than with the current settings (safe_step.cc)
-//   -> PredictExactly: the exact model at the new parameters.
+//   -> PredictExactly: the exact model at the new parameters
+//   -> PredictionBand: how sure that prediction is (prediction_band.cc).
 #include "engine/correction/correction.h"
 
 #include <algorithm>

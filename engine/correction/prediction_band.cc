@@ -6,16 +6,6 @@
 
 namespace gearloop {
 namespace correction_internal {
-namespace {
-
-// The model's own error, as a share of the predicted change (rms): the exact
-// model at an estimated state predicts the change it is asked for to about
-// this. Chosen on the robustness benchmark (seed 2026, default options): 0
-// covered 90.1 % of the achieved rms with the 2-sigma band, 0.05 94.3 %, 0.1
-// 95.4 %; checked on seed 7 (BENCHMARKS.md, "Robustness").
-constexpr double kModelShareOfChange = 0.1;
-
-}  // namespace
 
 double BandNoiseSigma(const CorrectionProblem& problem,
                       const CorrectionSummary& summary,
@@ -66,7 +56,8 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   double change2 = 0.0;
   for (int i : problem.used)
     if (std::isfinite(result->predicted_change_um(i)))
-      change2 += result->predicted_change_um(i) * result->predicted_change_um(i);
+      change2 +=
+          result->predicted_change_um(i) * result->predicted_change_um(i);
   change2 /= n;
   const double model2 = kModelShareOfChange * kModelShareOfChange * change2;
   const double sd2 = std::sqrt(4.0 * (mean_variance / n + model2) * pred2 +
