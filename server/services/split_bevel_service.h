@@ -19,14 +19,15 @@
 #include <cstdint>
 #include <string>
 
+#include "server/codec/machine_kind.h"
 #include "server/respond.h"
 #include "server/services/service_context.h"
 
 namespace gearloop {
 
-// The job's kind and machine family in the history.
+// The job's kind in the history (its machine_kind is kHeadHead5AxisMillKind,
+// server/codec/machine_kind.h).
 constexpr const char* kSplitTrajectoryJobKind = "split_trajectory";
-constexpr const char* kHeadHead5AxisMillKind = "head-head-5-axis-mill";
 
 // "/api/v1/bevel/split-trajectory/<id>/nc".
 std::string SplitTrajectoryNcLocation(int64_t job_id);

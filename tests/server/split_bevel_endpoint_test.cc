@@ -206,6 +206,14 @@ TEST_F(SplitBevelEndpointTest, StoresTheJobInTheHistory) {
   EXPECT_EQ(job.body["result"]["passes"], a.body["passes"]);
   EXPECT_EQ(job.body["result"]["derived"], a.body["derived"]);
   EXPECT_EQ(job.body["result"]["nc_program"], a.body["nc_program"]);
+  // A trajectory is not a correction: a replay is refused and stores nothing.
+  const Answer replay = Keep(
+      client_->Post((a.body["location"].get<std::string>() + "/replay").c_str(),
+                    "{}",
+                    "application/json"));
+  EXPECT_EQ(replay.status, 422) << replay.text;
+  EXPECT_NE(replay.text.find("split-bevel trajectory"), std::string::npos);
+  EXPECT_EQ(Get("/api/v1/corrections").body["total"], 1);
   // One flank: the job names it.
   nlohmann::json concave = request;
   concave["cut"]["flanks"] = {"concave"};
