@@ -99,12 +99,34 @@ void BM_SplitTrajectoryAnswerJson(benchmark::State& state) {
   const gearloop::SplitBevelResult result =
       gearloop::ComputeSplitTrajectory(request);
   for (auto _ : state) {
-    const std::string text =
-        gearloop::Dump(gearloop::SplitBevelResultJson(result));
+    const std::string text = gearloop::SplitBevelResultJsonText(result);
     benchmark::DoNotOptimize(text.data());
   }
 }
 BENCHMARK(BM_SplitTrajectoryAnswerJson)->Unit(benchmark::kMillisecond);
+
+// Writing the job (the answer's text and the listing, 26.6 MB) to a ":memory:"
+// history.
+void BM_SplitTrajectoryStoreJob(benchmark::State& state) {
+  const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
+  gearloop::SplitBevelRequest request;
+  gearloop::ApiError error;
+  gearloop::ParseSplitBevelRequest(body, &request, &error);
+  const gearloop::SplitBevelResult result =
+      gearloop::ComputeSplitTrajectory(request);
+  gearloop::JobRecord job;
+  job.kind = "split_trajectory";
+  job.status = "computed";
+  job.machine_kind = "head-head-5-axis-mill";
+  job.request_json = body.dump();
+  job.result_json =
+      gearloop::AppendJsonMembers(gearloop::SplitBevelResultJsonText(result),
+                                  {{"nc_program", result.nc_program}});
+  std::unique_ptr<gearloop::JobRepository> repository =
+      gearloop::OpenJobRepository(":memory:");
+  for (auto _ : state) benchmark::DoNotOptimize(repository->WriteJob(job));
+}
+BENCHMARK(BM_SplitTrajectoryStoreJob)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

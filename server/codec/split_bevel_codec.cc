@@ -1,8 +1,11 @@
 #include "server/codec/split_bevel_codec.h"
 
+#include <charconv>
 #include <climits>
+#include <cmath>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "engine/core/units.h"
@@ -278,10 +281,6 @@ bool ParseOutput(const nlohmann::json& body, bool* nc, ApiError* error) {
          ReadBool(*output, "output", "nc", false, nc, error);
 }
 
-nlohmann::json Vec(const Eigen::Vector3d& v) {
-  return nlohmann::json::array({v.x(), v.y(), v.z()});
-}
-
 nlohmann::json DerivedJson(const SplitBevelGearData& d) {
   return {{"base_radius_mm", d.base_radius_mm},
           {"normal_module_mm", d.normal_module_mm},
@@ -297,34 +296,91 @@ nlohmann::json DerivedJson(const SplitBevelGearData& d) {
           {"slot_width_mm", d.slot_width_mm}};
 }
 
-nlohmann::json PointJson(const SplitBevelPoint& p) {
-  return {{"arc_mm", p.arc_mm},
-          {"cone_distance_mm", p.cone_distance_mm},
-          {"spiral_angle_deg", RadToDeg(p.spiral_angle_rad)},
-          {"pitch_point_mm", Vec(p.pitch_point_mm)},
-          {"flank_point_mm", Vec(p.flank_point_mm)},
-          {"flank_normal", Vec(p.flank_normal)},
-          {"tool_centre_mm", Vec(p.tool_centre_mm)},
-          {"tool_axis", Vec(p.tool_axis)},
-          {"X_mm", p.axes.x_mm},
-          {"Y_mm", p.axes.y_mm},
-          {"Z_mm", p.axes.z_mm},
-          {"A_deg", RadToDeg(p.axes.a_rad)},
-          {"B_deg", RadToDeg(p.axes.b_rad)}};
-}
+// The passes are most of a large answer (40 000 points, 1 million numbers):
+// written straight to text, each number as the shortest decimal that reads
+// back to the same double (std::to_chars), instead of through a JSON tree.
+// Keys in each object in the order nlohmann-json writes them (sorted), so the
+// answer reads like the API's others.
+class PassWriter {
+ public:
+  explicit PassWriter(std::string* out) : out_(*out) {}
 
-nlohmann::json PassJson(const SplitBevelPass& pass) {
-  nlohmann::json points = nlohmann::json::array();
-  for (const SplitBevelPoint& p : pass.points) points.push_back(PointJson(p));
-  return {{"slot", pass.slot},
-          {"flank", SplitBevelFlankName(pass.flank)},
-          {"level", pass.level},
-          {"tip_height_mm", pass.tip_height_mm},
-          {"side_deviation_mm",
-           {{"min", pass.side_deviation_mm.min_mm},
-            {"max", pass.side_deviation_mm.max_mm}}},
-          {"points", std::move(points)}};
-}
+  void Key(const char* key) {
+    out_ += '"';
+    out_ += key;
+    out_ += "\":";
+  }
+  // A finite number; null otherwise (as nlohmann-json writes NaN).
+  void Number(double x) {
+    if (!std::isfinite(x)) {
+      out_ += "null";
+      return;
+    }
+    char buffer[32];
+    const std::to_chars_result r =
+        std::to_chars(buffer, buffer + sizeof(buffer), x);
+    const std::string_view text(buffer, static_cast<size_t>(r.ptr - buffer));
+    out_ += text;
+    // 35.0, not 35: a float stays a float for the readers.
+    if (text.find_first_of(".e") == std::string_view::npos) out_ += ".0";
+  }
+  void Member(const char* key, double x) {
+    Key(key);
+    Number(x);
+    out_ += ',';
+  }
+  void Member(const char* key, const Eigen::Vector3d& v) {
+    Key(key);
+    out_ += '[';
+    Number(v.x());
+    out_ += ',';
+    Number(v.y());
+    out_ += ',';
+    Number(v.z());
+    out_ += "],";
+  }
+
+  // {"A_deg",...,"tool_centre_mm"}: SPLIT_BEVEL.md §8's point.
+  void Point(const SplitBevelPoint& p) {
+    out_ += '{';
+    Member("A_deg", RadToDeg(p.axes.a_rad));
+    Member("B_deg", RadToDeg(p.axes.b_rad));
+    Member("X_mm", p.axes.x_mm);
+    Member("Y_mm", p.axes.y_mm);
+    Member("Z_mm", p.axes.z_mm);
+    Member("arc_mm", p.arc_mm);
+    Member("cone_distance_mm", p.cone_distance_mm);
+    Member("flank_normal", p.flank_normal);
+    Member("flank_point_mm", p.flank_point_mm);
+    Member("pitch_point_mm", p.pitch_point_mm);
+    Member("spiral_angle_deg", RadToDeg(p.spiral_angle_rad));
+    Member("tool_axis", p.tool_axis);
+    Member("tool_centre_mm", p.tool_centre_mm);
+    out_.back() = '}';
+  }
+
+  void Pass(const SplitBevelPass& pass) {
+    out_ += "{\"flank\":\"";
+    out_ += SplitBevelFlankName(pass.flank);
+    out_ += "\",\"level\":" + std::to_string(pass.level) + ",\"points\":[";
+    for (size_t i = 0; i < pass.points.size(); ++i) {
+      if (i > 0) out_ += ',';
+      Point(pass.points[i]);
+    }
+    out_ += "],";
+    Key("side_deviation_mm");
+    out_ += '{';
+    Member("max", pass.side_deviation_mm.max_mm);
+    Member("min", pass.side_deviation_mm.min_mm);
+    out_.back() = '}';
+    out_ += ",\"slot\":" + std::to_string(pass.slot) + ',';
+    Member("tip_height_mm", pass.tip_height_mm);
+    out_.back() = '}';
+  }
+
+ private:
+  std::string& out_;
+};
 
 }  // namespace
 
@@ -350,18 +406,29 @@ ApiError SplitBevelResultError(const SplitBevelResult& result) {
   return InvalidValue(result.field, result.message);
 }
 
-nlohmann::json SplitBevelResultJson(const SplitBevelResult& result) {
+std::string SplitBevelResultJsonText(const SplitBevelResult& result) {
   nlohmann::json matrix = nlohmann::json::array();
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) matrix.push_back(result.blank_to_machine(i, j));
-  nlohmann::json passes = nlohmann::json::array();
-  for (const SplitBevelPass& pass : result.passes)
-    passes.push_back(PassJson(pass));
-  return {{"derived", DerivedJson(result.derived)},
-          {"setup",
-           {{"blank_to_machine", std::move(matrix)},
-            {"segment_mid_deg", RadToDeg(result.segment_mid_rad)}}},
-          {"passes", std::move(passes)}};
+  const nlohmann::json setup = {
+      {"blank_to_machine", std::move(matrix)},
+      {"segment_mid_deg", RadToDeg(result.segment_mid_rad)}};
+  size_t points = 0;
+  for (const SplitBevelPass& pass : result.passes) points += pass.points.size();
+  std::string out;
+  out.reserve(1024 + 640 * points);
+  out += "{\"derived\":";
+  out += DerivedJson(result.derived).dump();
+  out += ",\"passes\":[";
+  PassWriter writer(&out);
+  for (size_t i = 0; i < result.passes.size(); ++i) {
+    if (i > 0) out += ',';
+    writer.Pass(result.passes[i]);
+  }
+  out += "],\"setup\":";
+  out += setup.dump();
+  out += '}';
+  return out;
 }
 
 std::string SplitBevelJobFlank(const SplitBevelRequest& request) {

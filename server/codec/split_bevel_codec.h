@@ -13,7 +13,7 @@
 //   if (!CheckSplitBevelRequest(request, &error)) return ...;         // 422
 //   const SplitBevelResult result = ComputeSplitTrajectory(request);
 //   if (!result.ok) error = SplitBevelResultError(result);            // 422
-//   const std::string text = SplitBevelResultJson(result).dump();
+//   const std::string text = SplitBevelResultJsonText(result);
 //
 // Request (API names; required: gear.teeth, gear.pitch_angle_deg,
 // gear.face_width_mm, gear.hand, gear.pressure_angle_deg, tool.radius_mm):
@@ -54,10 +54,12 @@ bool CheckSplitBevelRequest(const SplitBevelRequest& request, ApiError* error);
 // for the chord tolerance) as a 422 naming its field.
 ApiError SplitBevelResultError(const SplitBevelResult& result);
 
-// The 200 answer of SPLIT_BEVEL.md §8 without nc_program: derived, setup
-// {blank_to_machine, segment_mid_deg}, passes with their points (vectors in
-// the blank frame Si, X Y Z in mm, A B and every angle in degrees).
-nlohmann::json SplitBevelResultJson(const SplitBevelResult& result);
+// The 200 answer of SPLIT_BEVEL.md §8 without nc_program, as JSON text:
+// derived, setup {blank_to_machine, segment_mid_deg}, passes with their points
+// (vectors in the blank frame Si, X Y Z in mm, A B and every angle in degrees).
+// Every number is the shortest decimal that reads back to the engine's double
+// (the same value 17 significant digits would give); a non-finite one is null.
+std::string SplitBevelResultJsonText(const SplitBevelResult& result);
 
 // "both" when the request cuts both flanks, else the one flank's name: the
 // job's flank column (storage/job_repository.h).

@@ -67,7 +67,7 @@ void CreateSplitTrajectory(const ServiceContext& context,
   if (!result.ok) return RespondError(res, SplitBevelResultError(result));
   // The points make the answer large (40 000 points are ~25 MB): dumped once,
   // then stored and answered with different members appended.
-  const std::string text = Dump(SplitBevelResultJson(result));
+  const std::string text = SplitBevelResultJsonText(result);
   const nlohmann::json nc = {{"nc_program", result.nc_program}};
   JobRecord job = SplitTrajectoryJob(context, request, result, elapsed_ms);
   job.request_json = Dump(body);

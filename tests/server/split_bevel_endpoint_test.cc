@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "engine/core/units.h"
+#include "engine/split_bevel/trajectory.h"
+#include "server/codec/split_bevel_codec.h"
 #include "server/http/gearloop_server.h"
 #include "tests/server/server_test_util.h"
 
@@ -501,6 +503,73 @@ TEST_F(SplitBevelEndpointTest, RefusesMissingFieldsAndWrongTypesWith400) {
     EXPECT_EQ(a.status, 400) << a.text.substr(0, 300);
     EXPECT_EQ(a.body["error"]["field"], field) << a.text;
   }
+}
+
+// The answer's text is written without a JSON tree (server/codec/
+// split_bevel_codec.h): every number must read back to the engine's double
+// exactly, in degrees where the API says so, and a non-finite one as null.
+TEST(SplitBevelResultJsonText, EveryNumberReadsBackToTheEnginesDouble) {
+  nlohmann::json body = WorkedExample();
+  body["cut"]["from"] = "heel";
+  body["setup"] = {{"apex_mm", {10.5, -3.25, 700}}};
+  SplitBevelRequest request;
+  ApiError error;
+  ASSERT_TRUE(ParseSplitBevelRequest(body, &request, &error)) << error.message;
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  ASSERT_TRUE(result.ok) << result.message;
+  const nlohmann::json answer =
+      nlohmann::json::parse(SplitBevelResultJsonText(result));
+  ASSERT_EQ(answer["passes"].size(), result.passes.size());
+  EXPECT_EQ(answer["derived"]["base_radius_mm"].get<double>(),
+            result.derived.base_radius_mm);
+  EXPECT_EQ(answer["setup"]["blank_to_machine"][3].get<double>(), 10.5);
+  EXPECT_EQ(answer["setup"]["blank_to_machine"][11].get<double>(), 700.0);
+  const auto vec = [](const nlohmann::json& v) {
+    return Eigen::Vector3d(
+        v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  };
+  for (size_t i = 0; i < result.passes.size(); ++i) {
+    const SplitBevelPass& pass = result.passes[i];
+    const nlohmann::json& a = answer["passes"][i];
+    EXPECT_EQ(a["flank"], SplitBevelFlankName(pass.flank));
+    EXPECT_EQ(a["level"], pass.level);
+    EXPECT_EQ(a["slot"], pass.slot);
+    EXPECT_EQ(a["tip_height_mm"].get<double>(), pass.tip_height_mm);
+    EXPECT_EQ(a["side_deviation_mm"]["min"].get<double>(),
+              pass.side_deviation_mm.min_mm);
+    EXPECT_EQ(a["side_deviation_mm"]["max"].get<double>(),
+              pass.side_deviation_mm.max_mm);
+    ASSERT_EQ(a["points"].size(), pass.points.size());
+    for (size_t j = 0; j < pass.points.size(); ++j) {
+      const SplitBevelPoint& p = pass.points[j];
+      const nlohmann::json& q = a["points"][j];
+      EXPECT_EQ(q.size(), 13u);
+      EXPECT_EQ(q["arc_mm"].get<double>(), p.arc_mm);
+      EXPECT_EQ(q["cone_distance_mm"].get<double>(), p.cone_distance_mm);
+      EXPECT_EQ(q["spiral_angle_deg"].get<double>(),
+                RadToDeg(p.spiral_angle_rad));
+      EXPECT_EQ(vec(q["pitch_point_mm"]), p.pitch_point_mm);
+      EXPECT_EQ(vec(q["flank_point_mm"]), p.flank_point_mm);
+      EXPECT_EQ(vec(q["flank_normal"]), p.flank_normal);
+      EXPECT_EQ(vec(q["tool_centre_mm"]), p.tool_centre_mm);
+      EXPECT_EQ(vec(q["tool_axis"]), p.tool_axis);
+      EXPECT_EQ(q["X_mm"].get<double>(), p.axes.x_mm);
+      EXPECT_EQ(q["Y_mm"].get<double>(), p.axes.y_mm);
+      EXPECT_EQ(q["Z_mm"].get<double>(), p.axes.z_mm);
+      EXPECT_EQ(q["A_deg"].get<double>(), RadToDeg(p.axes.a_rad));
+      EXPECT_EQ(q["B_deg"].get<double>(), RadToDeg(p.axes.b_rad));
+      EXPECT_TRUE(q["A_deg"].is_number_float());
+    }
+  }
+  SplitBevelResult odd = result;
+  odd.passes.resize(1);
+  odd.passes[0].points.resize(1);
+  odd.passes[0].points[0].axes.x_mm = std::nan("");
+  odd.passes[0].points[0].axes.y_mm = 35.0;
+  const nlohmann::json text =
+      nlohmann::json::parse(SplitBevelResultJsonText(odd));
+  EXPECT_TRUE(text["passes"][0]["points"][0]["X_mm"].is_null());
+  EXPECT_TRUE(text["passes"][0]["points"][0]["Y_mm"].is_number_float());
 }
 
 }  // namespace
