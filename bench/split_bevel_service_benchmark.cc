@@ -7,6 +7,7 @@
 // trajectory").
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -41,9 +42,11 @@ std::string RequestBody(bool nc) {
 
 // The whole handler: parse, validate, engine (always with the listing: the job
 // keeps it), answer dumped once, job written to a ":memory:" history.
-void ServiceBenchmark(benchmark::State& state, bool nc) {
+void ServiceBenchmark(benchmark::State& state,
+                      bool nc,
+                      const std::string& database = ":memory:") {
   std::unique_ptr<gearloop::JobRepository> repository =
-      gearloop::OpenJobRepository(":memory:");
+      gearloop::OpenJobRepository(database);
   gearloop::ServiceContext context;
   context.repository = repository.get();
   context.server_version = "bench";
@@ -72,6 +75,19 @@ void BM_SplitTrajectoryService2000x10x2WithNc(benchmark::State& state) {
   ServiceBenchmark(state, /*nc=*/true);
 }
 BENCHMARK(BM_SplitTrajectoryService2000x10x2WithNc)
+    ->Unit(benchmark::kMillisecond);
+
+// The same with the history in a SQLite file (WAL, synchronous=NORMAL), as the
+// server keeps it: each job writes its 26.6 MB to the file.
+void BM_SplitTrajectoryService2000x10x2FileDb(benchmark::State& state) {
+  const std::string path = "/tmp/split_bevel_service_benchmark.sqlite";
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+  ServiceBenchmark(state, /*nc=*/false, path);
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+}
+BENCHMARK(BM_SplitTrajectoryService2000x10x2FileDb)
     ->Unit(benchmark::kMillisecond);
 
 // Parts of the handler: the codec and the engine (with the listing), then the
