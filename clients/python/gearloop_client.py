@@ -486,6 +486,44 @@ class Client:
                               centre_distance_mm=centre_distance_mm, grid=grid,
                               wheel_check=wheel_check)
         return self._request("POST", "/api/v1/shaving/cutter-target", body)
+    # --- split bevel wheels on a head-head 5-axis machine (docs/split-bevel.md) ---------------
+
+    def split_trajectory(self, gear: Json, tool: Json, cut: Optional[Json] = None,
+                         machine: Optional[Json] = None, setup: Optional[Json] = None,
+                         nc: Optional[bool] = None) -> Json:
+        """POST /api/v1/bevel/split-trajectory: the 5-axis flank-milling trajectory of one slot of a
+        split equal-base-circle bevel wheel, stored as a job (needs a write token when the server
+        has tokens).
+
+        Args:
+            gear: {"teeth", "pitch_angle_deg", "outer_cone_distance_mm" or
+                "outer_transverse_module_mm", "face_width_mm", "mean_spiral_angle_deg" or
+                "outer_spiral_angle_deg", "hand", "pressure_angle_deg", optional "addendum_mm",
+                "dedendum_mm", "slot_width_mm"} (mm, degrees).
+            tool: {"radius_mm", optional "stock_mm"}: the end mill.
+            cut: {"slot_index", "flanks", "depth_levels", "steps" or "chord_tolerance_mm", "from",
+                "feed_mm_per_min"} (server defaults when absent).
+            machine: {"pivot_length_mm", "a_limits_deg", "b_limits_deg"}.
+            setup: {"apex_mm", "segment_mid_deg", "segment_angle_deg"}.
+            nc: True to have the answer carry "nc_program" (the stored job always keeps it).
+
+        Returns:
+            {"derived", "setup", "passes": [{"slot", "flank", "level", "tip_height_mm",
+            "side_deviation_mm": {"min", "max"}, "points": [{"arc_mm", ..., "X_mm", "Y_mm", "Z_mm",
+            "A_deg", "B_deg"}]}], "job_id", "location", "nc_location", "nc_program" (with nc)}.
+
+        Raises:
+            GearloopApiError: 422 naming the field for every refusal of SPLIT_BEVEL.md section 8.
+        """
+        body = _with_optional({"gear": gear, "tool": tool}, cut=cut, machine=machine, setup=setup)
+        if nc is not None:
+            body["output"] = {"nc": nc}
+        return self._request("POST", "/api/v1/bevel/split-trajectory", body)
+
+    def split_trajectory_nc(self, job_id: int) -> str:
+        """GET /api/v1/bevel/split-trajectory/{id}/nc: the stored job's NC program as text."""
+        return self._request("GET", f"/api/v1/bevel/split-trajectory/{int(job_id)}/nc", expect_json=False)
+
 
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------
 

@@ -24,6 +24,7 @@
 #include "server/services/service_context.h"
 #include "server/services/shaving_service.h"
 #include "server/services/simulation_service.h"
+#include "server/services/split_bevel_service.h"
 #include "storage/job_repository.h"
 
 // Last: <httplib.h> pulls in <resolv.h>, whose `_res` macro breaks Eigen's
@@ -203,6 +204,18 @@ const ApiRoute kApiRoutes[] = {
      Access::kRead,
      ShavingCutterTarget,
      nullptr},
+    {"POST",
+     "/api/v1/bevel/split-trajectory",
+     "POST /api/v1/bevel/split-trajectory",
+     Access::kWrite,
+     nullptr,
+     CreateSplitTrajectory},
+    {"GET",
+     R"(/api/v1/bevel/split-trajectory/(\d+)/nc)",
+     "GET /api/v1/bevel/split-trajectory/{id}/nc",
+     Access::kRead,
+     nullptr,
+     GetSplitTrajectoryNc},
 };
 
 }  // namespace

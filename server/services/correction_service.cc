@@ -14,6 +14,7 @@
 #include "server/codec/shaving_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
+#include "server/codec/machine_kind.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
@@ -321,6 +322,17 @@ void ReplayCorrection(const ServiceContext& context,
   std::optional<JobRecord> parent;
   if (ParseId(req.matches[1], &id)) parent = context.repository->ReadJob(id);
   if (!parent) return RespondError(res, NoStoredJob(req.matches[1].str()));
+  if (parent->machine_kind == kHeadHead5AxisMillKind) {
+    // A trajectory, not a correction: nothing was measured to solve again.
+    return RespondError(
+        res,
+        InvalidValue("",
+                     "job " + std::to_string(id) +
+                         " is a split-bevel trajectory, not a correction; post "
+                         "its request (GET /api/v1/corrections/" +
+                         std::to_string(id) +
+                         ") to /api/v1/bevel/split-trajectory again"));
+  }
   nlohmann::json changes = nlohmann::json::object();
   ApiError error;
   if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))

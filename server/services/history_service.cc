@@ -76,11 +76,12 @@ bool ReadGearFilter(const httplib::Request& req,
   if (req.has_param("flank")) {
     const std::string flank = req.get_param_value("flank");
     if (flank != "left" && flank != "right" && flank != "convex" &&
-        flank != "concave") {
+        flank != "concave" && flank != "both") {
       *error =
           InvalidValue("query.flank",
-                       "query.flank must be \"left\" or \"right\" (a gear) or "
-                       "\"convex\" or \"concave\" (a bevel pinion)");
+                       "query.flank must be \"left\" or \"right\" (a gear), "
+                       "\"convex\" or \"concave\" (a bevel flank) or \"both\" "
+                       "(a split-bevel trajectory of both flanks)");
       return false;
     }
     filter->flank = flank;

@@ -240,6 +240,55 @@ class CliTest(unittest.TestCase):
         self.assert_server_refused("at corrections", "bevel-closed-loop", "--corrections", "50")
         self.assert_server_refused("at hidden_errors.Q_mm", "bevel-closed-loop", "--error", "Q_mm=0.01", "--corrections", "1")
 
+    def test_split_trajectory_flags_file_nc_and_show(self) -> None:
+        wheel = ["--teeth", "75", "--pitch-angle-deg", "70", "--module-mm", "40", "--face-width-mm", "240",
+                 "--spiral-angle-deg", "35", "--hand", "right", "--pressure-angle-deg", "20",
+                 "--tool-radius-mm", "8", "--stock-mm", "0.2"]
+        nc_path = self.dir / "slot3.nc"
+        done = self.run_cli("split-trajectory", *wheel, "--slot", "3", "--levels", "4", "--steps", "5",
+                            "--pivot-mm", "300", "--nc", str(nc_path))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [line.split() for line in done.stdout.splitlines() if line.split()[:1] and line.split()[0].isdigit()]
+        self.assertEqual([(r[1], r[2], r[3]) for r in rows],
+                         [(f, str(j), "5") for f in ("convex", "concave") for j in range(4)])
+        # pass flank level stations A_lo .. A_hi B_lo .. B_hi max_dev mm
+        self.assertEqual((rows[0][4], rows[0][6]), ("15.529", "17.388"))
+        self.assertEqual((rows[0][7], rows[0][9]), ("5.297", "11.244"))
+        self.assertAlmostEqual(float(rows[0][10]), 0.2, places=4)
+        nc = nc_path.read_text()
+        self.assertTrue(nc.startswith("%\n(GEARLOOP SPLIT-BEVEL 1)\n"))
+        self.assertIn("G01 X1336.2082 Y-43.8387 Z-168.4312 A17.3882 B11.2437 F200.0\n", nc)
+        self.assertTrue(nc.endswith("M30\n%\n"))
+        job_id = done.stdout.split()[1]
+        shown = self.run_cli("show", job_id)
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("split_trajectory", shown.stdout)
+        self.assertRegex(shown.stdout, r"(?m)^\s+8\s+concave\s+3\s+5\s")
+        listed = self.run_cli("list", "--kind", "split_trajectory")
+        self.assertRegex(listed.stdout, rf"(?m)^{job_id}\s+\S+\s+split_trajectory\s+computed\s+75z mn30.303\s+both")
+        # A request file; the options set members over it.
+        request = {"gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+                            "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+                            "pressure_angle_deg": 20},
+                   "tool": {"radius_mm": 8}, "cut": {"flanks": ["concave"], "depth_levels": 3, "steps": 7}}
+        path = self.dir / "split.json"
+        path.write_text(json.dumps(request))
+        done = self.run_cli("--json", "split-trajectory", str(path), "--levels", "2")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        answer = json.loads(done.stdout)
+        self.assertEqual([(p["flank"], p["level"], len(p["points"])) for p in answer["passes"]],
+                         [("concave", 0, 7), ("concave", 1, 7)])
+        self.assertNotIn("nc_program", answer)
+
+    def test_split_trajectory_refusals(self) -> None:
+        self.assert_server_refused("tool.radius_mm", "split-trajectory", "--teeth", "75", "--pitch-angle-deg", "70",
+                                   "--module-mm", "40", "--face-width-mm", "240", "--spiral-angle-deg", "35",
+                                   "--hand", "right", "--pressure-angle-deg", "20", "--tool-radius-mm", "20")
+        self.assert_server_refused("gear.pitch_angle_deg", "split-trajectory", "--teeth", "75")
+        done = self.run_cli("split-trajectory", "--steps", "many")
+        self.assertEqual(done.returncode, 1, done.stderr)
+        self.assertIn("--steps takes an integer", done.stderr)
+
     def test_replay_with_changed_option(self) -> None:
         job = self.submit()
         done = self.run_cli("--json", "replay", str(job["id"]), "--set", "solver=lsq-plain")

@@ -205,6 +205,18 @@ class OpenApiTest : public ::testing::Test {
         << " does not match its schema:" << text;
   }
 
+  // A small split-bevel trajectory (docs/split-bevel.md's wheel, 5 stations).
+  static nlohmann::json SplitTrajectoryRequest() {
+    return nlohmann::json::parse(R"({
+      "gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+               "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+               "pressure_angle_deg": 20},
+      "tool": {"radius_mm": 8, "stock_mm": 0.2},
+      "cut": {"slot_index": 3, "depth_levels": 2, "steps": 5},
+      "machine": {"pivot_length_mm": 300},
+      "output": {"nc": true}})");
+  }
+
   nlohmann::json Measurement() {
     nlohmann::json request = DefaultSetup();
     request["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
@@ -283,6 +295,8 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/measurements/import",
       "GET /api/v1/corrections/{id}/export",
       "POST /api/v1/shaving/cutter-target",
+      "POST /api/v1/bevel/split-trajectory",
+      "GET /api/v1/bevel/split-trajectory/{id}/nc",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -320,6 +334,13 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   ASSERT_TRUE(batch && batch->status == 202);
   const std::string batch_id =
       std::to_string(ParseBody(batch)["id"].get<int64_t>());
+  const std::string split = SplitTrajectoryRequest().dump();
+  nlohmann::json split_impossible = SplitTrajectoryRequest();
+  split_impossible["tool"]["radius_mm"] = 40;
+  auto split_job = Call("POST", "/api/v1/bevel/split-trajectory", split, "w");
+  ASSERT_TRUE(split_job && split_job->status == 200);
+  const std::string split_id =
+      std::to_string(ParseBody(split_job)["job_id"].get<int64_t>());
 
   nlohmann::json closed_loop = DefaultSetup();
   closed_loop["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
@@ -409,6 +430,13 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         shaving.dump(),
         shaving_impossible.dump(),
         "{\"work_gear\": 1}"}},
+      {"POST /api/v1/bevel/split-trajectory",
+       {"/api/v1/bevel/split-trajectory",
+        split,
+        split_impossible.dump(),
+        "{\"gear\": 1}"}},
+      {"GET /api/v1/bevel/split-trajectory/{id}/nc",
+       {"/api/v1/bevel/split-trajectory/" + split_id + "/nc", "", "", ""}},
   };
 
   // A measuring-machine file (issue 15): the sample gear and its .mka file.
@@ -594,6 +622,31 @@ TEST_F(OpenApiTest, MeasurementFileAnswersMatchTheirSchemas) {
 // grinder and bevel, stored or not, answers ClosedLoopResponse or
 // BevelClosedLoopResponse part by part, and each stored round is a job whose
 // result matches CorrectionResult or BevelCorrectionResult.
+TEST_F(OpenApiTest, SplitTrajectoryJobMatchesTheJobSchemas) {
+  const nlohmann::json answer = Expect("split trajectory",
+                                       "POST",
+                                       "/api/v1/bevel/split-trajectory",
+                                       SplitTrajectoryRequest().dump(),
+                                       "w",
+                                       200,
+                                       "POST /api/v1/bevel/split-trajectory");
+  ASSERT_TRUE(answer.contains("location"));
+  Expect("stored split trajectory",
+         "GET",
+         answer["location"].get<std::string>(),
+         "",
+         "r",
+         200,
+         "GET /api/v1/corrections/{id}");
+  Expect("history with a split trajectory",
+         "GET",
+         "/api/v1/corrections?kind=split_trajectory&flank=both",
+         "",
+         "r",
+         200,
+         "GET /api/v1/corrections");
+}
+
 TEST_F(OpenApiTest, GrinderAndBevelAnswersMatchTheirSchemas) {
   const nlohmann::json bevel_machine = {{"kind", "free-form-bevel-generator"}};
   const nlohmann::json bevel_job = {{"side", "concave"}, {"published", true}};

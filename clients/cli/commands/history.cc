@@ -150,7 +150,7 @@ int RunList(const ParsedArgs& args,
   }
   const json jobs = answer.body.value("jobs", json::array());
   std::cout << std::left << std::setw(6) << "id" << std::setw(26)
-            << "created (UTC)" << std::setw(12) << "kind" << std::setw(15)
+            << "created (UTC)" << std::setw(17) << "kind" << std::setw(15)
             << "status" << std::setw(14) << "gear" << std::setw(7) << "flank"
             << std::right << std::setw(10) << "rms um" << std::setw(8)
             << "parent"
@@ -159,6 +159,11 @@ int RunList(const ParsedArgs& args,
     std::string gear = "-";
     if (job.value("machine_kind", "") == "free-form-bevel-generator") {
       gear = "bevel pinion";  // a pinion flank carries no tooth count or module
+    } else if (job.value("machine_kind", "") == "head-head-5-axis-mill" &&
+               job.contains("gear") && job["gear"].is_object()) {
+      // A split bevel wheel: its (constant) normal module, rounded.
+      gear = Member(job["gear"], "teeth") + "z mn" +
+             Fixed(job["gear"].value("normal_module_mm", json()), 3);
     } else if (job.contains("gear") && job["gear"].is_object()) {
       gear = Member(job["gear"], "teeth") + "z m" +
              Member(job["gear"], "normal_module_mm");
@@ -171,7 +176,7 @@ int RunList(const ParsedArgs& args,
       parent = "<" + Text(job["settings_source_job_id"]);
     }
     std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(26)
-              << Member(job, "created_utc") << std::setw(12)
+              << Member(job, "created_utc") << std::setw(17)
               << Member(job, "kind") << std::setw(15) << Member(job, "status")
               << std::setw(14) << gear << std::setw(7) << Member(job, "flank")
               << std::right << std::setw(10)
@@ -225,6 +230,14 @@ int RunShow(const ParsedArgs& args,
   }
   std::cout << "created " << Member(job, "created_utc") << ", server "
             << Member(job, "server_version") << "\n";
+  if (job.value("kind", std::string()) == "split_trajectory") {
+    std::cout << "job " << Member(job, "id")
+              << " (split_trajectory), NC program at /api/v1/bevel/"
+                 "split-trajectory/"
+              << Member(job, "id") << "/nc\n";
+    PrintSplitTrajectory(job.value("result", json::object()));
+    return kExitOk;
+  }
   const bool bevel = PrintJobSetup(job.value("request", json::object()));
   const json measured = MeasuredGrid(job);
   if (!measured.is_null()) PrintGrid("measured", measured);

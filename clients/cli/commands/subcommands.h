@@ -11,6 +11,8 @@
 #ifndef GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 #define GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 
+#include <nlohmann/json.hpp>
+
 #include "clients/cli/api_client.h"
 #include "clients/cli/command_util.h"
 #include "clients/cli/commands.h"
@@ -74,6 +76,16 @@ extern const CommandSpec kBevelClosedLoop;
 int RunBevelClosedLoop(const ParsedArgs& args,
                        ApiClient* client,
                        const GlobalOptions& global);
+
+// commands/split_bevel.cc: split bevel wheels milled on a head-head 5-axis
+// machine.
+extern const CommandSpec kSplitTrajectory;
+int RunSplitTrajectory(const ParsedArgs& args,
+                       ApiClient* client,
+                       const GlobalOptions& global);
+// The derived data and the per-pass table of a split-trajectory result (the
+// POST answer or a stored job's "result"); `gearloop show` uses it too.
+void PrintSplitTrajectory(const nlohmann::json& result);
 
 // commands/grinder.cc: the grinder model without a correction.
 extern const CommandSpec kNominal;
