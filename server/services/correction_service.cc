@@ -10,11 +10,11 @@
 #include "engine/core/axis_motion.h"
 #include "server/codec/correction_codec.h"
 #include "server/codec/job_codec.h"
+#include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
 #include "server/codec/shaving_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
-#include "server/codec/machine_kind.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
