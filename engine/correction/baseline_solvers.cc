@@ -105,10 +105,10 @@ Eigen::VectorXd SolvePlainLeastSquares(const CorrectionProblem& problem) {
 // The global-best swarm (Kennedy and Eberhart 1995 with the inertia weight of
 // Shi and Eberhart 1998), the published size, generations and coefficients:
 // v <- w v + c1 r1 (p - x) + c2 r2 (g - x), r1 and r2 drawn per particle and
-// coordinate, v clamped to +-0.2 of the box width, x clipped
-// to the box with the velocity of a clipped coordinate zeroed. Particle 0
-// starts at no change, the others uniformly in the box, all at rest. The
-// global best is updated after each particle (asynchronously).
+// coordinate, v clamped to +-0.2 of the box width, x clipped to the box with
+// the velocity of a clipped coordinate zeroed. Particle 0 starts at no change,
+// the others uniformly in the box, all at rest. The global best is updated
+// after each particle (asynchronously).
 Eigen::VectorXd SolveParticleSwarm(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    SwarmTrace* trace) {
