@@ -93,11 +93,23 @@
 //  the exact model.
 //
 // Solver "pso" (the published method, Jiang 2015 / MODEL.md §6, kept for
-// comparison): particle swarm over the free coefficients, each within +-0.02 of
-// the current value (mm, rad, and for the cone angle the published degrees), 40
-// particles, 200 generations, inertia 0.7, c1 = c2 = 1.5, a fixed seed; the
-// stock-limited objective sum_i w_i f_i^2 with delta = t - m and f_i = S_i
-// dzeta - delta_i where S_i dzeta < 0, f_i = -delta_i elsewhere.
+// comparison, run as a competent reader of the paper runs it;
+// baseline_solvers.h): the global-best particle swarm over the same free
+// coefficients as the default (max_order; the paper's published case is
+// default_max_order = 0 with {"C", 6}, its two-axis variant default_max_order
+// = -1 with {"Z", 6}, {"C", 6} and the wheel parabola named with 0), each
+// within +-pso_box (0.02) of the current value in its own unit (mm for X, Y, Z
+// and d_w, rad for A, B, C and the cone angle, 1/mm for a_w) and the bounds.
+// It searches the model linearised at the commanded parameters, with the point
+// weights and delta = t - m: the next part minimises sum_i w_i (S_i dzeta -
+// delta_i)^2; rework minimises the paper's one-sided sum_i w_i f_i^2, f_i = S_i
+// dzeta - delta_i where S_i dzeta < 0 (the wheel reaches point i), f_i =
+// -delta_i elsewhere. 40 particles x 200 generations, inertia 0.7, c1 = c2 =
+// 1.5, random factors per particle and coordinate, velocity clamped to +-0.2 x
+// the box width, positions clipped to the box (that coordinate's velocity
+// zeroed), uniform random start plus one particle at no change, at rest;
+// seeded by pso_seed. No machine-state estimate, outlier test or safe step;
+// the reported residual is the exact model's at the answer.
 //
 // Solver "lsq-plain" (for comparison): the minimum-norm unregularised
 // least-squares solution in the raw parameter units, dzeta = pinv(W^1/2 S)
@@ -269,13 +281,15 @@ struct CorrectionOptions {
   // At most this fraction of the usable points may be dropped as outliers.
   double max_outlier_fraction = 0.2;
 
-  // Particle swarm (solver "pso"), as published.
+  // Particle swarm (solver "pso"), as published (see the file comment).
   int pso_particles = 40;
   int pso_generations = 200;
   double pso_inertia = 0.7;
   double pso_cognitive = 1.5;  // c1
   double pso_social = 1.5;     // c2
-  double pso_box = 0.02;       // half width of the search box, published units
+  // Half width of the search box, in each coefficient's own unit (mm, rad,
+  // 1/mm).
+  double pso_box = 0.02;
   unsigned long long pso_seed = 2015;
 
   bool IsValid(std::string* error) const;
