@@ -578,6 +578,8 @@ int main(int argc, char** argv) {
   const char* json = nullptr;
   bool verbose = false, bound_wheel = false, no_state = false;
   std::vector<std::string> fixed_blocks;
+  double min_flank_effect = -1.0;
+  int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
@@ -601,6 +603,10 @@ int main(int argc, char** argv) {
       fixed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-state") == 0) {
       no_state = true;
+    } else if (std::strcmp(argv[i], "--min-flank-effect") == 0 && has_value) {
+      min_flank_effect = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--iterations") == 0 && has_value) {
+      iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -631,6 +637,9 @@ int main(int argc, char** argv) {
   for (Config& c : configs) {
     for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
     if (no_state) c.options.estimate_machine_state = false;
+    if (min_flank_effect >= 0.0)
+      c.options.min_flank_effect_um = min_flank_effect;
+    if (iterations >= 0) c.options.max_num_iterations = iterations;
   }
 
   // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone
