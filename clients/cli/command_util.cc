@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <utility>
 
 #include "clients/cli/csv_grid.h"
 #include "clients/cli/grid_files.h"
@@ -188,6 +189,58 @@ int InputError(const std::string& message) {
 
 // --- Corrections
 // ---------------------------------------------------------------------------------
+
+const char* const kTraceOptionsHelp =
+    "  --part-number P          trace: the part number (stored, filterable)\n"
+    "  --serial S               trace: the serial number\n"
+    "  --teeth 1,10,19          trace: the measured tooth numbers\n"
+    "  --measured-at TIME       trace: ISO-8601 time of the measurement\n"
+    "  --machine-id M           trace: the machine the part was made on\n"
+    "  --file-name F            trace: the measuring file (default: its "
+    "name)\n";
+
+int ApplyTraceOptions(const std::string& command,
+                      const ParsedArgs& args,
+                      const std::string& machine_file_path,
+                      json* request) {
+  json trace = request->contains("trace") && (*request)["trace"].is_object()
+                   ? (*request)["trace"]
+                   : json::object();
+  const std::pair<const char*, const char*> texts[] = {
+      {"--part-number", "part_number"},
+      {"--serial", "serial"},
+      {"--measured-at", "measured_at"},
+      {"--machine-id", "machine_id"},
+      {"--file-name", "file_name"}};
+  for (const auto& [option, key] : texts) {
+    if (args.Has(option)) trace[key] = args.Value(option);
+  }
+  if (!machine_file_path.empty() && !trace.contains("file_name")) {
+    const size_t slash = machine_file_path.find_last_of('/');
+    trace["file_name"] = slash == std::string::npos
+                             ? machine_file_path
+                             : machine_file_path.substr(slash + 1);
+  }
+  if (args.Has("--teeth")) {
+    json teeth = json::array();
+    std::stringstream list(args.Value("--teeth"));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      long long tooth = 0;
+      if (!ParseCount(item, 1, 100000, &tooth)) {
+        std::cerr << "gearloop " << command
+                  << ": --teeth takes tooth numbers >= 1 separated by commas, "
+                     "got '"
+                  << args.Value("--teeth") << "'\n";
+        return kExitUsage;
+      }
+      teeth.push_back(tooth);
+    }
+    trace["teeth"] = teeth;
+  }
+  if (!trace.empty()) (*request)["trace"] = trace;
+  return -1;
+}
 
 void PrintCorrectionSummary(const json& answer) {
   const json& result =

@@ -488,6 +488,9 @@ class GearloopServer::Impl {
     context_.enqueue_batch_items = [this](std::vector<PendingBatchItem> items) {
       batches_->Enqueue(std::move(items));
     };
+    context_.token_name = [this](const std::string& header) {
+      return TokenName(tokens_, header);
+    };
     context_.max_batch_items = options_.max_batch_items;
     context_.max_queued_batch_items = options_.max_queued_batch_items;
   }

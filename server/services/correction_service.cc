@@ -12,6 +12,7 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/measurement_codec.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
 
@@ -194,6 +195,13 @@ ApiError NoStoredJob(const std::string& id_text) {
 
 }  // namespace
 
+std::string SubmitterOf(const ServiceContext& context,
+                        const httplib::Request& req) {
+  return context.token_name
+             ? context.token_name(req.get_header_value("Authorization"))
+             : std::string();
+}
+
 nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                         const Eigen::VectorXd& delta,
                                         const CorrectionSummary& summary) {
@@ -266,6 +274,7 @@ bool RunCorrection(const ServiceContext& context,
       !ResolveMeasurementFile(body, &resolved, &file_report, error))
     return false;
   const nlohmann::json& parsed = file_report.is_null() ? body : resolved;
+  if (!ParseJobTrace(body, &run->job, error)) return false;
   CorrectionProblem problem;
   CorrectionRequest request;
   // The stored request is the body as sent (a file stays a file); a shaving
@@ -310,6 +319,7 @@ void CreateCorrection(const ServiceContext& context,
       !RunCorrection(context, body, &run, &error)) {
     return RespondError(res, error);
   }
+  run.job.submitted_by = SubmitterOf(context, req);
   StoreAndRespond(
       context, "correction", Dump(run.request), std::nullopt, &run, res);
 }
@@ -353,6 +363,7 @@ void ReplayCorrection(const ServiceContext& context,
   CorrectionRun run;
   if (!RunCorrection(context, request, &run, &error))
     return RespondError(res, error);
+  run.job.submitted_by = SubmitterOf(context, req);
   StoreAndRespond(context, "replay", Dump(run.request), id, &run, res);
 }
 
@@ -368,6 +379,8 @@ void RunBatchItem(const ServiceContext& context, const PendingBatchItem& item) {
       job.created_utc = CurrentUtcIso8601();
       job.request_json = Dump(run.request);
       job.server_version = context.server_version;
+      job.batch_id = item.batch_id;
+      job.submitted_by = item.submitted_by;
       context.repository->CompleteBatchItem(item.batch_id, item.index, job);
       return;
     }

@@ -83,6 +83,11 @@ nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                         const Eigen::VectorXd& delta,
                                         const CorrectionSummary& summary);
 
+// The name of the token that sent `req` ("" for none): the submitter stored
+// with its jobs.
+std::string SubmitterOf(const ServiceContext& context,
+                        const httplib::Request& req);
+
 // POST /api/v1/corrections: 201 with the stored job and its result.
 void CreateCorrection(const ServiceContext& context,
                       const httplib::Request& req,

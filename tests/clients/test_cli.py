@@ -429,6 +429,35 @@ class CliTest(unittest.TestCase):
         self.assert_server_refused("404 not_found", "export", "987654", "--format", "gde")
         self.assertEqual(self.run_cli("correct", setup).returncode, 1)   # no --measurement-file
 
+    def test_trace_stored_shown_and_filtered(self) -> None:
+        setup = str(self.sample_setup())
+        serial = "S-%d" % os.getpid()
+        done = self.run_cli("--json", "correct", setup, "--measurement-file", str(SAMPLES / "sample_topography.mka"),
+                            "--part-number", "4711-A", "--serial", serial, "--teeth", "1,10,19",
+                            "--measured-at", "2026-11-22T07:45:00Z", "--machine-id", "RZ260-2")
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        job = json.loads(done.stdout)
+        self.assertEqual(job["trace"], {"part_number": "4711-A", "serial": serial, "teeth": [1, 10, 19],
+                                        "measured_at": "2026-11-22T07:45:00Z",
+                                        "file_name": "sample_topography.mka", "machine_id": "RZ260-2"})
+        shown = self.run_cli("show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("part 4711-A, serial " + serial + ", teeth 1 10 19, measured 2026-11-22T07:45:00Z, "
+                      "file sample_topography.mka, machine RZ260-2", shown.stdout)
+        listed = self.run_cli("list", "--serial", serial, "--tooth", "10")
+        self.assertEqual(listed.returncode, 0, listed.stderr)
+        self.assertIn("4711-A/" + serial, listed.stdout)
+        self.assertIn("1 of 1 jobs", listed.stdout)
+        none = self.run_cli("list", "--serial", serial, "--tooth", "2")
+        self.assertIn("0 of 0 jobs", none.stdout)
+        self.assert_server_refused("query.tooth", "list", "--tooth", "0")
+        self.assert_server_refused("trace.measured_at", "submit", str(EXAMPLES / "request.json"),
+                                   str(EXAMPLES / "measurement.csv"), "--measured-at", "tuesday")
+        bad = self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv"),
+                           "--teeth", "1,x")
+        self.assertEqual(bad.returncode, 1)
+        self.assertIn("--teeth", bad.stderr)
+
 class CliTokenTest(unittest.TestCase):
     def test_token_is_sent_and_refusals_are_api_errors(self) -> None:
         with tempfile.TemporaryDirectory(prefix="gearloop-tokens-") as folder:

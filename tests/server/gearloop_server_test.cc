@@ -14,6 +14,8 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "engine/core/units.h"
@@ -891,12 +893,13 @@ TEST_F(GearloopServerTest, KeepsJobsAcrossARestart) {
 
 nlohmann::json WaitForBatch(httplib::Client& client,
                             const std::string& location,
-                            double timeout_s) {
+                            double timeout_s,
+                            const httplib::Headers& headers = {}) {
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::duration<double>(timeout_s);
   nlohmann::json batch;
   while (std::chrono::steady_clock::now() < deadline) {
-    batch = Send(client, "GET", location).body;
+    batch = Send(client, "GET", location, "", headers).body;
     if (batch.value("status", "") == "finished") return batch;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
@@ -1140,6 +1143,125 @@ TEST_F(GearloopServerTest, ChecksBearerTokensAndRoles) {
   EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections").status, 401);
   // Liveness and metrics stay open for the monitoring.
   EXPECT_EQ(Send(*client_, "GET", "/healthz").status, 200);
+}
+
+TEST_F(GearloopServerTest, StoresTheTraceOfAJobAndFiltersTheHistoryByIt) {
+  TempPath token_file("gearloop_tokens");
+  {
+    std::ofstream out(token_file.path());
+    out << "write " << Sha256Hex("cell-secret") << " cmm-cell-3\n";
+    out << "write " << Sha256Hex("planner-secret") << " planner\n";
+  }
+  nlohmann::json traced = CorrectionRequest();
+  const nlohmann::json plain = traced;
+  traced["trace"] = {{"part_number", "4711-A"},
+                     {"serial", "S0042"},
+                     {"teeth", {1, 10, 19}},
+                     {"measured_at", "2026-11-22T07:45:00+01:00"},
+                     {"file_name", "4711-A_S0042.mka"},
+                     {"machine_id", "RZ260-2"}};
+  ServerOptions options;
+  options.token_file = token_file.path();
+  StartServer(options);
+  const httplib::Headers cell = {{"Authorization", "Bearer cell-secret"}};
+  const httplib::Headers planner = {{"Authorization", "Bearer planner-secret"}};
+  const Answer created =
+      Send(*client_, "POST", "/api/v1/corrections", traced.dump(), cell);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  nlohmann::json expected = traced["trace"];
+  expected["submitted_by"] = "cmm-cell-3";
+  EXPECT_EQ(created.body["trace"], expected);
+  const int64_t id = created.body["id"];
+  const Answer job = Send(
+      *client_, "GET", "/api/v1/corrections/" + std::to_string(id), "", cell);
+  EXPECT_EQ(job.body["trace"], expected);
+  const Answer other =
+      Send(*client_, "POST", "/api/v1/corrections", plain.dump(), planner);
+  ASSERT_EQ(other.status, 201);
+  EXPECT_EQ(other.body["trace"], nlohmann::json({{"submitted_by", "planner"}}));
+  // A replay keeps the part's trace and names who replayed it.
+  const Answer replay =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" + std::to_string(id) + "/replay",
+           "{}",
+           planner);
+  ASSERT_EQ(replay.status, 201);
+  EXPECT_EQ(replay.body["trace"]["serial"], "S0042");
+  EXPECT_EQ(replay.body["trace"]["submitted_by"], "planner");
+
+  const Answer accepted = Send(*client_,
+                               "POST",
+                               "/api/v1/batches",
+                               nlohmann::json({{"items", {traced}}}).dump(),
+                               cell);
+  ASSERT_EQ(accepted.status, 202);
+  const int64_t batch_id = accepted.body["id"];
+  const nlohmann::json batch =
+      WaitForBatch(*client_, accepted.location, 120.0, cell);
+  ASSERT_EQ(batch["status"], "finished") << batch.dump().substr(0, 400);
+  EXPECT_EQ(batch["submitted_by"], "cmm-cell-3");
+
+  const auto total = [&](const std::string& query) {
+    const Answer page =
+        Send(*client_, "GET", "/api/v1/corrections?" + query, "", cell);
+    EXPECT_EQ(page.status, 200) << query << ": " << page.body.dump();
+    return page.body.value("total", -1);
+  };
+  EXPECT_EQ(total(""), 4);
+  EXPECT_EQ(total("part_number=4711-A"), 3);
+  EXPECT_EQ(total("serial=S0042&tooth=10"), 3);
+  EXPECT_EQ(total("tooth=2"), 0);
+  EXPECT_EQ(total("machine_id=RZ260-2&submitted_by=planner"), 1);
+  EXPECT_EQ(total("submitted_by=planner"), 2);
+  EXPECT_EQ(total("file_name=4711-A_S0042.mka"), 3);
+  EXPECT_EQ(total("batch_id=" + std::to_string(batch_id)), 1);
+  const Answer in_batch =
+      Send(*client_,
+           "GET",
+           "/api/v1/corrections?batch_id=" + std::to_string(batch_id),
+           "",
+           cell);
+  EXPECT_EQ(in_batch.body["jobs"][0]["trace"]["batch_id"], batch_id);
+  EXPECT_EQ(in_batch.body["jobs"][0]["kind"], "batch_item");
+
+  for (const auto& [query, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"tooth=0", "query.tooth"},
+           {"tooth=x", "query.tooth"},
+           {"batch_id=-1", "query.batch_id"},
+           {"part_number=", "query.part_number"},
+           {"serial=" + std::string(201, 's'), "query.serial"}}) {
+    const Answer bad =
+        Send(*client_, "GET", "/api/v1/corrections?" + query, "", cell);
+    EXPECT_TRUE(bad.status == 400 || bad.status == 422) << query;
+    EXPECT_EQ(bad.body["error"]["field"], field) << query;
+  }
+}
+
+TEST_F(GearloopServerTest, RefusesABadTraceNamingItsField) {
+  const nlohmann::json good = CorrectionRequest();
+  const std::vector<std::tuple<nlohmann::json, int, std::string>> cases = {
+      {"S1", 400, "trace"},
+      {{{"serial", 42}}, 400, "trace.serial"},
+      {{{"serial", ""}}, 422, "trace.serial"},
+      {{{"part_number", "a\nb"}}, 422, "trace.part_number"},
+      {{{"measured_at", "yesterday"}}, 422, "trace.measured_at"},
+      {{{"measured_at", "2026-13-01T00:00Z"}}, 422, "trace.measured_at"},
+      {{{"teeth", 3}}, 400, "trace.teeth"},
+      {{{"teeth", {1, 1.5}}}, 400, "trace.teeth[1]"},
+      {{{"teeth", {4, 0}}}, 422, "trace.teeth[1]"},
+      {{{"teeth", {4, 4}}}, 422, "trace.teeth[1]"},
+      {{{"operator", "Max"}}, 400, "trace.operator"},
+  };
+  for (const auto& [trace, status, field] : cases) {
+    nlohmann::json request = good;
+    request["trace"] = trace;
+    const Answer answer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(answer.status, status) << trace.dump();
+    EXPECT_EQ(answer.body["error"]["field"], field) << trace.dump();
+  }
+  EXPECT_EQ(StoredJobs(), 0);
 }
 
 TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {

@@ -309,6 +309,12 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   nlohmann::json correction = DefaultSetup();
   correction["measurement"] = Measurement();
   correction["options"] = {{"probe_noise_um", 0.2}};
+  correction["trace"] = {{"part_number", "4711-A"},
+                         {"serial", "S1"},
+                         {"teeth", {3}},
+                         {"measured_at", "2026-11-22T07:45:00Z"},
+                         {"file_name", "S1.mka"},
+                         {"machine_id", "RZ260-2"}};
   auto created = Call("POST", "/api/v1/corrections", correction.dump(), "w");
   ASSERT_TRUE(created && created->status == 201);
   const std::string job_id =
@@ -369,7 +375,10 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         impossible_correction.dump(),
         "{\"gear\": 1}"}},
       {"GET /api/v1/corrections",
-       {"/api/v1/corrections", "", "?limit=0", "?limit=x"}},
+       {"/api/v1/corrections",
+        "?part_number=4711-A&tooth=3",
+        "?limit=0",
+        "?tooth=x"}},
       {"GET /api/v1/corrections/{id}",
        {"/api/v1/corrections/" + job_id, "", "", ""}},
       {"GET /api/v1/corrections/{id}/lineage",
