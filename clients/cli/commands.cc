@@ -109,6 +109,9 @@ const std::vector<Command>& Commands() {
       {&kShavingTarget,
        RunShavingTarget,
        "compute the plunge-shaving cutter target of a modified work gear"},
+      {&kSettings,
+       RunSettings,
+       "print a job's corrected settings for the machine (table, csv, nc)"},
   };
   return commands;
 }

@@ -22,6 +22,7 @@
 #include "server/services/history_service.h"
 #include "server/services/measurement_service.h"
 #include "server/services/service_context.h"
+#include "server/services/settings_service.h"
 #include "server/services/shaving_service.h"
 #include "server/services/simulation_service.h"
 #include "storage/job_repository.h"
@@ -197,6 +198,12 @@ const ApiRoute kApiRoutes[] = {
      Access::kRead,
      nullptr,
      ExportCorrection},
+    {"GET",
+     R"(/api/v1/corrections/(\d+)/settings)",
+     "GET /api/v1/corrections/{id}/settings",
+     Access::kRead,
+     nullptr,
+     GetCorrectionSettings},
     {"POST",
      "/api/v1/shaving/cutter-target",
      "POST /api/v1/shaving/cutter-target",

@@ -68,7 +68,7 @@ class CliTest(unittest.TestCase):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
                         "nominal", "evaluate", "bevel-convert", "bevel-closed-loop", "import", "correct",
-                        "export"):
+                        "export", "settings"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -428,6 +428,40 @@ class CliTest(unittest.TestCase):
         self.assertEqual(self.run_cli("export", str(job["id"])).returncode, 1)
         self.assert_server_refused("404 not_found", "export", "987654", "--format", "gde")
         self.assertEqual(self.run_cli("correct", setup).returncode, 1)   # no --measurement-file
+
+    def test_settings_listing_as_table_csv_and_nc(self) -> None:
+        job = self.submit()
+        table = self.run_cli("settings", str(job["id"]))
+        self.assertEqual(table.returncode, 0, table.stderr)
+        self.assertIn("gearloop settings listing 1, job %d" % job["id"], table.stdout)
+        self.assertIn("axis motion over the roll range", table.stdout)
+        out = self.dir / "settings.csv"
+        done = self.run_cli("settings", str(job["id"]), "--format", "csv", "--samples", "5", "-o", str(out))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        lines = out.read_text().strip().split("\n")
+        self.assertEqual(lines[0], "record,block,power,roll_rad,unit,absolute,change,change_unit")
+        records = [line.split(",") for line in lines[1:]]
+        settings, delta = job["result"]["settings"]["axes"], job["result"]["delta"]["axes"]
+        for record, axis, power, _, unit, absolute, change, _ in records:
+            if record == "coefficient" and axis in ("X", "Y", "Z"):
+                self.assertAlmostEqual(float(absolute), settings[axis][int(power)], delta=1e-9)
+                self.assertAlmostEqual(float(change), delta[axis][int(power)], delta=1e-9)
+        motion = [r for r in records if r[0] == "motion"]
+        self.assertEqual(len(motion), 6 * 5)
+        # The ends of the roll range are sampled as the result states its motion.
+        z = [r for r in motion if r[1] == "Z"]
+        axis_motion = job["result"]["axis_motion"]
+        self.assertAlmostEqual(float(z[0][3]), axis_motion["roll_rad"][0], delta=1e-9)
+        self.assertAlmostEqual(float(z[0][6]), axis_motion["axes"]["Z"]["change_um"][0], delta=1e-6)
+        self.assertAlmostEqual(float(z[-1][6]), axis_motion["axes"]["Z"]["change_um"][-1], delta=1e-6)
+        nc = self.run_cli("settings", str(job["id"]), "--format", "nc")
+        self.assertEqual(nc.returncode, 0, nc.stderr)
+        x0 = [line for line in nc.stdout.splitlines() if line.startswith("X_A0 = ")]
+        self.assertEqual(len(x0), 1)
+        self.assertAlmostEqual(float(x0[0].split()[2]), settings["X"][0], delta=1e-9)
+        self.assertEqual(self.run_cli("settings", str(job["id"]), "--format", "xml").returncode, 1)
+        self.assertEqual(self.run_cli("settings", str(job["id"]), "--samples", "1").returncode, 1)
+        self.assert_server_refused("404 not_found", "settings", "987654")
 
     def test_trace_stored_shown_and_filtered(self) -> None:
         setup = str(self.sample_setup())

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -1262,6 +1263,105 @@ TEST_F(GearloopServerTest, RefusesABadTraceNamingItsField) {
     EXPECT_EQ(answer.body["error"]["field"], field) << trace.dump();
   }
   EXPECT_EQ(StoredJobs(), 0);
+}
+
+// Splits CSV text (no quoting) into rows of fields.
+std::vector<std::vector<std::string>> ParseCsv(const std::string& text) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::vector<std::string> fields;
+    std::istringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) fields.push_back(cell);
+    if (!line.empty() && line.back() == ',') fields.push_back("");
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+// The CSV listing parsed back gives the result's corrected settings, its delta
+// and its axis motion (computed by the solve, not by the listing).
+TEST_F(GearloopServerTest, ListsTheCorrectedSettingsForTheMachine) {
+  const Answer created =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  const std::string path = created.location + "/settings";
+  httplib::Result csv = client_->Get((path + "?format=csv").c_str());
+  ASSERT_TRUE(csv);
+  ASSERT_EQ(csv->status, 200) << csv->body;
+  EXPECT_EQ(csv->get_header_value("Content-Type"), "text/csv; charset=utf-8");
+  const auto rows = ParseCsv(csv->body);
+  ASSERT_FALSE(rows.empty());
+  EXPECT_EQ(rows[0],
+            (std::vector<std::string>{"record",
+                                      "block",
+                                      "power",
+                                      "roll_rad",
+                                      "unit",
+                                      "absolute",
+                                      "change",
+                                      "change_unit"}));
+  std::map<std::string, int> coefficients_of, samples_of;
+  for (size_t r = 1; r < rows.size(); ++r) {
+    const std::vector<std::string>& row = rows[r];
+    ASSERT_EQ(row.size(), 8u) << r;
+    const std::string& axis = row[1];
+    const double absolute = std::stod(row[5]);
+    const double change = std::stod(row[6]);
+    const bool linear = axis == "X" || axis == "Y" || axis == "Z";
+    if (row[0] == "coefficient") {
+      const int k = std::stoi(row[2]);
+      EXPECT_EQ(k, coefficients_of[axis]++) << axis;
+      if (!linear) continue;
+      EXPECT_EQ(row[4],
+                k == 0 ? std::string("mm")
+                       : "mm/rad" + (k == 1 ? std::string()
+                                            : "^" + std::to_string(k)));
+      EXPECT_NEAR(absolute,
+                  result["settings"]["axes"][axis][k].get<double>(),
+                  1e-9 * (1.0 + std::abs(absolute)))
+          << axis << k;
+      EXPECT_NEAR(change, result["delta"]["axes"][axis][k].get<double>(), 1e-9)
+          << axis << k;
+    } else {
+      ASSERT_EQ(row[0], "motion") << r;
+      const int i = samples_of[axis]++;
+      const std::string unit = linear ? "um" : "urad";
+      EXPECT_EQ(row[7], unit);
+      EXPECT_NEAR(std::stod(row[3]),
+                  result["axis_motion"]["roll_rad"][i].get<double>(),
+                  1e-9);
+      EXPECT_NEAR(change,
+                  result["axis_motion"]["axes"][axis]["change_" + unit][i]
+                      .get<double>(),
+                  1e-6)
+          << axis << " at roll " << i;
+    }
+  }
+  for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
+    EXPECT_EQ(coefficients_of[axis], 7) << axis;
+    EXPECT_EQ(samples_of[axis], 9) << axis;
+  }
+  EXPECT_EQ(coefficients_of["cone_angle"], 1);
+
+  httplib::Result nc = client_->Get((path + "?format=nc").c_str());
+  ASSERT_TRUE(nc && nc->status == 200);
+  const std::string x0 = nc->body.substr(nc->body.find("\nX_A0 = ") + 8);
+  EXPECT_NEAR(
+      std::stod(x0), result["settings"]["axes"]["X"][0].get<double>(), 1e-9);
+  httplib::Result table = client_->Get(path.c_str());
+  ASSERT_TRUE(table && table->status == 200);
+  EXPECT_NE(table->body.find("axis motion over the roll range"),
+            std::string::npos);
+
+  Answer bad = Send(*client_, "GET", path + "?format=xml");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "query.format");
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections/987654/settings").status,
+            404);
 }
 
 TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {

@@ -283,6 +283,7 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/measurements/import",
       "GET /api/v1/corrections/{id}/export",
       "POST /api/v1/shaving/cutter-target",
+      "GET /api/v1/corrections/{id}/settings",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -446,6 +447,12 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
                  "",
                  "x",
                  "&format=xml"}});
+
+  calls.insert({"GET /api/v1/corrections/{id}/settings",
+                {"/api/v1/corrections/" + job_id + "/settings?format=csv",
+                 "",
+                 "&samples=1",
+                 "&samples=x"}});
 
   for (const Operation& op : api_.operations) {
     const std::string key = op.method + " " + op.path;

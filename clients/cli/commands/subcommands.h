@@ -104,6 +104,12 @@ int RunShavingTarget(const ParsedArgs& args,
                      ApiClient* client,
                      const GlobalOptions& global);
 
+// commands/settings.cc: the machine-ready settings listing of a job.
+extern const CommandSpec kSettings;
+int RunSettings(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global);
+
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;
 int RunHealth(const ParsedArgs& args,
