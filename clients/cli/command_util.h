@@ -95,6 +95,10 @@ int InputError(const std::string& message);
 // motion.
 void PrintCorrectionSummary(const nlohmann::json& answer);
 
+// "FAIL/PASS": the verdicts of the measured and the predicted part of a
+// result with a tolerance; "-" without one.
+std::string VerdictCell(const nlohmann::json& result);
+
 // Builds a correction request from the files (an empty `measurement_path`
 // leaves the measurement to the caller); returns -1 when done, or an exit
 // code.

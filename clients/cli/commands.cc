@@ -155,8 +155,11 @@ std::string MainHelp() {
          "field)\n"
          "  4  a local file could not be read or is invalid (the message names "
          "line and column)\n"
-         "  5  done, but a correction did not converge or batch items "
-         "failed\n\n"
+         "  5  done, but a correction did not converge, its predicted part "
+         "misses the\n"
+         "     job's tolerance (target_partly_reachable), a closed loop "
+         "diverged or batch\n"
+         "     items failed\n\n"
          "files: CSV grids and JSON measurement files are described in "
          "clients/FORMATS.md.\n";
   return out.str();

@@ -379,6 +379,22 @@
     return rows;
   }
 
+  // The tolerance and the PASS/FAIL of the measured and the predicted part (a job with a tolerance).
+  function verdictRows(verdict) {
+    if (!verdict) return [];
+    const t = verdict.tolerance || {};
+    const limits = [];
+    if (t.rms_um !== undefined) limits.push("rms " + fmt(t.rms_um, 2) + " \u00b5m");
+    if (t.max_um !== undefined) limits.push("max " + fmt(t.max_um, 2) + " \u00b5m");
+    if (t.iso_class !== undefined) limits.push("ISO 1328-1 class " + t.iso_class);
+    const part = (v) => (v ? v.verdict + (v.failed && v.failed.length ? " (misses " + v.failed.join(", ") + ")" : "") : "\u2013");
+    return [
+      ["tolerance", limits.join(", ")],
+      ["verdict measured", part(verdict.measured)],
+      ["verdict predicted", part(verdict.predicted)],
+    ];
+  }
+
   function summaryTable(job) {
     const r = job.result || {};
     const req = job.request || {};
@@ -410,6 +426,7 @@
     if (setupRows) rows.splice(2, 2, ...setupRows);
     if (job.parent_job_id) rows.push(["replay of job", String(job.parent_job_id)]);
     if (job.settings_source_job_id) rows.push(["ground with settings of job", String(job.settings_source_job_id)]);
+    rows.push(...verdictRows(r.verdict));
     rows.push(...traceRows(job.trace));
     const table = html("table", { class: "summary" });
     for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));

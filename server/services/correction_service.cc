@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -12,6 +13,7 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/measurement_codec.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/tolerance_codec.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
@@ -193,6 +195,53 @@ ApiError NoStoredJob(const std::string& id_text) {
   return ApiError{404, "not_found", "no stored correction job " + id_text, ""};
 }
 
+// The overall ISO 1328-1 class of result.iso1328.<which> (null when none).
+nlohmann::json OverallIsoClass(const nlohmann::json& result,
+                               const char* which) {
+  return result.value("iso1328", nlohmann::json::object())
+      .value(which, nlohmann::json::object())
+      .value("classes", nlohmann::json::object())
+      .value("overall", nlohmann::json());
+}
+
+// result.verdict of a job with a tolerance: the measured part (against the
+// target) and the predicted next part. A solve that converged but whose
+// predicted part misses the tolerance is "target_partly_reachable", never
+// "converged": the machine configuration cannot make the rest of the target
+// (best_reachable_rms_um says how much of it stays).
+void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
+  const CorrectionSummary& s = run->result.summary;
+  nlohmann::json& result = run->result_json;
+  const nlohmann::json measured =
+      PartVerdictJson(tolerance,
+                      {s.initial_rms_um,
+                       s.initial_max_um,
+                       OverallIsoClass(result, "target_relative")});
+  const nlohmann::json predicted =
+      PartVerdictJson(tolerance,
+                      {s.residual_rms_um,
+                       s.residual_max_um,
+                       OverallIsoClass(result, "predicted")});
+  result["verdict"] = {{"tolerance", ToleranceToJson(tolerance)},
+                       {"measured", measured},
+                       {"predicted", predicted}};
+  if (predicted["verdict"] == "PASS" ||
+      s.status != CorrectionStatus::kConverged)
+    return;
+  char best[64];
+  std::snprintf(best, sizeof(best), "%.2f", s.best_reachable_rms_um);
+  result["status"] = "target_partly_reachable";
+  result["message"] =
+      "the predicted part misses the tolerance (" +
+      MissedLimitsText(tolerance, predicted) +
+      "): the solve converged, but this machine configuration reaches at "
+      "best " +
+      best +
+      " um rms of the target at the allowed orders; allow higher orders "
+      "or more axes (options.max_order), or relax the tolerance";
+  run->job.status = "target_partly_reachable";
+}
+
 }  // namespace
 
 std::string SubmitterOf(const ServiceContext& context,
@@ -274,7 +323,10 @@ bool RunCorrection(const ServiceContext& context,
       !ResolveMeasurementFile(body, &resolved, &file_report, error))
     return false;
   const nlohmann::json& parsed = file_report.is_null() ? body : resolved;
-  if (!ParseJobTrace(body, &run->job, error)) return false;
+  std::optional<Tolerance> tolerance;
+  if (!ParseJobTrace(body, &run->job, error) ||
+      !ParseTolerance(body, &tolerance, error))
+    return false;
   CorrectionProblem problem;
   CorrectionRequest request;
   // The stored request is the body as sent (a file stays a file); a shaving
@@ -282,6 +334,13 @@ bool RunCorrection(const ServiceContext& context,
   run->request = body;
   if (!ParseCorrection(parsed, &problem, &request, &run->request, error))
     return false;
+  if (tolerance && tolerance->iso_class && !problem.flank_quality_json) {
+    *error = InvalidValue("tolerance.iso_class",
+                          "ISO 1328-1 classes are computed for an involute "
+                          "gear's flank (flat-wheel grinder) only; give "
+                          "rms_um or max_um");
+    return false;
+  }
   if (request.settings_source_job_id &&
       !context.repository->JobExists(*request.settings_source_job_id)) {
     *error = InvalidValue(
@@ -302,6 +361,10 @@ bool RunCorrection(const ServiceContext& context,
                                 run->result.predicted_residual_um,
                                 length.get<double>());
     }
+    run->job.result_json = run->result_json.dump();
+  }
+  if (tolerance) {
+    ApplyTolerance(*tolerance, run);
     run->job.result_json = run->result_json.dump();
   }
   if (context.record_solve_seconds)

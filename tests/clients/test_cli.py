@@ -463,6 +463,32 @@ class CliTest(unittest.TestCase):
         self.assertEqual(self.run_cli("settings", str(job["id"]), "--samples", "1").returncode, 1)
         self.assert_server_refused("404 not_found", "settings", "987654")
 
+    def test_tolerance_verdict_and_exit_code(self) -> None:
+        request = json.loads((EXAMPLES / "request.json").read_text())
+        request["tolerance"] = {"rms_um": 0.01, "max_um": 0.02}
+        tight = self.dir / "tight.json"
+        tight.write_text(json.dumps(request))
+        done = self.run_cli("submit", str(tight), str(EXAMPLES / "measurement.csv"))
+        self.assertEqual(done.returncode, 5, done.stderr)
+        self.assertIn("tolerance            rms 0.01 um, max 0.02 um", done.stdout)
+        self.assertIn("verdict predicted    FAIL  (misses rms_um, max_um)", done.stdout)
+        as_json = json.loads(self.run_cli("--json", "submit", str(tight), str(EXAMPLES / "measurement.csv")).stdout)
+        self.assertIn(as_json["status"], ("target_partly_reachable", "not_converged"))
+        request["tolerance"] = {"rms_um": 900}
+        loose = self.dir / "loose.json"
+        loose.write_text(json.dumps(request))
+        done = self.run_cli("submit", str(loose), str(EXAMPLES / "measurement.csv"))
+        self.assertEqual(done.returncode, 0, done.stdout)
+        self.assertIn("verdict measured     PASS", done.stdout)
+        self.assertIn("verdict predicted    PASS", done.stdout)
+        folder = self.dir / "tolerance-batch"
+        folder.mkdir()
+        shutil.copy(EXAMPLES / "measurement.csv", folder / "part1.csv")
+        batch = self.run_cli("batch", str(tight), str(folder))
+        self.assertEqual(batch.returncode, 5, batch.stderr)
+        self.assertIn("verdict (measured/predicted)", batch.stdout)
+        self.assertIn("/FAIL", batch.stdout)
+
     def test_trace_stored_shown_and_filtered(self) -> None:
         setup = str(self.sample_setup())
         serial = "S-%d" % os.getpid()

@@ -1364,6 +1364,95 @@ TEST_F(GearloopServerTest, ListsTheCorrectedSettingsForTheMachine) {
             404);
 }
 
+// A 10 um lead crowning from a perfect flank on the example gear: the fixed
+// wheel cannot make all of it. With a tight tolerance the job says so instead
+// of "converged"; with a loose one it converges and passes.
+TEST_F(GearloopServerTest,
+       JudgesPartsAgainstTheToleranceAndNamesWhatIsOutOfReach) {
+  nlohmann::json request = DefaultSetup();
+  request["measurement"] = {{"deviations_um", nlohmann::json::array()}};
+  for (int r = 0; r < 5; ++r)
+    request["measurement"]["deviations_um"].push_back(
+        std::vector<double>(9, 0.0));
+  request["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+  request["tolerance"] = {{"rms_um", 1.0}, {"max_um", 3.0}};
+  const Answer tight = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(tight.status, 201) << tight.body.dump();
+  const nlohmann::json& result = tight.body["result"];
+  const double residual = result["residual_rms_um"];
+  const double best = result["best_reachable_rms_um"];
+  ASSERT_GT(residual, 1.0) << "the scenario needs an unreachable target";
+  EXPECT_EQ(tight.body["status"], "target_partly_reachable");
+  EXPECT_EQ(result["status"], "target_partly_reachable");
+  EXPECT_NE(result["message"].get<std::string>().find("rms "),
+            std::string::npos);
+  EXPECT_NE(result["message"].get<std::string>().find("at best"),
+            std::string::npos);
+  EXPECT_GE(residual, best - 1e-9);
+  const nlohmann::json& verdict = result["verdict"];
+  EXPECT_EQ(verdict["tolerance"], request["tolerance"]);
+  EXPECT_EQ(verdict["predicted"]["verdict"], "FAIL");
+  EXPECT_DOUBLE_EQ(verdict["predicted"]["rms_um"].get<double>(), residual);
+  EXPECT_EQ(verdict["measured"]["verdict"], "FAIL");
+  EXPECT_NEAR(verdict["measured"]["max_um"].get<double>(), 10.0, 1e-6);
+  EXPECT_EQ(
+      Send(
+          *client_, "GET", "/api/v1/corrections?status=target_partly_reachable")
+          .body["total"],
+      1);
+
+  // Loose enough for what the machine makes: converged, the next part passes.
+  request["tolerance"] = {{"rms_um", residual + 0.5}};
+  const Answer loose = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(loose.status, 201);
+  EXPECT_EQ(loose.body["status"], "converged");
+  EXPECT_EQ(loose.body["result"]["verdict"]["predicted"]["verdict"], "PASS");
+  EXPECT_EQ(loose.body["result"]["verdict"]["predicted"]["failed"],
+            nlohmann::json::array());
+  // The ISO class of the predicted part decides as well.
+  const int predicted_class =
+      loose.body["result"]["iso1328"]["predicted"]["classes"]["overall"];
+  request["tolerance"] = {{"iso_class", predicted_class}};
+  EXPECT_EQ(Post(*client_, "/api/v1/corrections", request)
+                .body["result"]["verdict"]["predicted"]["verdict"],
+            "PASS");
+  if (predicted_class > 1) {
+    request["tolerance"] = {{"iso_class", predicted_class - 1}};
+    const Answer finer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(finer.body["result"]["verdict"]["predicted"]["failed"],
+              nlohmann::json::array({"iso_class"}));
+    EXPECT_EQ(finer.body["status"], "target_partly_reachable");
+  }
+  // A job without a tolerance has no verdict and keeps the solver's status.
+  request.erase("tolerance");
+  const Answer plain = Post(*client_, "/api/v1/corrections", request);
+  EXPECT_FALSE(plain.body["result"].contains("verdict"));
+  EXPECT_EQ(plain.body["status"], "converged");
+}
+
+TEST_F(GearloopServerTest, RefusesABadToleranceNamingItsField) {
+  const nlohmann::json good = CorrectionRequest();
+  const std::vector<std::tuple<nlohmann::json, int, std::string>> cases = {
+      {1.0, 400, "tolerance"},
+      {nlohmann::json::object(), 400, "tolerance"},
+      {{{"rms_um", "1"}}, 400, "tolerance.rms_um"},
+      {{{"rms_um", 0}}, 422, "tolerance.rms_um"},
+      {{{"max_um", -2}}, 422, "tolerance.max_um"},
+      {{{"iso_class", 12}}, 422, "tolerance.iso_class"},
+      {{{"iso_class", 5.5}}, 400, "tolerance.iso_class"},
+      {{{"pitch_um", 5}}, 400, "tolerance.pitch_um"},
+  };
+  for (const auto& [tolerance, status, field] : cases) {
+    nlohmann::json request = good;
+    request["tolerance"] = tolerance;
+    const Answer answer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(answer.status, status) << tolerance.dump();
+    EXPECT_EQ(answer.body["error"]["field"], field) << tolerance.dump();
+  }
+  EXPECT_EQ(StoredJobs(), 0);
+}
+
 TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {
   TempPath db;
   ServerOptions options;

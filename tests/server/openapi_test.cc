@@ -316,6 +316,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
                          {"measured_at", "2026-11-22T07:45:00Z"},
                          {"file_name", "S1.mka"},
                          {"machine_id", "RZ260-2"}};
+  correction["tolerance"] = {{"rms_um", 0.5}, {"iso_class", 6}};
   auto created = Call("POST", "/api/v1/corrections", correction.dump(), "w");
   ASSERT_TRUE(created && created->status == 201);
   const std::string job_id =

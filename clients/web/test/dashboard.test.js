@@ -228,6 +228,7 @@ async function main() {
       flank: "right",
       measurement: { file: { format: "mka", content: fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8") } },
       trace: { part_number: "4711-A", serial: "S0042", measured_at: "2026-11-22T07:45:00Z", file_name: "sample_topography.mka", machine_id: "RZ260-2" },
+      tolerance: { rms_um: 0.05, iso_class: 11 },
     });
     const showById = async (id) => {
       await page.evaluate((n) => {
@@ -242,6 +243,11 @@ async function main() {
     check(
       "the job's trace in its summary",
       traceShown["part number"] === "4711-A" && traceShown["serial"] === "S0042" && traceShown["measuring file"] === "sample_topography.mka" && traceShown["machine"] === "RZ260-2",
+      JSON.stringify(traceShown)
+    );
+    check(
+      "the tolerance and the verdicts in the summary",
+      traceShown["tolerance"] === "rms 0.05 \u00b5m, ISO 1328-1 class 11" && traceShown["verdict measured"] === "FAIL (misses rms_um)" && traceShown["verdict predicted"] === fromFile.result.verdict.predicted.verdict + (fromFile.result.verdict.predicted.failed.length ? " (misses " + fromFile.result.verdict.predicted.failed.join(", ") + ")" : ""),
       JSON.stringify(traceShown)
     );
     await page.screenshot({ path: path.join(outDir, "dashboard-iso1328.png"), fullPage: true });
