@@ -8,7 +8,9 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import unittest
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 from gearloop_client import read_csv_grid
@@ -517,6 +519,51 @@ class CliTest(unittest.TestCase):
                            "--teeth", "1,x")
         self.assertEqual(bad.returncode, 1)
         self.assertIn("--teeth", bad.stderr)
+
+class CannedLoopServer(BaseHTTPRequestHandler):
+    """Answers every closed-loop request with the loop in `answer` (a server whose solver made
+    the parts worse, which the real one cannot be made to do on demand)."""
+    answer: dict = {}
+
+    def do_POST(self) -> None:  # noqa: N802 (http.server's name)
+        self.rfile.read(int(self.headers.get("Content-Length", "0")))
+        body = json.dumps(self.answer).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+class CliClosedLoopExitTest(unittest.TestCase):
+    def run_loop(self, true_rms: list) -> subprocess.CompletedProcess:
+        CannedLoopServer.answer = {
+            "completed": True, "message": "", "hidden_errors": {},
+            "iterations": [{"part": i, "true_rms_um": v, "true_max_um": v, "measured_rms_um": v}
+                           for i, v in enumerate(true_rms)]}
+        server = ThreadingHTTPServer(("127.0.0.1", 0), CannedLoopServer)
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        try:
+            return subprocess.run([CLI, "--server", "http://127.0.0.1:%d" % server.server_address[1],
+                                   "closed-loop", str(EXAMPLES / "scenario.json")],
+                                  capture_output=True, text=True, timeout=60)
+        finally:
+            server.shutdown()
+            server.server_close()
+
+    def test_a_diverged_loop_exits_5_and_says_so(self) -> None:
+        diverged = self.run_loop([4.5, 90.0, 1700.0])
+        self.assertEqual(diverged.returncode, 5, diverged.stderr)
+        self.assertIn("the loop diverged: part 2 deviates 1700.000 um rms from the target, part 0 4.500 um",
+                      diverged.stderr)
+        improved = self.run_loop([4.5, 0.06, 0.07])
+        self.assertEqual(improved.returncode, 0, improved.stderr)
+        self.assertNotIn("diverged", improved.stderr)
+
 
 class CliTokenTest(unittest.TestCase):
     def test_token_is_sent_and_refusals_are_api_errors(self) -> None:
