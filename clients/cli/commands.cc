@@ -112,6 +112,12 @@ const std::vector<Command>& Commands() {
       {&kSettings,
        RunSettings,
        "print a job's corrected settings for the machine (table, csv, nc)"},
+      {&kLineage,
+       RunLineage,
+       "list the settings lineage of a job (ground with whose settings)"},
+      {&kBevelSensitivity,
+       RunBevelSensitivity,
+       "rank a bevel generator's axes by the flank error their errors cause"},
   };
   return commands;
 }

@@ -70,7 +70,7 @@ class CliTest(unittest.TestCase):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
                         "nominal", "evaluate", "bevel-convert", "bevel-closed-loop", "import", "correct",
-                        "export", "settings"):
+                        "export", "settings", "lineage", "bevel-sensitivity"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -85,7 +85,9 @@ class CliTest(unittest.TestCase):
         self.assertIn("server ok", done.stdout)
         dead = self.run_cli("--timeout", "5", "health", server=f"http://127.0.0.1:{free_port()}")
         self.assertEqual(dead.returncode, 2)
-        self.assertIn("cannot reach", dead.stderr)
+        self.assertIn("cannot reach http://127.0.0.1:", dead.stderr)
+        self.assertIn("Is the server running?", dead.stderr)
+        self.assertIn("--server URL or GEARLOOP_SERVER", dead.stderr)
 
     def test_submit_csv_and_json_measurements(self) -> None:
         residual_csv = self.dir / "residual.csv"
@@ -490,6 +492,35 @@ class CliTest(unittest.TestCase):
         self.assertEqual(batch.returncode, 5, batch.stderr)
         self.assertIn("verdict (measured/predicted)", batch.stdout)
         self.assertIn("/FAIL", batch.stdout)
+
+    def test_lineage_lists_the_settings_chain(self) -> None:
+        first = self.submit()
+        second = self.submit("--settings-from", str(first["id"]))
+        done = self.run_cli("lineage", str(second["id"]))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [line.split() for line in done.stdout.splitlines()[1:-1]]
+        self.assertEqual([r[0] for r in rows], [str(first["id"]), str(second["id"]) + "*"])
+        self.assertEqual(rows[1][5], str(first["id"]))   # "from": ground with the first job's settings
+        self.assertIn("2 jobs in the lineage of job %d" % second["id"], done.stdout)
+        as_json = json.loads(self.run_cli("--json", "lineage", str(first["id"])).stdout)
+        self.assertEqual([j["id"] for j in as_json["jobs"]], [first["id"], second["id"]])
+        self.assert_server_refused("404 not_found", "lineage", "987654")
+        self.assertEqual(self.run_cli("lineage", "x").returncode, 1)
+
+    def test_bevel_sensitivity_ranks_the_axes(self) -> None:
+        done = self.run_cli("bevel-sensitivity", "--side", "convex", "--top", "4")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        answer = json.loads(self.run_cli("--json", "bevel-sensitivity", "--side", "convex").stdout)
+        lines = done.stdout.splitlines()
+        offsets = lines[2:2 + len(answer["offset_ranking"])]
+        self.assertEqual([line.split()[1] for line in offsets], answer["offset_ranking"])
+        first = next(o for o in answer["offsets"] if o["axis"] == answer["offset_ranking"][0])
+        self.assertAlmostEqual(float(offsets[0].split()[4]), first["max_abs_um"], delta=0.001)
+        coefficients = lines[lines.index("") + 3:]
+        self.assertEqual([line.split()[1] for line in coefficients], answer["coefficient_ranking"][:4])
+        bad = self.run_cli("bevel-sensitivity", "--linear-error-mm", "-1")
+        self.assertEqual(bad.returncode, 3, bad.stderr)
+        self.assertIn("errors.linear_error_mm", bad.stderr)
 
     def test_trace_stored_shown_and_filtered(self) -> None:
         setup = str(self.sample_setup())

@@ -311,6 +311,60 @@ int RunShow(const ParsedArgs& args,
   return kExitOk;
 }
 
+const CommandSpec kLineage{
+    "lineage",
+    "usage: gearloop lineage ID\n\n"
+    "Lists the settings lineage of job ID (GET "
+    "/api/v1/corrections/ID/lineage): "
+    "the jobs whose\n"
+    "corrected settings the part was ground with, back to the first "
+    "measurement, then every job\n"
+    "ground with settings descending from ID; oldest first, ID marked *.\n\n"
+    "columns: rms um is the predicted residual; from N = ground with the "
+    "settings of job N.\n",
+    {},
+    {},
+    1,
+    1};
+
+int RunLineage(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global) {
+  long long id = 0;
+  if (!ParseJobId(args.positional[0], &id)) {
+    std::cerr << "gearloop lineage: '" << args.positional[0]
+              << "' is not a job id\n";
+    return kExitUsage;
+  }
+  const ApiResponse answer =
+      client->Get("/api/v1/corrections/" + std::to_string(id) + "/lineage");
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+    return kExitOk;
+  }
+  const json jobs = answer.body.value("jobs", json::array());
+  std::cout << std::left << std::setw(8) << "id" << std::setw(26)
+            << "created (UTC)" << std::setw(12) << "kind" << std::setw(25)
+            << "status" << std::right << std::setw(10) << "rms um"
+            << std::setw(8) << "from"
+            << "  part\n";
+  for (const json& job : jobs) {
+    const std::string mark =
+        job.value("id", json()) == json(id) ? std::string("*") : "";
+    std::cout << std::left << std::setw(8) << Member(job, "id") + mark
+              << std::setw(26) << Member(job, "created_utc") << std::setw(12)
+              << Member(job, "kind") << std::setw(25) << Member(job, "status")
+              << std::right << std::setw(10)
+              << Fixed(job.value("residual_rms_um", json())) << std::setw(8)
+              << Member(job, "settings_source_job_id") << "  " << PartCell(job)
+              << "\n";
+  }
+  std::cout << jobs.size() << " jobs in the lineage of job " << id << "\n";
+  return kExitOk;
+}
+
 const CommandSpec kReport{"report",
                           "usage: gearloop report ID [-o FILE]\n\n"
                           "Writes a self-contained printable HTML report of "

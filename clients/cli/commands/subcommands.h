@@ -104,6 +104,17 @@ int RunShavingTarget(const ParsedArgs& args,
                      ApiClient* client,
                      const GlobalOptions& global);
 
+// commands/history.cc: the settings lineage of a job.
+extern const CommandSpec kLineage;
+int RunLineage(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global);
+// commands/bevel.cc: the bevel generator's axes ranked by flank error.
+extern const CommandSpec kBevelSensitivity;
+int RunBevelSensitivity(const ParsedArgs& args,
+                        ApiClient* client,
+                        const GlobalOptions& global);
+
 // commands/settings.cc: the machine-ready settings listing of a job.
 extern const CommandSpec kSettings;
 int RunSettings(const ParsedArgs& args,
