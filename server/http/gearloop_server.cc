@@ -15,6 +15,7 @@
 #include "server/http/auth.h"
 #include "server/http/batch_runner.h"
 #include "server/http/metrics.h"
+#include "server/http/openapi_document.h"
 #include "server/respond.h"
 #include "server/services/bevel_service.h"
 #include "server/services/correction_service.h"
@@ -198,6 +199,12 @@ const ApiRoute kApiRoutes[] = {
      Access::kRead,
      nullptr,
      ExportCorrection},
+    {"GET",
+     "/api/v1/openapi.yaml",
+     "GET /api/v1/openapi.yaml",
+     Access::kOpen,
+     ServeOpenApiDocument,
+     nullptr},
     {"GET",
      R"(/api/v1/corrections/(\d+)/settings)",
      "GET /api/v1/corrections/{id}/settings",

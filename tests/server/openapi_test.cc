@@ -284,6 +284,7 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "GET /api/v1/corrections/{id}/export",
       "POST /api/v1/shaving/cutter-target",
       "GET /api/v1/corrections/{id}/settings",
+      "GET /api/v1/openapi.yaml",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -303,6 +304,20 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
     EXPECT_EQ(successes, 1)
         << op.method << " " << op.path << " documents one success status";
   }
+}
+
+// The document served is this file, byte for byte, and needs no token.
+TEST_F(OpenApiTest, ServesTheDocumentItWasBuiltWith) {
+  std::ifstream in(std::string(GEARLOOP_SOURCE_DIR) + "/api/openapi.yaml");
+  ASSERT_TRUE(in.good());
+  std::stringstream file;
+  file << in.rdbuf();
+  auto served = Call("GET", "/api/v1/openapi.yaml", "", "");
+  ASSERT_TRUE(served);
+  EXPECT_EQ(served->status, 200);
+  EXPECT_EQ(served->get_header_value("Content-Type"),
+            "application/yaml; charset=utf-8");
+  EXPECT_EQ(served->body, file.str());
 }
 
 TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
@@ -365,6 +380,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
+      {"GET /api/v1/openapi.yaml", {"/api/v1/openapi.yaml", "", "", ""}},
       {"POST /api/v1/nominal",
        {"/api/v1/nominal", setup, impossible.dump(), "{\"gear\": 1}"}},
       {"POST /api/v1/evaluate",
@@ -462,7 +478,8 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
     ASSERT_NE(it, calls.end()) << "no test call for " << key;
     const Call& call = it->second;
     const bool is_get = op.method == "GET";
-    const bool open = op.path == "/healthz" || op.path == "/metrics";
+    const bool open = op.path == "/healthz" || op.path == "/metrics" ||
+                      op.path == "/api/v1/openapi.yaml";
     const bool needs_write = op.statuses.count(403) > 0;
     const std::string token = needs_write ? "w" : "r";
     for (int status : op.statuses) {
