@@ -22,6 +22,7 @@
 #include "server/services/grinder_service.h"
 #include "server/services/history_service.h"
 #include "server/services/measurement_service.h"
+#include "server/services/reach_service.h"
 #include "server/services/service_context.h"
 #include "server/services/settings_service.h"
 #include "server/services/shaving_service.h"
@@ -199,6 +200,12 @@ const ApiRoute kApiRoutes[] = {
      Access::kRead,
      nullptr,
      ExportCorrection},
+    {"POST",
+     "/api/v1/targets/reach",
+     "POST /api/v1/targets/reach",
+     Access::kRead,
+     nullptr,
+     ReachTarget},
     {"GET",
      "/api/v1/openapi.yaml",
      "GET /api/v1/openapi.yaml",

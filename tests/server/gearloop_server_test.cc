@@ -1453,6 +1453,66 @@ TEST_F(GearloopServerTest, RefusesABadToleranceNamingItsField) {
   EXPECT_EQ(StoredJobs(), 0);
 }
 
+// The reach of a target before anything is ground: each modification's share
+// is what a correction from a perfect flank towards it can make (its best
+// reachable residual), and all together are judged the same way.
+TEST_F(GearloopServerTest, ReportsTheShareOfATargetTheMachineCanMake) {
+  nlohmann::json request = DefaultSetup();
+  const nlohmann::json lead = {{"kind", "lead_crowning"}, {"amount_um", 10}};
+  const nlohmann::json profile = {{"kind", "profile_crowning"},
+                                  {"amount_um", 5}};
+  request["target"] = {{"modifications", {lead, profile}}};
+  const Answer reach = Post(*client_, "/api/v1/targets/reach", request);
+  ASSERT_EQ(reach.status, 200) << reach.body.dump();
+  ASSERT_EQ(reach.body["components"].size(), 2u);
+  EXPECT_EQ(reach.body["components"][0]["modification"], lead);
+  EXPECT_EQ(reach.body["components"][1]["index"], 1);
+  nlohmann::json zero = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) zero.push_back(std::vector<double>(9, 0.0));
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    const nlohmann::json& c = reach.body["components"][i];
+    const double target = c["target_rms_um"];
+    const double left = c["unreachable_rms_um"];
+    const double share = c["reachable_share"];
+    EXPECT_GT(target, 0.0);
+    EXPECT_GE(share, 0.0);
+    EXPECT_LE(share, 1.0);
+    EXPECT_NEAR(share, 1.0 - (left * left) / (target * target), 1e-12);
+    // The same figures as a stored correction towards this modification alone.
+    nlohmann::json correction = DefaultSetup();
+    correction["measurement"] = {{"deviations_um", zero}};
+    correction["target"] = {{"modifications", {c["modification"]}}};
+    const Answer job = Post(*client_, "/api/v1/corrections", correction);
+    ASSERT_EQ(job.status, 201);
+    EXPECT_NEAR(left, job.body["result"]["best_reachable_rms_um"], 1e-9);
+    EXPECT_NEAR(target, job.body["result"]["initial_rms_um"], 1e-9);
+  }
+  EXPECT_EQ(StoredJobs(), 2);  // the reach itself stores nothing
+  const nlohmann::json& highest = reach.body["with_highest_orders"];
+  ASSERT_TRUE(highest.is_object());
+  EXPECT_EQ(highest["default_max_order"], 6);
+  EXPECT_GE(highest["rank"].get<int>(),
+            reach.body["combined"]["rank"].get<int>());
+
+  Answer bad = Post(*client_, "/api/v1/targets/reach", DefaultSetup());
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "target.modifications");
+  nlohmann::json measured = request;
+  measured["measurement"] = {{"deviations_um", zero}};
+  bad = Post(*client_, "/api/v1/targets/reach", measured);
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "measurement");
+  nlohmann::json wrong = request;
+  wrong["target"]["modifications"][1]["kind"] = "wobble";
+  bad = Post(*client_, "/api/v1/targets/reach", wrong);
+  EXPECT_EQ(bad.status / 100, 4);
+  EXPECT_EQ(bad.body["error"]["field"].get<std::string>().rfind(
+                "target.modifications[1]", 0),
+            0u)
+      << bad.body.dump();
+}
+
 TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {
   TempPath db;
   ServerOptions options;

@@ -285,6 +285,7 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/shaving/cutter-target",
       "GET /api/v1/corrections/{id}/settings",
       "GET /api/v1/openapi.yaml",
+      "POST /api/v1/targets/reach",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -465,6 +466,16 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
                  "x",
                  "&format=xml"}});
 
+  nlohmann::json reach = DefaultSetup();
+  reach["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+  nlohmann::json reach_impossible = reach;
+  reach_impossible["gear"]["teeth"] = 2;
+  calls.insert({"POST /api/v1/targets/reach",
+                {"/api/v1/targets/reach",
+                 reach.dump(),
+                 reach_impossible.dump(),
+                 "{\"gear\": 1}"}});
   calls.insert({"GET /api/v1/corrections/{id}/settings",
                 {"/api/v1/corrections/" + job_id + "/settings?format=csv",
                  "",
