@@ -70,7 +70,7 @@ class CliTest(unittest.TestCase):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
                         "nominal", "evaluate", "bevel-convert", "bevel-closed-loop", "import", "correct",
-                        "export", "settings", "lineage", "bevel-sensitivity"):
+                        "export", "settings", "lineage", "bevel-sensitivity", "reach"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -521,6 +521,18 @@ class CliTest(unittest.TestCase):
         bad = self.run_cli("bevel-sensitivity", "--linear-error-mm", "-1")
         self.assertEqual(bad.returncode, 3, bad.stderr)
         self.assertIn("errors.linear_error_mm", bad.stderr)
+
+    def test_reach_of_the_example_target(self) -> None:
+        done = self.run_cli("reach", str(EXAMPLES / "request.json"))
+        answer = json.loads(self.run_cli("--json", "reach", str(EXAMPLES / "request.json")).stdout)
+        share = answer["components"][0]["reachable_share"]
+        # The README's lead crowning on a fixed wheel: only part of it can be made.
+        self.assertEqual(done.returncode, 5 if share < 0.99 else 0, done.stderr)
+        row = next(line for line in done.stdout.splitlines() if line.startswith("lead_crowning 4 um"))
+        self.assertEqual(row.split()[-2], "%.1f" % (100 * share))
+        self.assertAlmostEqual(float(row.split()[3]), answer["components"][0]["target_rms_um"], delta=0.001)
+        self.assertIn("all together, every axis to order 6", done.stdout)
+        self.assert_server_refused("target.modifications", "reach", str(self.sample_setup()))
 
     def test_trace_stored_shown_and_filtered(self) -> None:
         setup = str(self.sample_setup())

@@ -115,6 +115,12 @@ int RunBevelSensitivity(const ParsedArgs& args,
                         ApiClient* client,
                         const GlobalOptions& global);
 
+// commands/reach.cc: the share of a target the machine can make.
+extern const CommandSpec kReach;
+int RunReach(const ParsedArgs& args,
+             ApiClient* client,
+             const GlobalOptions& global);
+
 // commands/settings.cc: the machine-ready settings listing of a job.
 extern const CommandSpec kSettings;
 int RunSettings(const ParsedArgs& args,
