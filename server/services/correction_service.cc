@@ -399,12 +399,13 @@ void ReplayCorrection(const ServiceContext& context,
   if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))
     return RespondError(res, error);
   for (const auto& item : changes.items()) {
-    if (item.key() != "options" && item.key() != "target") {
+    if (item.key() != "options" && item.key() != "target" &&
+        item.key() != "tolerance") {
       return RespondError(
           res,
-          InvalidRequest(
-              item.key(),
-              "a replay may change only \"options\" and \"target\""));
+          InvalidRequest(item.key(),
+                         "a replay may change only \"options\", \"target\" "
+                         "and \"tolerance\""));
     }
   }
   nlohmann::json request =
@@ -423,6 +424,14 @@ void ReplayCorrection(const ServiceContext& context,
     request["options"].merge_patch(changes["options"]);
   }
   if (changes.contains("target")) request["target"] = changes["target"];
+  // A new tolerance replaces the stored one; null removes it.
+  if (changes.contains("tolerance")) {
+    if (changes["tolerance"].is_null()) {
+      request.erase("tolerance");
+    } else {
+      request["tolerance"] = changes["tolerance"];
+    }
+  }
   CorrectionRun run;
   if (!RunCorrection(context, request, &run, &error))
     return RespondError(res, error);

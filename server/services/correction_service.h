@@ -93,8 +93,8 @@ void CreateCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res);
 // POST /api/v1/corrections/{id}/replay: the stored request with "options"
-// merged (RFC 7396) and "target" replaced, solved again and stored as a child
-// of job {id}.
+// merged (RFC 7396), "target" replaced and "tolerance" replaced (null removes
+// it), solved again and stored as a child of job {id}.
 void ReplayCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res);

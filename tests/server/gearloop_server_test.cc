@@ -1424,6 +1424,23 @@ TEST_F(GearloopServerTest,
               nlohmann::json::array({"iso_class"}));
     EXPECT_EQ(finer.body["status"], "target_partly_reachable");
   }
+  // A replay with a loose tolerance passes what the stored job failed.
+  const Answer replayed = Send(
+      *client_,
+      "POST",
+      "/api/v1/corrections/" + std::to_string(tight.body["id"].get<int>()) +
+          "/replay",
+      nlohmann::json({{"tolerance", {{"rms_um", residual + 0.5}}}}).dump());
+  ASSERT_EQ(replayed.status, 201) << replayed.body.dump();
+  EXPECT_EQ(replayed.body["status"], "converged");
+  EXPECT_EQ(replayed.body["result"]["verdict"]["predicted"]["verdict"], "PASS");
+  const Answer untoleranced =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" +
+               std::to_string(tight.body["id"].get<int>()) + "/replay",
+           R"({"tolerance": null})");
+  EXPECT_FALSE(untoleranced.body["result"].contains("verdict"));
   // A job without a tolerance has no verdict and keeps the solver's status.
   request.erase("tolerance");
   const Answer plain = Post(*client_, "/api/v1/corrections", request);
