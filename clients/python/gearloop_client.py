@@ -204,7 +204,9 @@ class Client:
                          **filters: Any) -> Json:
         """GET /api/v1/corrections: {"jobs": [...newest first], "total", "limit", "offset"}.
 
-        Filters (query parameters): kind, status, flank, teeth, module_mm, created_from, created_to.
+        Filters (query parameters): kind, status, flank, teeth, module_mm, created_from, created_to,
+        and the trace of a job: part_number, serial, tooth, machine_id, file_name, batch_id,
+        submitted_by.
         """
         query: Dict[str, Any] = {"limit": limit, "offset": offset}
         query.update(filters)
@@ -213,6 +215,18 @@ class Client:
     def get_correction(self, job_id: int) -> Json:
         """GET /api/v1/corrections/{id}: the job with its "request" and "result"."""
         return self._request("GET", f"/api/v1/corrections/{int(job_id)}")
+
+    def correction_settings(self, job_id: int, format: str = "csv", samples: Optional[int] = None) -> str:
+        """GET /api/v1/corrections/{id}/settings: the corrected settings as text for the machine
+        (docs/settings-listing.md): format "csv", "table" or "nc"; samples = roll angles the axis
+        motion is listed at (server default 9)."""
+        query: Dict[str, Any] = {"format": format, "samples": samples}
+        return self._request("GET", f"/api/v1/corrections/{int(job_id)}/settings", query=query,
+                             expect_json=False)
+
+    def openapi_document(self) -> str:
+        """GET /api/v1/openapi.yaml: the API contract the server was built with (YAML text)."""
+        return self._request("GET", "/api/v1/openapi.yaml", expect_json=False)
 
     def lineage(self, job_id: int) -> Json:
         """GET /api/v1/corrections/{id}/lineage: {"jobs": [...]} the chain of settings revisions."""

@@ -362,6 +362,39 @@
     return chart;
   }
 
+  // The traceability of a job (part, serial, teeth, measuring time and file, machine, batch,
+  // submitter): one row per given field.
+  function traceRows(trace) {
+    if (!trace) return [];
+    const labels = [
+      ["part_number", "part number"], ["serial", "serial"], ["teeth", "measured teeth"],
+      ["measured_at", "measured at"], ["file_name", "measuring file"], ["machine_id", "machine"],
+      ["batch_id", "batch"], ["submitted_by", "submitted by"],
+    ];
+    const rows = [];
+    for (const [key, label] of labels) {
+      if (trace[key] === undefined || trace[key] === null) continue;
+      rows.push([label, Array.isArray(trace[key]) ? trace[key].join(", ") : String(trace[key])]);
+    }
+    return rows;
+  }
+
+  // The tolerance and the PASS/FAIL of the measured and the predicted part (a job with a tolerance).
+  function verdictRows(verdict) {
+    if (!verdict) return [];
+    const t = verdict.tolerance || {};
+    const limits = [];
+    if (t.rms_um !== undefined) limits.push("rms " + fmt(t.rms_um, 2) + " \u00b5m");
+    if (t.max_um !== undefined) limits.push("max " + fmt(t.max_um, 2) + " \u00b5m");
+    if (t.iso_class !== undefined) limits.push("ISO 1328-1 class " + t.iso_class);
+    const part = (v) => (v ? v.verdict + (v.failed && v.failed.length ? " (misses " + v.failed.join(", ") + ")" : "") : "\u2013");
+    return [
+      ["tolerance", limits.join(", ")],
+      ["verdict measured", part(verdict.measured)],
+      ["verdict predicted", part(verdict.predicted)],
+    ];
+  }
+
   function summaryTable(job) {
     const r = job.result || {};
     const req = job.request || {};
@@ -393,6 +426,8 @@
     if (setupRows) rows.splice(2, 2, ...setupRows);
     if (job.parent_job_id) rows.push(["replay of job", String(job.parent_job_id)]);
     if (job.settings_source_job_id) rows.push(["ground with settings of job", String(job.settings_source_job_id)]);
+    rows.push(...verdictRows(r.verdict));
+    rows.push(...traceRows(job.trace));
     const table = html("table", { class: "summary" });
     for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));
     return table;

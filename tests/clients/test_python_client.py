@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import os
 import unittest
 
 from gearloop_client import (BEVEL_MACHINE_KIND, Client, GearloopApiError, GearloopTransportError,
@@ -74,6 +75,23 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(replay["result"]["solver"], "lsq-plain")
         lineage = self.client.lineage(replay["id"])
         self.assertIn(replay["id"], [j["id"] for j in lineage["jobs"]])
+
+    def test_trace_tolerance_and_settings_listing(self) -> None:
+        request = dict(self.request)
+        request["trace"] = {"part_number": "PY-1", "serial": "S-%d" % os.getpid(), "teeth": [4]}
+        request["tolerance"] = {"rms_um": 1000}
+        job = self.client.create_correction(request)
+        self.assertEqual(job["trace"]["part_number"], "PY-1")
+        self.assertEqual(job["result"]["verdict"]["predicted"]["verdict"], "PASS")
+        found = self.client.list_corrections(serial=request["trace"]["serial"], tooth=4)
+        self.assertEqual([j["id"] for j in found["jobs"]], [job["id"]])
+        csv_text = self.client.correction_settings(job["id"], samples=3)
+        rows = [line.split(",") for line in csv_text.strip().split("\n")]
+        self.assertEqual(rows[0][0], "record")
+        x0 = next(r for r in rows if r[:3] == ["coefficient", "X", "0"])
+        self.assertAlmostEqual(float(x0[5]), job["result"]["settings"]["axes"]["X"][0], delta=1e-9)
+        self.assertEqual(len([r for r in rows if r[0] == "motion" and r[1] == "X"]), 3)
+        self.assertIn("operationId: getCorrectionSettings", self.client.openapi_document())
 
     def test_api_error_carries_code_message_and_field(self) -> None:
         bad = copy.deepcopy(self.request)

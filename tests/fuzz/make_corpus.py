@@ -119,6 +119,10 @@ def main():
     n_requests = 0
     valid = dict(request, measurement={"deviations_um": measurement})
     n_requests += write(requests, json.dumps(valid))
+    # The job's trace and tolerance (issue 16).
+    n_requests += write(requests, json.dumps(dict(valid, trace={
+        "part_number": "4711-A", "serial": "S1", "teeth": [1, 10], "measured_at": "2026-11-22T07:45:00+01:00",
+        "file_name": "S1.mka", "machine_id": "RZ260-2"}, tolerance={"rms_um": 1.5, "max_um": 4, "iso_class": 6})))
     n_requests += write(requests, json.dumps(dict(valid, options={
         "solver": "pso", "mode": "rework", "max_order": {"A": 1}, "probe_noise_um": 0.3,
         "pso_particles": 10, "pso_generations": 20, "point_weights": [[1] * 9] * 5})))

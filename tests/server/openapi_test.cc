@@ -297,6 +297,9 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/shaving/cutter-target",
       "POST /api/v1/bevel/split-trajectory",
       "GET /api/v1/bevel/split-trajectory/{id}/nc",
+      "GET /api/v1/corrections/{id}/settings",
+      "GET /api/v1/openapi.yaml",
+      "POST /api/v1/targets/reach",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -318,11 +321,32 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
   }
 }
 
+// The document served is this file, byte for byte, and needs no token.
+TEST_F(OpenApiTest, ServesTheDocumentItWasBuiltWith) {
+  std::ifstream in(std::string(GEARLOOP_SOURCE_DIR) + "/api/openapi.yaml");
+  ASSERT_TRUE(in.good());
+  std::stringstream file;
+  file << in.rdbuf();
+  auto served = Call("GET", "/api/v1/openapi.yaml", "", "");
+  ASSERT_TRUE(served);
+  EXPECT_EQ(served->status, 200);
+  EXPECT_EQ(served->get_header_value("Content-Type"),
+            "application/yaml; charset=utf-8");
+  EXPECT_EQ(served->body, file.str());
+}
+
 TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   // Jobs and a batch to point {id} at.
   nlohmann::json correction = DefaultSetup();
   correction["measurement"] = Measurement();
   correction["options"] = {{"probe_noise_um", 0.2}};
+  correction["trace"] = {{"part_number", "4711-A"},
+                         {"serial", "S1"},
+                         {"teeth", {3}},
+                         {"measured_at", "2026-11-22T07:45:00Z"},
+                         {"file_name", "S1.mka"},
+                         {"machine_id", "RZ260-2"}};
+  correction["tolerance"] = {{"rms_um", 0.5}, {"iso_class", 6}};
   auto created = Call("POST", "/api/v1/corrections", correction.dump(), "w");
   ASSERT_TRUE(created && created->status == 201);
   const std::string job_id =
@@ -378,6 +402,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
+      {"GET /api/v1/openapi.yaml", {"/api/v1/openapi.yaml", "", "", ""}},
       {"POST /api/v1/nominal",
        {"/api/v1/nominal", setup, impossible.dump(), "{\"gear\": 1}"}},
       {"POST /api/v1/evaluate",
@@ -390,7 +415,10 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         impossible_correction.dump(),
         "{\"gear\": 1}"}},
       {"GET /api/v1/corrections",
-       {"/api/v1/corrections", "", "?limit=0", "?limit=x"}},
+       {"/api/v1/corrections",
+        "?part_number=4711-A&tooth=3",
+        "?limit=0",
+        "?tooth=x"}},
       {"GET /api/v1/corrections/{id}",
        {"/api/v1/corrections/" + job_id, "", "", ""}},
       {"GET /api/v1/corrections/{id}/lineage",
@@ -466,6 +494,22 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
                  "x",
                  "&format=xml"}});
 
+  nlohmann::json reach = DefaultSetup();
+  reach["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+  nlohmann::json reach_impossible = reach;
+  reach_impossible["gear"]["teeth"] = 2;
+  calls.insert({"POST /api/v1/targets/reach",
+                {"/api/v1/targets/reach",
+                 reach.dump(),
+                 reach_impossible.dump(),
+                 "{\"gear\": 1}"}});
+  calls.insert({"GET /api/v1/corrections/{id}/settings",
+                {"/api/v1/corrections/" + job_id + "/settings?format=csv",
+                 "",
+                 "&samples=1",
+                 "&samples=x"}});
+
   for (const Operation& op : api_.operations) {
     const std::string key = op.method + " " + op.path;
     SCOPED_TRACE(key);
@@ -473,7 +517,8 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
     ASSERT_NE(it, calls.end()) << "no test call for " << key;
     const Call& call = it->second;
     const bool is_get = op.method == "GET";
-    const bool open = op.path == "/healthz" || op.path == "/metrics";
+    const bool open = op.path == "/healthz" || op.path == "/metrics" ||
+                      op.path == "/api/v1/openapi.yaml";
     const bool needs_write = op.statuses.count(403) > 0;
     const std::string token = needs_write ? "w" : "r";
     for (int status : op.statuses) {

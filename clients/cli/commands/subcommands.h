@@ -116,6 +116,29 @@ int RunShavingTarget(const ParsedArgs& args,
                      ApiClient* client,
                      const GlobalOptions& global);
 
+// commands/history.cc: the settings lineage of a job.
+extern const CommandSpec kLineage;
+int RunLineage(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global);
+// commands/bevel.cc: the bevel generator's axes ranked by flank error.
+extern const CommandSpec kBevelSensitivity;
+int RunBevelSensitivity(const ParsedArgs& args,
+                        ApiClient* client,
+                        const GlobalOptions& global);
+
+// commands/reach.cc: the share of a target the machine can make.
+extern const CommandSpec kReach;
+int RunReach(const ParsedArgs& args,
+             ApiClient* client,
+             const GlobalOptions& global);
+
+// commands/settings.cc: the machine-ready settings listing of a job.
+extern const CommandSpec kSettings;
+int RunSettings(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global);
+
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;
 int RunHealth(const ParsedArgs& args,

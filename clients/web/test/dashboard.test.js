@@ -227,6 +227,8 @@ async function main() {
       wheel: { radius_mm: 350 },
       flank: "right",
       measurement: { file: { format: "mka", content: fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8") } },
+      trace: { part_number: "4711-A", serial: "S0042", measured_at: "2026-11-22T07:45:00Z", file_name: "sample_topography.mka", machine_id: "RZ260-2" },
+      tolerance: { rms_um: 0.05, iso_class: 11 },
     });
     const showById = async (id) => {
       await page.evaluate((n) => {
@@ -237,6 +239,17 @@ async function main() {
     await showById(fromFile.id);
     const overall = await page.$$eval("table.iso1328 tr.iso-overall td.iso-class", (tds) => tds.map((td) => td.textContent));
     check("the .mka sample's measured flank is class 6", overall[0] === "6" && overall[1] === "6", JSON.stringify(overall));
+    const traceShown = Object.fromEntries(await page.$$eval("table.summary tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent])));
+    check(
+      "the job's trace in its summary",
+      traceShown["part number"] === "4711-A" && traceShown["serial"] === "S0042" && traceShown["measuring file"] === "sample_topography.mka" && traceShown["machine"] === "RZ260-2",
+      JSON.stringify(traceShown)
+    );
+    check(
+      "the tolerance and the verdicts in the summary",
+      traceShown["tolerance"] === "rms 0.05 \u00b5m, ISO 1328-1 class 11" && traceShown["verdict measured"] === "FAIL (misses rms_um)" && traceShown["verdict predicted"] === fromFile.result.verdict.predicted.verdict + (fromFile.result.verdict.predicted.failed.length ? " (misses " + fromFile.result.verdict.predicted.failed.join(", ") + ")" : ""),
+      JSON.stringify(traceShown)
+    );
     await page.screenshot({ path: path.join(outDir, "dashboard-iso1328.png"), fullPage: true });
     await page.click("#export-gde");
     await page.waitForSelector("a[download='job" + fromFile.id + ".gde.xml']", { timeout: 30000 });
@@ -269,6 +282,10 @@ async function main() {
     await page.waitForSelector("body[data-ready]", { timeout: 30000 });
     check("report drawn", (await page.getAttribute("body", "data-ready")) === "true" && (await page.$$("svg.heatmap")).length === 3);
     await page.screenshot({ path: path.join(outDir, "report.png"), fullPage: true });
+    await page.goto(base + "/jobs/" + fromFile.id + "/report", { waitUntil: "load" });
+    await page.waitForSelector("body[data-ready]", { timeout: 30000 });
+    const reportTrace = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => tr.querySelector("th").textContent + "=" + tr.querySelector("td").textContent));
+    check("the report names part, serial and measuring time", reportTrace.includes("part number=4711-A") && reportTrace.includes("serial=S0042") && reportTrace.includes("measured at=2026-11-22T07:45:00Z"), JSON.stringify(reportTrace));
 
     // 6. The offline report written by `gearloop report` (no server needed to view it).
     if (cliBin) {
