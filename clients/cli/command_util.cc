@@ -187,6 +187,18 @@ int InputError(const std::string& message) {
   return kExitInput;
 }
 
+int PrintOrWriteText(const ParsedArgs& args, const std::string& text) {
+  if (!args.Has("--output")) {
+    std::cout << text;
+    return kExitOk;
+  }
+  std::string error;
+  if (!WriteTextFile(args.Value("--output"), text, &error))
+    return InputError(error);
+  std::cerr << "wrote " << args.Value("--output") << "\n";
+  return kExitOk;
+}
+
 // --- Corrections
 // ---------------------------------------------------------------------------------
 

@@ -86,6 +86,11 @@ int CheckAnswer(const ApiResponse& answer);
 // Prints "gearloop: <message>" and returns kExitInput.
 int InputError(const std::string& message);
 
+// A text answer (a listing, an export, a report) to standard output, or with
+// --output FILE to that file ("wrote FILE" on standard error). Returns the
+// exit code.
+int PrintOrWriteText(const ParsedArgs& args, const std::string& text);
+
 // --- Corrections (submit, replay, batch, show)
 // ---------------------------------------------------
 

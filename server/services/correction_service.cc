@@ -18,6 +18,7 @@
 #include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
+#include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
@@ -190,10 +191,6 @@ void StoreAndRespond(const ServiceContext& context,
               << "): " << run->result.summary.BriefReport();
   res.set_header("Location", JobLocation(job.id));
   RespondJson(res, 201, CreatedJobJson(job, run->result_json));
-}
-
-ApiError NoStoredJob(const std::string& id_text) {
-  return ApiError{404, "not_found", "no stored correction job " + id_text, ""};
 }
 
 // The overall ISO 1328-1 class of result.iso1328.<which> (null when none).
@@ -391,10 +388,9 @@ void CreateCorrection(const ServiceContext& context,
 void ReplayCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res) {
-  int64_t id = 0;
-  std::optional<JobRecord> parent;
-  if (ParseId(req.matches[1], &id)) parent = context.repository->ReadJob(id);
+  const std::optional<JobRecord> parent = ReadPathJob(context, req);
   if (!parent) return RespondError(res, NoStoredJob(req.matches[1].str()));
+  const int64_t id = parent->id;
   if (parent->machine_kind == kHeadHead5AxisMillKind) {
     // A trajectory, not a correction: nothing was measured to solve again.
     return RespondError(

@@ -10,18 +10,13 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/correction_service.h"
+#include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
 
 namespace gearloop {
-namespace {
-
-ApiError NoStoredJob(const std::string& id_text) {
-  return ApiError{404, "not_found", "no stored correction job " + id_text, ""};
-}
-
-}  // namespace
+namespace {}  // namespace
 
 namespace {
 
@@ -195,9 +190,7 @@ void ListCorrections(const ServiceContext& context,
 void GetCorrection(const ServiceContext& context,
                    const httplib::Request& req,
                    httplib::Response& res) {
-  int64_t id = 0;
-  std::optional<JobRecord> job;
-  if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
+  const std::optional<JobRecord> job = ReadPathJob(context, req);
   if (!job) return RespondError(res, NoStoredJob(req.matches[1].str()));
   nlohmann::json answer = JobSummaryJson(*job);
   answer["request"] = nlohmann::json::parse(job->request_json, nullptr, false);

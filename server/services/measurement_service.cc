@@ -13,6 +13,7 @@
 #include "server/codec/grinder_codec.h"
 #include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
+#include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
@@ -80,19 +81,10 @@ Eigen::VectorXd StoredGrid(const nlohmann::json& result,
   return values;
 }
 
-ApiError NoStoredJob(const std::string& id_text) {
-  return ApiError{404, "not_found", "no stored correction job " + id_text, ""};
-}
-
 // The GDE export of a stored grinder job; false with the refusal.
 bool BuildExport(const JobRecord& job, GdeExport* out, ApiError* error) {
-  const nlohmann::json request =
-      nlohmann::json::parse(job.request_json, nullptr, false);
-  const nlohmann::json result =
-      nlohmann::json::parse(job.result_json, nullptr, false);
-  if (!request.is_object() || !result.is_object())
-    throw std::runtime_error("stored job " + std::to_string(job.id) +
-                             " is not JSON");
+  nlohmann::json request, result;
+  ParseStoredJob(job, &request, &result);
   MachineKind kind = MachineKind::kFlatWheelGrinder;
   if (!ReadMachineKind(request, &kind, error) ||
       kind != MachineKind::kFlatWheelGrinder) {
@@ -247,9 +239,7 @@ void ImportMeasurement(const httplib::Request& req, httplib::Response& res) {
 void ExportCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res) {
-  int64_t id = 0;
-  std::optional<JobRecord> job;
-  if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
+  const std::optional<JobRecord> job = ReadPathJob(context, req);
   if (!job) return RespondError(res, NoStoredJob(req.matches[1].str()));
   if (!req.has_param("format")) {
     return RespondError(
@@ -271,9 +261,9 @@ void ExportCorrection(const ServiceContext& context,
   ApiError error;
   if (!BuildExport(*job, &out, &error)) return RespondError(res, error);
   res.status = 200;
-  res.set_header(
-      "Content-Disposition",
-      "attachment; filename=\"correction-" + std::to_string(id) + ".gde.xml\"");
+  res.set_header("Content-Disposition",
+                 "attachment; filename=\"correction-" +
+                     std::to_string(job->id) + ".gde.xml\"");
   res.set_content(WriteGde(out), "application/xml");
 }
 

@@ -8,6 +8,7 @@
 #include "engine/core/axis_motion.h"
 #include "engine/core/units.h"
 #include "server/services/machine_family.h"
+#include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
@@ -72,13 +73,8 @@ bool BuildSettingsListing(const JobRecord& job,
                           int samples,
                           SettingsListing* listing,
                           ApiError* error) {
-  const nlohmann::json request =
-      nlohmann::json::parse(job.request_json, nullptr, false);
-  const nlohmann::json result =
-      nlohmann::json::parse(job.result_json, nullptr, false);
-  if (!request.is_object() || !result.is_object())
-    throw std::runtime_error("stored job " + std::to_string(job.id) +
-                             " is not JSON");
+  nlohmann::json request, result;
+  ParseStoredJob(job, &request, &result);
   CorrectionProblem commanded;
   if (!CorrectionProblemFor(request, &commanded, error))
     throw std::runtime_error("stored request of job " + std::to_string(job.id) +
@@ -122,17 +118,8 @@ bool BuildSettingsListing(const JobRecord& job,
 void GetCorrectionSettings(const ServiceContext& context,
                            const httplib::Request& req,
                            httplib::Response& res) {
-  int64_t id = 0;
-  std::optional<JobRecord> job;
-  if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
-  if (!job) {
-    return RespondError(
-        res,
-        ApiError{404,
-                 "not_found",
-                 "no stored correction job " + req.matches[1].str(),
-                 ""});
-  }
+  const std::optional<JobRecord> job = ReadPathJob(context, req);
+  if (!job) return RespondError(res, NoStoredJob(req.matches[1].str()));
   std::string format = "table";
   if (req.has_param("format")) {
     format = req.get_param_value("format");
@@ -168,9 +155,9 @@ void GetCorrectionSettings(const ServiceContext& context,
     return RespondError(res, error);
   res.status = 200;
   if (format == "csv") {
-    res.set_header(
-        "Content-Disposition",
-        "attachment; filename=\"settings-" + std::to_string(id) + ".csv\"");
+    res.set_header("Content-Disposition",
+                   "attachment; filename=\"settings-" +
+                       std::to_string(job->id) + ".csv\"");
     res.set_content(SettingsListingCsv(listing), "text/csv; charset=utf-8");
   } else if (format == "nc") {
     res.set_content(SettingsListingNc(listing), "text/plain; charset=utf-8");

@@ -10,6 +10,7 @@
 #include "engine/split_bevel/trajectory.h"
 #include "server/codec/job_codec.h"
 #include "server/codec/split_bevel_codec.h"
+#include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
 #include <glog/logging.h>
@@ -89,9 +90,7 @@ void CreateSplitTrajectory(const ServiceContext& context,
 void GetSplitTrajectoryNc(const ServiceContext& context,
                           const httplib::Request& req,
                           httplib::Response& res) {
-  int64_t id = 0;
-  std::optional<JobRecord> job;
-  if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
+  const std::optional<JobRecord> job = ReadPathJob(context, req);
   if (!job || job->kind != kSplitTrajectoryJobKind) {
     return RespondError(
         res,
@@ -104,7 +103,7 @@ void GetSplitTrajectoryNc(const ServiceContext& context,
       nlohmann::json::parse(job->result_json, nullptr, false);
   if (!result.is_object() || !result.contains("nc_program") ||
       !result["nc_program"].is_string())
-    throw std::runtime_error("stored result of job " + std::to_string(id) +
+    throw std::runtime_error("stored result of job " + std::to_string(job->id) +
                              " has no nc_program");
   res.status = 200;
   res.set_content(result["nc_program"].get<std::string>(),

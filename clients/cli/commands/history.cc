@@ -427,14 +427,7 @@ int RunReport(const ParsedArgs& args, ApiClient* client, const GlobalOptions&) {
     std::cerr << "gearloop report: " << error << "\n";
     return kExitInput;
   }
-  if (args.Has("--output")) {
-    if (!WriteTextFile(args.Value("--output"), html, &error))
-      return InputError(error);
-    std::cerr << "wrote " << args.Value("--output") << "\n";
-  } else {
-    std::cout << html;
-  }
-  return kExitOk;
+  return PrintOrWriteText(args, html);
 }
 
 }  // namespace cli_internal

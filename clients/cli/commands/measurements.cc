@@ -326,15 +326,7 @@ int RunExport(const ParsedArgs& args, ApiClient* client, const GlobalOptions&) {
               << " from the server\n";
     return kExitTransport;
   }
-  if (!args.Has("--output")) {
-    std::cout << answer.text;
-    return kExitOk;
-  }
-  std::string error;
-  if (!WriteTextFile(args.Value("--output"), answer.text, &error))
-    return InputError(error);
-  std::cerr << "wrote " << args.Value("--output") << "\n";
-  return kExitOk;
+  return PrintOrWriteText(args, answer.text);
 }
 
 }  // namespace cli_internal

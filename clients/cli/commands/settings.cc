@@ -69,15 +69,7 @@ int RunSettings(const ParsedArgs& args,
               << " from the server\n";
     return kExitTransport;
   }
-  if (!args.Has("--output")) {
-    std::cout << answer.text;
-    return kExitOk;
-  }
-  std::string error;
-  if (!WriteTextFile(args.Value("--output"), answer.text, &error))
-    return InputError(error);
-  std::cerr << "wrote " << args.Value("--output") << "\n";
-  return kExitOk;
+  return PrintOrWriteText(args, answer.text);
 }
 
 }  // namespace cli_internal
