@@ -143,7 +143,8 @@ int main(int argc, char** argv) {
   }
   const int port = server->Bind();
   if (port < 0) {
-    LOG(ERROR) << "cannot listen on " << options.host << ":" << options.port;
+    LOG(ERROR) << "cannot listen on " << options.host << ":" << options.port
+               << ": " << server->bind_error();
     return 1;
   }
   if (options.token_file.empty()) {
