@@ -116,17 +116,17 @@ class DeadlineStream : public httplib::Stream {
   void get_local_ip_and_port(std::string& ip, int& port) const override {
     sockaddr_storage address{};
     socklen_t length = sizeof(address);
-    if (getsockname(sock_, reinterpret_cast<sockaddr*>(&address), &length) ==
-        0)
+    if (getsockname(sock_, reinterpret_cast<sockaddr*>(&address), &length) == 0)
       ip = NumericAddress(address, &port);
   }
   socket_t socket() const override { return sock_; }
 
  private:
   int RemainingMilliseconds() const {
-    return static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(
-                                deadline_ - Clock::now())
-                                .count());
+    return static_cast<int>(
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ -
+                                                              Clock::now())
+            .count());
   }
 
   socket_t sock_;
@@ -265,12 +265,11 @@ BoundedHttpServer::BoundedHttpServer(const ConnectionLimits& limits)
   set_write_timeout(static_cast<time_t>(limits_.write_timeout_seconds) + 1, 0);
   // Runs just before the head is written: a connection that will be closed
   // says so.
-  set_post_routing_handler(
-      [](const httplib::Request&, httplib::Response& res) {
-        if (!t_connection.close_after_response) return;
-        res.headers.erase("Keep-Alive");
-        res.set_header("Connection", "close");
-      });
+  set_post_routing_handler([](const httplib::Request&, httplib::Response& res) {
+    if (!t_connection.close_after_response) return;
+    res.headers.erase("Keep-Alive");
+    res.set_header("Connection", "close");
+  });
   // No SO_REUSEPORT: a second server on the same port must fail to bind
   // instead of sharing the port and splitting the requests between two
   // histories. SO_REUSEADDR only lets a restart bind over TIME_WAIT sockets.
@@ -284,7 +283,13 @@ int BoundedHttpServer::BindExclusive(const std::string& host, int port) {
   bind_error_.clear();
   const int bound = port == 0 ? bind_to_any_port(host)
                               : (bind_to_port(host, port) ? port : -1);
-  if (bound >= 0) return bound;
+  if (bound >= 0) {
+    // cpp-httplib listens with a backlog of 5: a burst of connections would
+    // wait for SYN retransmits (1 s, 3 s, ...). Listening again on a
+    // listening socket only sets a longer queue.
+    ::listen(svr_sock_, 1024);
+    return bound;
+  }
   // cpp-httplib does not say why; bind a probe socket the same way to learn
   // the reason.
   addrinfo hints{};
@@ -367,8 +372,7 @@ bool BoundedHttpServer::ServeConnection(socket_t sock) {
   bool ret = false;
   bool drain = false;
   const int idle_ms = Milliseconds(limits_.idle_timeout_seconds);
-  for (int served = 0; served < limits_.max_requests_per_connection;
-       ++served) {
+  for (int served = 0; served < limits_.max_requests_per_connection; ++served) {
     // Wait for the next request in slices, so that Stop() is noticed.
     int waited_ms = 0;
     bool readable = false;
@@ -378,9 +382,8 @@ bool BoundedHttpServer::ServeConnection(socket_t sock) {
     }
     if (!readable) break;
     t_connection = ConnectionState{};
-    const auto deadline =
-        Clock::now() + std::chrono::milliseconds(
-                           Milliseconds(limits_.request_deadline_seconds));
+    const auto deadline = Clock::now() + std::chrono::milliseconds(Milliseconds(
+                                             limits_.request_deadline_seconds));
     DeadlineStream stream(sock, limits_, deadline);
     bool connection_closed = false;
     const bool last = served + 1 == limits_.max_requests_per_connection;

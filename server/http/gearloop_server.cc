@@ -313,15 +313,17 @@ class GearloopServer::Impl {
     const std::string coding = req.get_header_value("Transfer-Encoding");
     if (req.has_header("Transfer-Encoding")) {
       if (strcasecmp(coding.c_str(), "chunked") != 0) {
-        *error = InvalidRequest(
-            "", "Transfer-Encoding \"" + coding + "\" is not supported (only "
-                "chunked)");
+        *error = InvalidRequest("",
+                                "Transfer-Encoding \"" + coding +
+                                    "\" is not supported (only "
+                                    "chunked)");
         return false;
       }
       if (has_length) {
-        *error = InvalidRequest(
-            "", "a request may not carry both Content-Length and "
-                "Transfer-Encoding");
+        *error =
+            InvalidRequest("",
+                           "a request may not carry both Content-Length and "
+                           "Transfer-Encoding");
         return false;
       }
       return true;
@@ -330,8 +332,8 @@ class GearloopServer::Impl {
     const std::string length = req.get_header_value("Content-Length");
     if (length.empty() || length.size() > 19 ||
         length.find_first_not_of("0123456789") != std::string::npos) {
-      *error = InvalidRequest("", "Content-Length \"" + length +
-                                      "\" is not a non-negative number");
+      *error = InvalidRequest(
+          "", "Content-Length \"" + length + "\" is not a non-negative number");
       return false;
     }
     if (std::stoull(length) > options_.payload_max_bytes) {
@@ -367,11 +369,11 @@ class GearloopServer::Impl {
       } else if (!known->access.count(method)) {
         t_request.route = "method_not_allowed";
         res.set_header("Allow", known->allow);
-        error = ApiError{
-            405,
-            "method_not_allowed",
-            req.method + " is not allowed here; use " + known->allow,
-            ""};
+        error =
+            ApiError{405,
+                     "method_not_allowed",
+                     req.method + " is not allowed here; use " + known->allow,
+                     ""};
       } else if (CheckFraming(req, &error) &&
                  Authorize(tokens_, req, known->access.at(method), &error)) {
         if (method == "POST" && !req.has_header("Content-Length") &&
@@ -415,8 +417,9 @@ class GearloopServer::Impl {
                         ""};
     } else {
       *error = InvalidRequest(
-          "", "the request body could not be read (broken chunked coding, or "
-              "the connection ended early)");
+          "",
+          "the request body could not be read (broken chunked coding, or "
+          "the connection ended early)");
     }
     return false;
   }
@@ -499,22 +502,22 @@ class GearloopServer::Impl {
   // every exception once, at the top (500 and one log line; OSRM
   // request_handler.cpp). The token was checked before routing.
   static Handler Route(const char* route, Handler handler) {
-    return [route, handler](const httplib::Request& req,
-                            httplib::Response& res) {
-      t_request.route = route;
-      try {
-        handler(req, res);
-      } catch (const std::exception& e) {
-        LOG(ERROR) << "internal error on " << req.method << " " << req.path
-                   << ": " << e.what();
-        res.headers.erase("Location");
-        RespondError(res,
-                     ApiError{500,
-                              "internal_error",
-                              "internal error; nothing was stored",
-                              ""});
-      }
-    };
+    return
+        [route, handler](const httplib::Request& req, httplib::Response& res) {
+          t_request.route = route;
+          try {
+            handler(req, res);
+          } catch (const std::exception& e) {
+            LOG(ERROR) << "internal error on " << req.method << " " << req.path
+                       << ": " << e.what();
+            res.headers.erase("Location");
+            RespondError(res,
+                         ApiError{500,
+                                  "internal_error",
+                                  "internal error; nothing was stored",
+                                  ""});
+          }
+        };
   }
 
   void Register(const std::string& method,

@@ -59,10 +59,9 @@ TEST(Connections, ASecondServerOnAUsedPortFailsToStart) {
       << second.bind_error();
 
   // The executable exits non-zero and says why.
-  const std::string command = std::string("timeout 20 ") +
-                              GEARLOOP_SERVER_BINARY + " --port " +
-                              std::to_string(first.port()) + " --db " +
-                              db_b.path() + " 2>&1";
+  const std::string command =
+      std::string("timeout 20 ") + GEARLOOP_SERVER_BINARY + " --port " +
+      std::to_string(first.port()) + " --db " + db_b.path() + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;
@@ -71,8 +70,7 @@ TEST(Connections, ASecondServerOnAUsedPortFailsToStart) {
   const int status = pclose(pipe);
   ASSERT_TRUE(WIFEXITED(status)) << output;
   EXPECT_EQ(WEXITSTATUS(status), 1) << output;
-  EXPECT_NE(output.find("Address already in use"), std::string::npos)
-      << output;
+  EXPECT_NE(output.find("Address already in use"), std::string::npos) << output;
   // The first server still answers alone.
   double seconds = 0;
   EXPECT_EQ(TimedGet(first.port(), "/healthz", &seconds), 200);
@@ -121,9 +119,11 @@ TEST(Connections, HealthAnswersWhileSixtyFourClientsTrickle) {
   done = true;
   trickler.join();
   EXPECT_LT(worst, 1.0);
-  std::printf("[ info     ] 64 trickling + 16 idle connections: %d health and "
-              "metrics answers, slowest %.3f s\n",
-              answered, worst);
+  std::printf(
+      "[ info     ] 64 trickling + 16 idle connections: %d health and "
+      "metrics answers, slowest %.3f s\n",
+      answered,
+      worst);
 }
 
 // A client that keeps every byte inside the read timeout is still cut off at

@@ -8,10 +8,9 @@
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <openssl/sha.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <openssl/sha.h>
 
 #include <chrono>
 #include <cstdio>
@@ -205,9 +204,11 @@ TEST_F(HostileRequestsTest, Refuses200MegabyteChunkedBodyAsItArrives) {
       (static_cast<double>(ResidentBytes()) - static_cast<double>(before)) /
       (1 << 20);
   EXPECT_LT(grown_mb, 32.0);
-  std::printf("[ info     ] 200 MiB chunked body: 413 after %.1f MiB sent, "
-              "memory grew %.1f MB\n",
-              static_cast<double>(sent) / (1 << 20), grown_mb);
+  std::printf(
+      "[ info     ] 200 MiB chunked body: 413 after %.1f MiB sent, "
+      "memory grew %.1f MB\n",
+      static_cast<double>(sent) / (1 << 20),
+      grown_mb);
   auto health = client_->Get("/healthz");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
