@@ -17,6 +17,9 @@
 #include <fstream>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 #include "tests/server/raw_connection.h"
 #include "tests/server/server_test_util.h"
@@ -299,6 +302,130 @@ TEST(HostileRequests, RefusesAnUnauthenticatedBodyBeforeReadingIt) {
   sender.join();
   EXPECT_EQ(head.rfind("HTTP/1.1 401", 0), 0u) << head;
   EXPECT_LT(sent, size_t{64} << 20) << "the server read the body";
+}
+
+// A valid correction request of the default gear: a 5 x 9 measurement of a
+// few microns.
+nlohmann::json StrictCorrectionRequest() {
+  nlohmann::json request = testing_util::DefaultSetup();
+  nlohmann::json grid = nlohmann::json::array();
+  for (int i = 0; i < 5; ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < 9; ++j) row.push_back(0.5 * (i - 2) + 0.1 * (j - 4));
+    grid.push_back(row);
+  }
+  request["measurement"] = {{"deviations_um", grid}};
+  request["options"] = {{"default_max_order", 2}};
+  return request;
+}
+
+// Status and error field of a POST.
+std::pair<int, nlohmann::json> PostJson(httplib::Client* client,
+                                        const char* path,
+                                        const nlohmann::json& body) {
+  auto result = client->Post(path, body.dump(), "application/json");
+  if (!result) return {-1, nlohmann::json()};
+  return {result->status, ParseBody(result)};
+}
+
+TEST_F(HostileRequestsTest, RefusesUnknownKeysNamingTheNearestKnownOne) {
+  const nlohmann::json valid = StrictCorrectionRequest();
+  ASSERT_EQ(PostJson(client_.get(), "/api/v1/corrections", valid).first, 201);
+
+  nlohmann::json typo = valid;
+  typo["options"] = {{"default_max_ordr", 2}};
+  auto [status, body] = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "options.default_max_ordr");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find(
+                "did you mean default_max_order"),
+            std::string::npos)
+      << body.dump();
+
+  typo = valid;
+  typo["gear"]["modul"] = 6;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/nominal", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "gear.modul");
+
+  typo = valid;
+  typo["machine"]["traverse_mm_per_deg"] = 0;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/evaluate", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "machine.traverse_mm_per_deg");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find(
+                "did you mean traverse_mm_per_rad"),
+            std::string::npos);
+
+  typo = valid;
+  typo["grid"]["lead_pints"] = 9;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "grid.lead_pints");
+
+  typo = valid;
+  typo["measurement"]["deviation_um"] = typo["measurement"]["deviations_um"];
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "measurement.deviation_um");
+
+  typo = valid;
+  typo["wheel"]["radius"] = 350;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "wheel.radius");
+  EXPECT_EQ(ParseBody(client_->Get("/api/v1/corrections"))["total"], 1)
+      << "a refused request stored a job";
+}
+
+TEST_F(HostileRequestsTest, RefusesImplausibleDeviationsUnlessAllowed) {
+  nlohmann::json nanometres = StrictCorrectionRequest();
+  for (auto& row : nanometres["measurement"]["deviations_um"])
+    for (auto& value : row) value = value.get<double>() * 1000.0;
+  auto [status, body] =
+      PostJson(client_.get(), "/api/v1/corrections", nanometres);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "measurement.deviations_um[0][0]");
+  nanometres["allow_large_deviations"] = "yes";
+  EXPECT_EQ(PostJson(client_.get(), "/api/v1/corrections", nanometres).first,
+            400);
+  nanometres["allow_large_deviations"] = true;
+  EXPECT_EQ(PostJson(client_.get(), "/api/v1/corrections", nanometres).first,
+            201);
+
+  nlohmann::json huge_target = StrictCorrectionRequest();
+  huge_target["target"] = {
+      {"modifications",
+       {{{"kind", "profile_crowning"}, {"amount_um", 1e308}}}}};
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/corrections", huge_target);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.modifications[0].amount_um");
+}
+
+TEST_F(HostileRequestsTest, RefusesBadJobListQueriesNamingTheParameter) {
+  for (const auto& [query, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"kind=x", "query.kind"},
+           {"status=x", "query.status"},
+           {"created_from=2026-13-45", "query.created_from"},
+           {"created_to=2026-02-30", "query.created_to"},
+           {"created_from=2026-11-22T25:00:00Z", "query.created_from"},
+           {"knd=correction", "query.knd"}}) {
+    auto result = client_->Get(("/api/v1/corrections?" + query).c_str());
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 400) << query;
+    EXPECT_EQ(ParseBody(result)["error"]["field"], field) << query;
+  }
+  for (const char* query : {"kind=correction",
+                            "status=converged",
+                            "created_from=2024-02-29",
+                            "created_to=2026-11-22T08:00:00Z"}) {
+    auto result =
+        client_->Get((std::string("/api/v1/corrections?") + query).c_str());
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 200) << query;
+  }
 }
 
 }  // namespace
