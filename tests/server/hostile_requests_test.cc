@@ -370,6 +370,12 @@ TEST_F(HostileRequestsTest, RefusesUnknownKeysNamingTheNearestKnownOne) {
   EXPECT_EQ(body["error"]["field"], "measurement.deviation_um");
 
   typo = valid;
+  typo["options"] = {{"max_order", {{"Q", 2}}}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "options.max_order.Q") << body.dump();
+
+  typo = valid;
   typo["wheel"]["radius"] = 350;
   std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
   EXPECT_EQ(status, 422);
