@@ -218,21 +218,20 @@ void Refuse(socket_t sock, const std::string& message) {
   close(sock);
 }
 
-// Closes after a response whose request was not read to its end: stop
-// sending, then read and drop what the client still sends for a moment (at
-// most 0.5 s and 1 MiB), so that the close does not reset the connection
-// before the client has read the answer.
-void LingeringClose(socket_t sock, bool drain) {
+// Closes after a response whose request was not read to its end. Closing a
+// socket with unread data resets the connection, and a reset can reach the
+// client before it has read the answer, which it then never sees. So: stop
+// sending, and wait (up to 1 s, without reading: the client's further bytes
+// only fill the kernel's buffers) for the client to close its side first.
+void LingeringClose(socket_t sock, bool linger) {
   shutdown(sock, SHUT_WR);
-  if (drain) {
-    const auto until = Clock::now() + std::chrono::milliseconds(500);
-    char buffer[16384];
-    size_t drained = 0;
-    while (drained < (1u << 20) && Clock::now() < until &&
-           WaitFor(sock, POLLIN, 100)) {
-      const ssize_t n = recv(sock, buffer, sizeof(buffer), 0);
-      if (n <= 0) break;
-      drained += static_cast<size_t>(n);
+  if (linger) {
+    const auto until = Clock::now() + std::chrono::seconds(1);
+    while (Clock::now() < until) {
+      pollfd fd{sock, POLLRDHUP, 0};
+      const int ready = poll(&fd, 1, 100);
+      if (ready > 0 && (fd.revents & (POLLRDHUP | POLLHUP | POLLERR))) break;
+      if (ready < 0 && errno != EINTR) break;
     }
   }
   close(sock);

@@ -223,6 +223,7 @@ class GearloopServer::Impl {
                                "the server listens on loopback only");
     }
     repository_ = OpenJobRepository(options_.database_path);
+    ReleaseLargeBuffers();
     ConfigureContext();
     ConfigureHttp();
     RegisterRoutes();
@@ -266,6 +267,17 @@ class GearloopServer::Impl {
  private:
   using Handler =
       std::function<void(const httplib::Request&, httplib::Response&)>;
+
+  // glibc raises its mmap threshold to the largest block freed so far (up to
+  // 32 MiB), after which a body-sized buffer is carved from the thread's
+  // arena, and the top of a thread's arena is never trimmed (malloc_trim
+  // trims the main arena's only): every connection thread kept ~8 MB after
+  // one large request. Fixed thresholds keep blocks of 256 KiB and more in
+  // their own mappings, given back on free.
+  static void ReleaseLargeBuffers() {
+    mallopt(M_MMAP_THRESHOLD, 256 << 10);
+    mallopt(M_TRIM_THRESHOLD, 512 << 10);
+  }
 
   static ConnectionLimits LimitsFor(const ServerOptions& options) {
     ConnectionLimits limits;
@@ -558,17 +570,20 @@ class GearloopServer::Impl {
     t_request.route = route;
     std::string body;
     ApiError error;
-    if (!ReadBody(reader, &body, &error)) return RespondError(res, error);
+    const bool read = ReadBody(reader, &body, &error);
     const bool large = body.size() > (1u << 20);
-    // cpp-httplib hands content-reader routes a const request whose body it
-    // has not filled; the request object itself is not const (process_request
-    // owns it), and the handlers read req.body.
-    const_cast<httplib::Request&>(req).body = std::move(body);
-    handler(req, res);
-    if (large) {
+    if (!read) {
+      RespondError(res, error);
+    } else {
+      // cpp-httplib hands content-reader routes a const request whose body it
+      // has not filled; the request object itself is not const
+      // (process_request owns it), and the handlers read req.body.
+      const_cast<httplib::Request&>(req).body = std::move(body);
+      handler(req, res);
       const_cast<httplib::Request&>(req).body = std::string();
-      malloc_trim(0);
     }
+    body = std::string();
+    if (large) malloc_trim(0);
   }
 
   // A service handler of the context (server/services/).
