@@ -76,7 +76,19 @@ bool ParseModification(const nlohmann::json& value,
     return false;
   }
   std::string kind;
-  if (!ReadString(value, path, "kind", true, &kind, error)) return false;
+  if (!CheckKeys(value,
+                 path,
+                 {"kind",
+                  "amount_um",
+                  "length_fraction",
+                  "shape",
+                  "second_amount_um",
+                  "second_length_fraction",
+                  "amount_gradient_um",
+                  "second_amount_gradient_um"},
+                 error) ||
+      !ReadString(value, path, "kind", true, &kind, error))
+    return false;
   if (!ParseModificationKind(kind, &modification->kind)) {
     *error = InvalidValue(JoinPath(path, "kind"),
                           "unknown modification kind \"" + kind + "\"");
@@ -374,6 +386,11 @@ bool ParseCorrectionTarget(
                             "grid} or {\"modifications\": [...]}");
     return false;
   }
+  if (!CheckKeys(target,
+                 "target",
+                 {"deviations_um", "modifications", "shaving"},
+                 error))
+    return false;
   if (target.contains("shaving")) {
     *error = InvalidValue("target.shaving",
                           "a shaving target is resolved by POST "

@@ -388,6 +388,13 @@ bool ReadWheelShape(const nlohmann::json& settings,
     return false;
   if (wheel != nullptr) {
     const std::string wheel_path = JoinPath(path, "wheel");
+    if (!CheckKeys(*wheel,
+                   wheel_path,
+                   {"cone_angle_deg",
+                    "parabola_coefficient_per_mm",
+                    "parabola_vertex_mm"},
+                   error))
+      return false;
     double cone_angle_deg = 0.0;
     if (!ReadNumber(*wheel,
                     wheel_path,
@@ -443,7 +450,8 @@ bool ParseMachineSettings(const nlohmann::json& settings,
     return false;
   }
   MachineSettings s;
-  if (!ReadAxes(settings, path, &s, error) ||
+  if (!CheckKeys(settings, path, {"axes", "wheel"}, error) ||
+      !ReadAxes(settings, path, &s, error) ||
       !ReadWheelShape(settings, path, &s, error))
     return false;
   *result = s;

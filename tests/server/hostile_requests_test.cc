@@ -376,6 +376,21 @@ TEST_F(HostileRequestsTest, RefusesUnknownKeysNamingTheNearestKnownOne) {
   EXPECT_EQ(body["error"]["field"], "options.max_order.Q") << body.dump();
 
   typo = valid;
+  typo["target"] = {{"modifications",
+                     {{{"kind", "profile_crowning"},
+                       {"amount_um", 2},
+                       {"lenght_fraction", 1}}}}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.modifications[0].lenght_fraction");
+
+  typo = valid;
+  typo["target"] = {{"deviation_um", nlohmann::json::array()}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.deviation_um");
+
+  typo = valid;
   typo["wheel"]["radius"] = 350;
   std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
   EXPECT_EQ(status, 422);
