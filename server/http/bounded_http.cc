@@ -147,15 +147,14 @@ class BoundedTaskQueue : public httplib::TaskQueue {
   ~BoundedTaskQueue() override { shutdown(); }
 
   void enqueue(std::function<void()> fn) override {
+    bool overflow = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (busy_ + static_cast<int>(jobs_.size()) < capacity_) {
-        jobs_.push_back(std::move(fn));
-      } else {
-        overflow_.push_back(std::move(fn));
-      }
+      overflow = busy_ + static_cast<int>(jobs_.size()) >= capacity_;
+      (overflow ? overflow_ : jobs_).push_back(std::move(fn));
     }
-    ready_.notify_all();
+    // One waiter of the right kind, not all of them.
+    (overflow ? overflow_ready_ : ready_).notify_one();
   }
 
   void shutdown() override {
@@ -165,6 +164,7 @@ class BoundedTaskQueue : public httplib::TaskQueue {
       stopping_ = true;
     }
     ready_.notify_all();
+    overflow_ready_.notify_all();
     for (std::thread& thread : threads_) thread.join();
   }
 
@@ -172,11 +172,12 @@ class BoundedTaskQueue : public httplib::TaskQueue {
   void Work(bool overflow) {
     t_overflow = overflow;
     std::deque<std::function<void()>>& jobs = overflow ? overflow_ : jobs_;
+    std::condition_variable& ready = overflow ? overflow_ready_ : ready_;
     for (;;) {
       std::function<void()> fn;
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        ready_.wait(lock, [&] { return stopping_ || !jobs.empty(); });
+        ready.wait(lock, [&] { return stopping_ || !jobs.empty(); });
         if (jobs.empty()) return;  // stopping, and nothing left to close
         fn = std::move(jobs.front());
         jobs.pop_front();
@@ -193,6 +194,7 @@ class BoundedTaskQueue : public httplib::TaskQueue {
   const int capacity_;
   std::mutex mutex_;
   std::condition_variable ready_;
+  std::condition_variable overflow_ready_;
   std::deque<std::function<void()>> jobs_;
   std::deque<std::function<void()>> overflow_;
   int busy_ = 0;
