@@ -282,10 +282,10 @@ void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
 
 struct Summary {
   int scenarios = 0, rounds = 0, worse = 0, unusable = 0, lost_points = 0,
-      motion_violations = 0, within = 0;
+      motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
   std::vector<std::string> worse_list;
-  std::vector<double> ratio, cpu, achieved_over_predicted, best, final_rms,
-      initial, max_linear, max_angular;
+  std::vector<double> ratio, cpu, achieved_over_predicted,
+      achieved_over_expected, best, final_rms, initial, max_linear, max_angular;
 };
 
 Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
@@ -321,6 +321,18 @@ Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
         if (round.predicted_rms_um > 0.0)
           s.achieved_over_predicted.push_back(round.rms_after_um /
                                               round.predicted_rms_um);
+        if (round.expected_true_rms_um > 0.0)
+          s.achieved_over_expected.push_back(round.rms_after_um /
+                                             round.expected_true_rms_um);
+        // Rounds whose next part lost points are left out: their rms is
+        // over fewer points than the prediction's.
+        if (round.band_high_um[1] > 0.0 &&
+            round.reached_after >= round.reached_before) {
+          ++s.banded;
+          for (int k = 0; k < 2; ++k)
+            s.in_band[k] += round.rms_after_um >= round.band_low_um[k] &&
+                            round.rms_after_um <= round.band_high_um[k];
+        }
       }
     }
   }
@@ -378,7 +390,18 @@ void PrintSummary(const Summary& s, const std::string& title) {
       s.within,
       s.scenarios,
       Num(100.0 * s.within / s.scenarios, "%.1f").c_str());
-  std::printf("| 2-sigma band coverage | n/a (the solver reports no band) |\n");
+  std::printf(
+      "| achieved rms within the predicted 1-sigma / 2-sigma band (goal >= "
+      "95 %% for 2 sigma) | %s %% / %s %% of %d rounds |\n",
+      Num(100.0 * s.in_band[0] / std::max(s.banded, 1), "%.1f").c_str(),
+      Num(100.0 * s.in_band[1] / std::max(s.banded, 1), "%.1f").c_str(),
+      s.banded);
+  std::printf(
+      "| achieved / expected true rms per round, median (10th..90th) | %s "
+      "(%s..%s) |\n",
+      Num(Quantile(s.achieved_over_expected, 0.5)).c_str(),
+      Num(Quantile(s.achieved_over_expected, 0.1)).c_str(),
+      Num(Quantile(s.achieved_over_expected, 0.9)).c_str());
   std::printf(
       "| achieved / predicted rms per round, median (10th..90th) | %s (%s..%s) "
       "|\n",
@@ -555,6 +578,8 @@ int main(int argc, char** argv) {
   const char* json = nullptr;
   bool verbose = false, bound_wheel = false, no_state = false;
   std::vector<std::string> fixed_blocks;
+  double min_flank_effect = -1.0;
+  int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
@@ -578,6 +603,10 @@ int main(int argc, char** argv) {
       fixed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-state") == 0) {
       no_state = true;
+    } else if (std::strcmp(argv[i], "--min-flank-effect") == 0 && has_value) {
+      min_flank_effect = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--iterations") == 0 && has_value) {
+      iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -608,6 +637,9 @@ int main(int argc, char** argv) {
   for (Config& c : configs) {
     for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
     if (no_state) c.options.estimate_machine_state = false;
+    if (min_flank_effect >= 0.0)
+      c.options.min_flank_effect_um = min_flank_effect;
+    if (iterations >= 0) c.options.max_num_iterations = iterations;
   }
 
   // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone

@@ -577,6 +577,11 @@ struct RoundRecord {
   double predicted_rms_um =
       0.0;  // the solver's prediction (exact model, points used)
   double linear_predicted_rms_um = 0.0;
+  // The solver's prediction band of the next part's true rms (summary
+  // prediction_band): expected value, 1- and 2-sigma bounds.
+  double expected_true_rms_um = 0.0;
+  double band_low_um[2] = {0.0, 0.0};
+  double band_high_um[2] = {0.0, 0.0};
   bool usable = false;  // IsSolutionUsable; when false the settings are kept
   std::string status;
   // Largest change over the roll range of X, Y, Z [mm] and of A, B, C [rad]
@@ -659,6 +664,12 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
     round.status = CorrectionStatusName(result.summary.status);
     round.predicted_rms_um = result.summary.residual_rms_um;
     round.linear_predicted_rms_um = result.summary.linear_residual_rms_um;
+    const PredictionBand& band = result.summary.prediction_band;
+    round.expected_true_rms_um = band.expected_true_rms_um;
+    for (int k = 0; k < 2; ++k) {
+      round.band_low_um[k] = band.true_rms_low_um[k];
+      round.band_high_um[k] = band.true_rms_high_um[k];
+    }
     round.correction_size = result.summary.correction_size;
     if (round.usable) {
       MaxAxisMotion(model,

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <functional>
 #include <mutex>
@@ -75,8 +76,30 @@ constexpr const char* kJobSummaryColumns =
     "gear_helix_angle_deg, "
     "gear_hand, flank, residual_rms_um, best_reachable_rms_um, rank, "
     "elapsed_ms, server_version, "
-    "parent_job_id, settings_source_job_id, machine_kind";
-constexpr int kNumJobSummaryColumns = 17;
+    "parent_job_id, settings_source_job_id, machine_kind, part_number, "
+    "serial, tooth_numbers, measured_at, file_name, machine_id, batch_id, "
+    "submitted_by";
+constexpr int kNumJobSummaryColumns = 25;
+
+// Tooth numbers are kept as "1,5,9" (storage never parses JSON).
+std::string ToothNumbersText(const std::vector<int>& teeth) {
+  std::string text;
+  for (size_t i = 0; i < teeth.size(); ++i)
+    text += (i == 0 ? "" : ",") + std::to_string(teeth[i]);
+  return text;
+}
+
+std::vector<int> ParseToothNumbers(const std::string& text) {
+  std::vector<int> teeth;
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    teeth.push_back(std::atoi(text.substr(start, end - start).c_str()));
+    start = end + 1;
+  }
+  return teeth;
+}
 
 std::string ColumnText(sqlite3_stmt* statement, int column) {
   const unsigned char* text = sqlite3_column_text(statement, column);
@@ -119,6 +142,14 @@ JobRecord ReadJobColumns(sqlite3_stmt* statement, bool with_documents) {
   job.parent_job_id = ColumnOptionalInt64(statement, 14);
   job.settings_source_job_id = ColumnOptionalInt64(statement, 15);
   job.machine_kind = ColumnText(statement, 16);
+  job.part_number = ColumnText(statement, 17);
+  job.serial = ColumnText(statement, 18);
+  job.tooth_numbers = ParseToothNumbers(ColumnText(statement, 19));
+  job.measured_at = ColumnText(statement, 20);
+  job.file_name = ColumnText(statement, 21);
+  job.machine_id = ColumnText(statement, 22);
+  job.batch_id = ColumnOptionalInt64(statement, 23);
+  job.submitted_by = ColumnText(statement, 24);
   if (with_documents) {
     job.request_json = ColumnText(statement, kNumJobSummaryColumns);
     job.result_json = ColumnText(statement, kNumJobSummaryColumns + 1);
@@ -235,8 +266,8 @@ class SqliteJobRepository : public JobRepository {
     return jobs;
   }
 
-  int64_t CreateBatch(
-      const std::vector<std::string>& item_requests_json) override {
+  int64_t CreateBatch(const std::vector<std::string>& item_requests_json,
+                      const std::string& submitted_by) override {
     std::lock_guard<std::mutex> lock(mutex_);
     Transaction transaction(db_);
     int64_t batch_id = 0;
@@ -267,6 +298,7 @@ class SqliteJobRepository : public JobRepository {
       } else {
         SQLITE3_CALL(db_, sqlite3_bind_null(stmt_insert_batch_, 4));
       }
+      BindNonEmptyText(stmt_insert_batch_, 5, submitted_by);
       SQLITE3_CALL(db_, sqlite3_step(stmt_insert_batch_));
       batch_id = sqlite3_last_insert_rowid(db_);
     }
@@ -351,6 +383,7 @@ class SqliteJobRepository : public JobRepository {
       batch.total = sqlite3_column_int(stmt_read_batch_, 4);
       batch.done = sqlite3_column_int(stmt_read_batch_, 5);
       batch.failed = sqlite3_column_int(stmt_read_batch_, 6);
+      batch.submitted_by = ColumnText(stmt_read_batch_, 7);
     }
     if (!with_items) return batch;
     StatementScope scope(stmt_read_batch_items_);
@@ -378,6 +411,7 @@ class SqliteJobRepository : public JobRepository {
       item.batch_id = sqlite3_column_int64(stmt_read_pending_items_, 0);
       item.index = sqlite3_column_int(stmt_read_pending_items_, 1);
       item.request_json = ColumnText(stmt_read_pending_items_, 2);
+      item.submitted_by = ColumnText(stmt_read_pending_items_, 3);
       items.push_back(std::move(item));
     }
     return items;
@@ -507,6 +541,25 @@ class SqliteJobRepository : public JobRepository {
               "  THEN 'free-form-bevel-generator' ELSE 'flat-wheel-grinder' "
               "END;");
         },
+        // Version 3: traceability of a job (part, serial, teeth, measuring
+        // time and file, machine, batch, submitter) and of a batch (its
+        // submitter). Older rows have none: NULL.
+        [this] {
+          Exec(
+              "ALTER TABLE jobs ADD COLUMN part_number TEXT;"
+              "ALTER TABLE jobs ADD COLUMN serial TEXT;"
+              "ALTER TABLE jobs ADD COLUMN tooth_numbers TEXT;"
+              "ALTER TABLE jobs ADD COLUMN measured_at TEXT;"
+              "ALTER TABLE jobs ADD COLUMN file_name TEXT;"
+              "ALTER TABLE jobs ADD COLUMN machine_id TEXT;"
+              "ALTER TABLE jobs ADD COLUMN batch_id INTEGER REFERENCES "
+              "batches(batch_id) ON DELETE SET NULL;"
+              "ALTER TABLE jobs ADD COLUMN submitted_by TEXT;"
+              "ALTER TABLE batches ADD COLUMN submitted_by TEXT;"
+              "CREATE INDEX IF NOT EXISTS jobs_part ON jobs(part_number, "
+              "serial);"
+              "CREATE INDEX IF NOT EXISTS jobs_batch ON jobs(batch_id);");
+        },
     };
     int version = ReadUserVersion();
     if (version > static_cast<int>(migrations.size())) {
@@ -554,15 +607,25 @@ class SqliteJobRepository : public JobRepository {
         " AND (?5 IS NULL OR status = ?5)"
         " AND (?6 IS NULL OR created_utc >= ?6)"
         " AND (?7 IS NULL OR created_utc < ?7)"
-        " AND (?8 IS NULL OR machine_kind = ?8)";
+        " AND (?8 IS NULL OR machine_kind = ?8)"
+        " AND (?11 IS NULL OR part_number = ?11)"
+        " AND (?12 IS NULL OR serial = ?12)"
+        " AND (?13 IS NULL OR (',' || tooth_numbers || ',') LIKE"
+        "      ('%,' || ?13 || ',%'))"
+        " AND (?14 IS NULL OR machine_id = ?14)"
+        " AND (?15 IS NULL OR batch_id = ?15)"
+        " AND (?16 IS NULL OR submitted_by = ?16)"
+        " AND (?17 IS NULL OR file_name = ?17)";
     Prepare(
         "INSERT INTO jobs (created_utc, kind, status, gear_teeth, "
         "gear_normal_module_mm, gear_helix_angle_deg,"
         " gear_hand, flank, request_json, result_json, residual_rms_um, "
         "best_reachable_rms_um, rank, elapsed_ms,"
-        " server_version, parent_job_id, settings_source_job_id, machine_kind)"
+        " server_version, parent_job_id, settings_source_job_id, machine_kind,"
+        " part_number, serial, tooth_numbers, measured_at, file_name,"
+        " machine_id, batch_id, submitted_by)"
         " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, "
-        "?15, ?16, ?17, ?18);",
+        "?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26);",
         &stmt_insert_job_);
     Prepare("SELECT " + columns +
                 ", request_json, result_json FROM jobs WHERE job_id = ?1;",
@@ -591,8 +654,8 @@ class SqliteJobRepository : public JobRepository {
   // The statements of the batches and batch_items tables.
   void PrepareBatchStatements() {
     Prepare(
-        "INSERT INTO batches (created_utc, total_items, status, finished_utc) "
-        "VALUES (?1, ?2, ?3, ?4);",
+        "INSERT INTO batches (created_utc, total_items, status, finished_utc, "
+        "submitted_by) VALUES (?1, ?2, ?3, ?4, ?5);",
         &stmt_insert_batch_);
     Prepare(
         "INSERT INTO batch_items (batch_id, item_index, request_json) VALUES "
@@ -624,7 +687,7 @@ class SqliteJobRepository : public JobRepository {
         &stmt_update_batch_counters_);
     Prepare(
         "SELECT batch_id, created_utc, finished_utc, status, total_items, "
-        "done_items, failed_items"
+        "done_items, failed_items, submitted_by"
         " FROM batches WHERE batch_id = ?1;",
         &stmt_read_batch_);
     Prepare(
@@ -633,9 +696,9 @@ class SqliteJobRepository : public JobRepository {
         " FROM batch_items WHERE batch_id = ?1 ORDER BY item_index;",
         &stmt_read_batch_items_);
     Prepare(
-        "SELECT batch_id, item_index, request_json FROM batch_items WHERE "
-        "state = 'pending'"
-        " ORDER BY batch_id, item_index;",
+        "SELECT i.batch_id, i.item_index, i.request_json, b.submitted_by"
+        " FROM batch_items i JOIN batches b ON b.batch_id = i.batch_id"
+        " WHERE i.state = 'pending' ORDER BY i.batch_id, i.item_index;",
         &stmt_read_pending_items_);
   }
 
@@ -720,8 +783,31 @@ class SqliteJobRepository : public JobRepository {
     SQLITE3_CALL(
         db_,
         sqlite3_bind_text(s, 18, job.machine_kind.c_str(), -1, SQLITE_STATIC));
+    BindTraceColumns(s, job);
     SQLITE3_CALL(db_, sqlite3_step(s));
     return sqlite3_last_insert_rowid(db_);
+  }
+
+  // Binds ?19..?26 of the insert: the traceability of `job`.
+  void BindTraceColumns(sqlite3_stmt* s, const JobRecord& job) {
+    BindNonEmptyText(s, 19, job.part_number);
+    BindNonEmptyText(s, 20, job.serial);
+    BindNonEmptyText(s, 21, ToothNumbersText(job.tooth_numbers));
+    BindNonEmptyText(s, 22, job.measured_at);
+    BindNonEmptyText(s, 23, job.file_name);
+    BindNonEmptyText(s, 24, job.machine_id);
+    BindOptionalInt64(s, 25, job.batch_id);
+    BindNonEmptyText(s, 26, job.submitted_by);
+  }
+
+  // NULL for an empty text.
+  void BindNonEmptyText(sqlite3_stmt* s, int index, const std::string& text) {
+    if (text.empty()) {
+      SQLITE3_CALL(db_, sqlite3_bind_null(s, index));
+    } else {
+      SQLITE3_CALL(
+          db_, sqlite3_bind_text(s, index, text.c_str(), -1, SQLITE_TRANSIENT));
+    }
   }
 
   void UpdateBatchCounters(int64_t batch_id) {
@@ -781,6 +867,17 @@ class SqliteJobRepository : public JobRepository {
     BindOptionalText(s, 6, filter.created_from);
     BindOptionalText(s, 7, filter.created_to);
     BindOptionalText(s, 8, filter.machine_kind);
+    BindOptionalText(s, 11, filter.part_number);
+    BindOptionalText(s, 12, filter.serial);
+    if (filter.tooth) {
+      SQLITE3_CALL(db_, sqlite3_bind_int(s, 13, *filter.tooth));
+    } else {
+      SQLITE3_CALL(db_, sqlite3_bind_null(s, 13));
+    }
+    BindOptionalText(s, 14, filter.machine_id);
+    BindOptionalInt64(s, 15, filter.batch_id);
+    BindOptionalText(s, 16, filter.submitted_by);
+    BindOptionalText(s, 17, filter.file_name);
   }
 
   sqlite3* db_ = nullptr;

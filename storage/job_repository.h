@@ -92,6 +92,24 @@ struct JobRecord {
   // The job whose corrected settings the measured part was ground with, if any;
   // must name a stored job.
   std::optional<int64_t> settings_source_job_id;
+
+  // Traceability (schema version 3): what the shop floor knows of the part.
+  // All optional; an empty text (or list) is "not given" and stored as NULL.
+  // Jobs stored before version 3 have none of them.
+  std::string part_number;
+  std::string serial;
+  // The measured tooth numbers (1-based, as the measuring machine counts).
+  std::vector<int> tooth_numbers;
+  // When the part was measured: ISO-8601 text as the request gave it.
+  std::string measured_at;
+  // The measuring machine's file the measurement came from.
+  std::string file_name;
+  // The machine the part was ground on (the shop's name for it).
+  std::string machine_id;
+  // The batch the job was run in, if any (set by CompleteBatchItem's caller).
+  std::optional<int64_t> batch_id;
+  // The name of the token that submitted the job ("" without tokens).
+  std::string submitted_by;
 };
 
 // Filters of the history listing; an absent filter matches everything.
@@ -110,6 +128,15 @@ struct JobFilter {
   std::optional<std::string> created_from;
   // created_utc < created_to (exclusive).
   std::optional<std::string> created_to;
+  // Traceability filters, each matched exactly; `tooth` matches a job whose
+  // tooth_numbers hold it.
+  std::optional<std::string> part_number;
+  std::optional<std::string> serial;
+  std::optional<int> tooth;
+  std::optional<std::string> machine_id;
+  std::optional<int64_t> batch_id;
+  std::optional<std::string> submitted_by;
+  std::optional<std::string> file_name;
   // Paging: at most `limit` jobs (1..1000), skipping the first `offset` (>= 0)
   // matches.
   int limit = 50;
@@ -152,6 +179,8 @@ struct BatchRecord {
   int total = 0;
   int done = 0;
   int failed = 0;
+  // The name of the token that submitted the batch ("" without tokens).
+  std::string submitted_by;
   // Ordered by index; filled by ReadBatch only when asked for.
   std::vector<BatchItemRecord> items;
 };
@@ -162,6 +191,8 @@ struct PendingBatchItem {
   int64_t batch_id = 0;
   int index = 0;
   std::string request_json;
+  // The batch's submitter (BatchRecord::submitted_by).
+  std::string submitted_by;
 };
 
 class JobRepository {
@@ -183,9 +214,14 @@ class JobRepository {
   virtual std::vector<JobRecord> ReadLineage(int64_t id) = 0;
 
   // Stores a batch of `item_requests_json.size()` pending items (one
-  // transaction) and returns its id.
+  // transaction), submitted by the token named `submitted_by` ("" for none),
+  // and returns its id.
   virtual int64_t CreateBatch(
-      const std::vector<std::string>& item_requests_json) = 0;
+      const std::vector<std::string>& item_requests_json,
+      const std::string& submitted_by) = 0;
+  int64_t CreateBatch(const std::vector<std::string>& item_requests_json) {
+    return CreateBatch(item_requests_json, std::string());
+  }
   // Stores `job` and marks item `index` of `batch_id` done with it, in one
   // transaction; returns the job id. Finishes the batch when this was its last
   // open item.

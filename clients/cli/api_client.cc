@@ -85,15 +85,36 @@ ApiResponse ApiClient::Finish(int status,
   return response;
 }
 
+namespace {
+
+// What failed and what to do about it, for a request that got no answer.
+std::string UnreachableMessage(const std::string& server,
+                               httplib::Error error) {
+  const std::string base = "cannot reach " + server + ": ";
+  if (error == httplib::Error::Connection) {
+    return base +
+           "no connection (Connection). Is the server running? Start it with "
+           "`gearloop-server --port PORT`, or give its URL with --server URL "
+           "or GEARLOOP_SERVER.";
+  }
+  if (error == httplib::Error::Read || error == httplib::Error::Write) {
+    return base + httplib::to_string(error) +
+           " (no answer in time: a long solve or batch may need a larger "
+           "--timeout S; or the server stopped)";
+  }
+  return base + httplib::to_string(error) +
+         " (is the server running at this URL? --server URL or "
+         "GEARLOOP_SERVER)";
+}
+
+}  // namespace
+
 ApiResponse ApiClient::Get(const std::string& path) {
   if (!url_error_.empty()) return Finish(0, "", url_error_);
   httplib::Result result = http_->Get(
       path.c_str(), httplib::Headers{{"Accept", "application/json"}});
   if (!result) {
-    return Finish(
-        0,
-        "",
-        "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
+    return Finish(0, "", UnreachableMessage(server_, result.error()));
   }
   return Finish(result->status, result->body, "");
 }
@@ -107,10 +128,7 @@ ApiResponse ApiClient::Post(const std::string& path,
                   body.dump(),
                   "application/json");
   if (!result) {
-    return Finish(
-        0,
-        "",
-        "cannot reach " + server_ + ": " + httplib::to_string(result.error()));
+    return Finish(0, "", UnreachableMessage(server_, result.error()));
   }
   return Finish(result->status, result->body, "");
 }

@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <utility>
 
 #include "clients/cli/csv_grid.h"
 #include "clients/cli/grid_files.h"
@@ -189,6 +190,93 @@ int InputError(const std::string& message) {
 // --- Corrections
 // ---------------------------------------------------------------------------------
 
+const char* const kTraceOptionsHelp =
+    "  --part-number P          trace: the part number (stored, filterable)\n"
+    "  --serial S               trace: the serial number\n"
+    "  --teeth 1,10,19          trace: the measured tooth numbers\n"
+    "  --measured-at TIME       trace: ISO-8601 time of the measurement\n"
+    "  --machine-id M           trace: the machine the part was made on\n"
+    "  --file-name F            trace: the measuring file (default: its "
+    "name)\n";
+
+int ApplyTraceOptions(const std::string& command,
+                      const ParsedArgs& args,
+                      const std::string& machine_file_path,
+                      json* request) {
+  json trace = request->contains("trace") && (*request)["trace"].is_object()
+                   ? (*request)["trace"]
+                   : json::object();
+  const std::pair<const char*, const char*> texts[] = {
+      {"--part-number", "part_number"},
+      {"--serial", "serial"},
+      {"--measured-at", "measured_at"},
+      {"--machine-id", "machine_id"},
+      {"--file-name", "file_name"}};
+  for (const auto& [option, key] : texts) {
+    if (args.Has(option)) trace[key] = args.Value(option);
+  }
+  if (!machine_file_path.empty() && !trace.contains("file_name")) {
+    const size_t slash = machine_file_path.find_last_of('/');
+    trace["file_name"] = slash == std::string::npos
+                             ? machine_file_path
+                             : machine_file_path.substr(slash + 1);
+  }
+  if (args.Has("--teeth")) {
+    json teeth = json::array();
+    std::stringstream list(args.Value("--teeth"));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      long long tooth = 0;
+      if (!ParseCount(item, 1, 100000, &tooth)) {
+        std::cerr << "gearloop " << command
+                  << ": --teeth takes tooth numbers >= 1 separated by commas, "
+                     "got '"
+                  << args.Value("--teeth") << "'\n";
+        return kExitUsage;
+      }
+      teeth.push_back(tooth);
+    }
+    trace["teeth"] = teeth;
+  }
+  if (!trace.empty()) (*request)["trace"] = trace;
+  return -1;
+}
+
+std::string VerdictCell(const json& result) {
+  if (!result.contains("verdict") || !result["verdict"].is_object()) return "-";
+  const json& verdict = result["verdict"];
+  const auto one = [&verdict](const char* part) {
+    return verdict.value(part, json::object()).value("verdict", "?");
+  };
+  return one("measured") + "/" + one("predicted");
+}
+
+// The tolerance and the verdicts of a result with a tolerance.
+void PrintVerdict(const json& result) {
+  if (!result.contains("verdict") || !result["verdict"].is_object()) return;
+  const json& verdict = result["verdict"];
+  const json tolerance = verdict.value("tolerance", json::object());
+  std::string limits;
+  if (tolerance.contains("rms_um"))
+    limits += "rms " + Fixed(tolerance["rms_um"], 2) + " um";
+  if (tolerance.contains("max_um"))
+    limits += std::string(limits.empty() ? "" : ", ") + "max " +
+              Fixed(tolerance["max_um"], 2) + " um";
+  if (tolerance.contains("iso_class"))
+    limits += std::string(limits.empty() ? "" : ", ") + "ISO 1328-1 class " +
+              Text(tolerance["iso_class"]);
+  std::cout << "  tolerance            " << limits << "\n";
+  for (const char* part : {"measured", "predicted"}) {
+    const json v = verdict.value(part, json::object());
+    std::string failed;
+    for (const json& name : v.value("failed", json::array()))
+      failed += (failed.empty() ? "" : ", ") + Text(name);
+    std::cout << "  verdict " << std::left << std::setw(13) << part
+              << std::right << v.value("verdict", "?")
+              << (failed.empty() ? "" : "  (misses " + failed + ")") << "\n";
+  }
+}
+
 void PrintCorrectionSummary(const json& answer) {
   const json& result =
       answer.contains("result") ? answer["result"] : json::object();
@@ -228,6 +316,7 @@ void PrintCorrectionSummary(const json& answer) {
     std::cout << "  ISO 1328-1 class     " << overall("target_relative")
               << " measured, " << overall("predicted") << " predicted\n";
   }
+  PrintVerdict(result);
   std::cout << "  solver " << Member(result, "solver") << ", mode "
             << Member(result, "mode") << ", rank " << Member(result, "rank")
             << ", condition "
@@ -375,6 +464,32 @@ int ApplyCorrectionsAndStore(const CommandSpec& spec,
   return -1;
 }
 
+// True when the last part of a closed loop deviates more from the target (true
+// rms, else measured rms) than the part made before any correction; says so
+// on stderr.
+bool LoopDiverged(const json& loop, bool quiet) {
+  const json iterations = loop.value("iterations", json::array());
+  if (iterations.size() < 2) return false;
+  const auto rms = [](const json& it) {
+    const json value =
+        it.contains("true_rms_um") && it["true_rms_um"].is_number()
+            ? it["true_rms_um"]
+            : it.value("measured_rms_um", json());
+    return value.is_number() ? value.get<double>() : std::nan("");
+  };
+  const double first = rms(iterations.front());
+  const double last = rms(iterations.back());
+  if (!(last > first)) return false;
+  if (!quiet) {
+    std::cerr << "gearloop: the loop diverged: part "
+              << Member(iterations.back(), "part") << " deviates "
+              << Fixed(json(last)) << " um rms from the target, part "
+              << Member(iterations.front(), "part") << " " << Fixed(json(first))
+              << " um; check the solver options and the machine setup\n";
+  }
+  return true;
+}
+
 int SendClosedLoop(ApiClient* client,
                    const json& scenario,
                    const char* made,
@@ -407,8 +522,9 @@ int SendClosedLoop(ApiClient* client,
     if (!note.empty()) std::cout << note << "\n";
   }
   const json completed = answer.body.value("completed", json(true));
-  return completed.is_boolean() && !completed.get<bool>() ? kExitNotConverged
-                                                          : kExitOk;
+  if (completed.is_boolean() && !completed.get<bool>())
+    return kExitNotConverged;
+  return LoopDiverged(answer.body, global.json) ? kExitNotConverged : kExitOk;
 }
 
 }  // namespace cli_internal

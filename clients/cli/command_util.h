@@ -29,7 +29,7 @@ namespace cli_internal {
 // The options one subcommand takes: names that take a value, and flags.
 struct CommandSpec {
   const char* name;
-  const char* usage;  // the full --help text
+  std::string usage;  // the full --help text
   std::set<std::string> valued;
   std::set<std::string> flags;
   int min_positional;
@@ -95,6 +95,10 @@ int InputError(const std::string& message);
 // motion.
 void PrintCorrectionSummary(const nlohmann::json& answer);
 
+// "FAIL/PASS": the verdicts of the measured and the predicted part of a
+// result with a tolerance; "-" without one.
+std::string VerdictCell(const nlohmann::json& result);
+
 // Builds a correction request from the files (an empty `measurement_path`
 // leaves the measurement to the caller); returns -1 when done, or an exit
 // code.
@@ -102,6 +106,19 @@ int BuildCorrectionRequest(const std::string& request_path,
                            const std::string& measurement_path,
                            const ParsedArgs& args,
                            nlohmann::json* request);
+
+// The trace options of submit and correct (--part-number, --serial, --teeth,
+// --measured-at, --machine-id, --file-name), as the help lists them.
+extern const char* const kTraceOptionsHelp;
+
+// Writes the trace options into request.trace (over a trace of the request
+// file); --file-name defaults to the measuring file's name when
+// `measurement_path` is a machine's file. Returns -1, or the usage exit code
+// after printing the reason.
+int ApplyTraceOptions(const std::string& command,
+                      const ParsedArgs& args,
+                      const std::string& machine_file_path,
+                      nlohmann::json* request);
 
 // With --settings-from ID and no "settings" in the request file, the part was
 // ground with job ID's corrected settings: fetch them (once; `cache` keeps them

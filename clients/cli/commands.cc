@@ -93,6 +93,9 @@ const std::vector<Command>& Commands() {
       {&kBevelClosedLoop,
        RunBevelClosedLoop,
        "simulate cut-measure-correct loops of a bevel pinion"},
+      {&kSplitTrajectory,
+       RunSplitTrajectory,
+       "5-axis milling trajectory and NC program of a split bevel wheel"},
       {&kReport, RunReport, "write a printable HTML report of a job"},
       {&kNominal, RunNominal, "print the nominal machine settings of a setup"},
       {&kEvaluate,
@@ -109,6 +112,18 @@ const std::vector<Command>& Commands() {
       {&kShavingTarget,
        RunShavingTarget,
        "compute the plunge-shaving cutter target of a modified work gear"},
+      {&kSettings,
+       RunSettings,
+       "print a job's corrected settings for the machine (table, csv, nc)"},
+      {&kReach,
+       RunReach,
+       "tell how much of a target the machine can make, before grinding"},
+      {&kLineage,
+       RunLineage,
+       "list the settings lineage of a job (ground with whose settings)"},
+      {&kBevelSensitivity,
+       RunBevelSensitivity,
+       "rank a bevel generator's axes by the flank error their errors cause"},
   };
   return commands;
 }
@@ -152,8 +167,11 @@ std::string MainHelp() {
          "field)\n"
          "  4  a local file could not be read or is invalid (the message names "
          "line and column)\n"
-         "  5  done, but a correction did not converge or batch items "
-         "failed\n\n"
+         "  5  done, but a correction did not converge, its predicted part "
+         "misses the\n"
+         "     job's tolerance (target_partly_reachable), a closed loop "
+         "diverged or batch\n"
+         "     items failed\n\n"
          "files: CSV grids and JSON measurement files are described in "
          "clients/FORMATS.md.\n";
   return out.str();

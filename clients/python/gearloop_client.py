@@ -204,7 +204,9 @@ class Client:
                          **filters: Any) -> Json:
         """GET /api/v1/corrections: {"jobs": [...newest first], "total", "limit", "offset"}.
 
-        Filters (query parameters): kind, status, flank, teeth, module_mm, created_from, created_to.
+        Filters (query parameters): kind, status, flank, teeth, module_mm, created_from, created_to,
+        and the trace of a job: part_number, serial, tooth, machine_id, file_name, batch_id,
+        submitted_by.
         """
         query: Dict[str, Any] = {"limit": limit, "offset": offset}
         query.update(filters)
@@ -213,6 +215,18 @@ class Client:
     def get_correction(self, job_id: int) -> Json:
         """GET /api/v1/corrections/{id}: the job with its "request" and "result"."""
         return self._request("GET", f"/api/v1/corrections/{int(job_id)}")
+
+    def correction_settings(self, job_id: int, format: str = "csv", samples: Optional[int] = None) -> str:
+        """GET /api/v1/corrections/{id}/settings: the corrected settings as text for the machine
+        (docs/settings-listing.md): format "csv", "table" or "nc"; samples = roll angles the axis
+        motion is listed at (server default 9)."""
+        query: Dict[str, Any] = {"format": format, "samples": samples}
+        return self._request("GET", f"/api/v1/corrections/{int(job_id)}/settings", query=query,
+                             expect_json=False)
+
+    def openapi_document(self) -> str:
+        """GET /api/v1/openapi.yaml: the API contract the server was built with (YAML text)."""
+        return self._request("GET", "/api/v1/openapi.yaml", expect_json=False)
 
     def lineage(self, job_id: int) -> Json:
         """GET /api/v1/corrections/{id}/lineage: {"jobs": [...]} the chain of settings revisions."""
@@ -486,6 +500,44 @@ class Client:
                               centre_distance_mm=centre_distance_mm, grid=grid,
                               wheel_check=wheel_check)
         return self._request("POST", "/api/v1/shaving/cutter-target", body)
+    # --- split bevel wheels on a head-head 5-axis machine (docs/split-bevel.md) ---------------
+
+    def split_trajectory(self, gear: Json, tool: Json, cut: Optional[Json] = None,
+                         machine: Optional[Json] = None, setup: Optional[Json] = None,
+                         nc: Optional[bool] = None) -> Json:
+        """POST /api/v1/bevel/split-trajectory: the 5-axis flank-milling trajectory of one slot of a
+        split equal-base-circle bevel wheel, stored as a job (needs a write token when the server
+        has tokens).
+
+        Args:
+            gear: {"teeth", "pitch_angle_deg", "outer_cone_distance_mm" or
+                "outer_transverse_module_mm", "face_width_mm", "mean_spiral_angle_deg" or
+                "outer_spiral_angle_deg", "hand", "pressure_angle_deg", optional "addendum_mm",
+                "dedendum_mm", "slot_width_mm"} (mm, degrees).
+            tool: {"radius_mm", optional "stock_mm"}: the end mill.
+            cut: {"slot_index", "flanks", "depth_levels", "steps" or "chord_tolerance_mm", "from",
+                "feed_mm_per_min"} (server defaults when absent).
+            machine: {"pivot_length_mm", "a_limits_deg", "b_limits_deg"}.
+            setup: {"apex_mm", "segment_mid_deg", "segment_angle_deg"}.
+            nc: True to have the answer carry "nc_program" (the stored job always keeps it).
+
+        Returns:
+            {"derived", "setup", "passes": [{"slot", "flank", "level", "tip_height_mm",
+            "side_deviation_mm": {"min", "max"}, "points": [{"arc_mm", ..., "X_mm", "Y_mm", "Z_mm",
+            "A_deg", "B_deg"}]}], "job_id", "location", "nc_location", "nc_program" (with nc)}.
+
+        Raises:
+            GearloopApiError: 422 naming the field for every refusal of SPLIT_BEVEL.md section 8.
+        """
+        body = _with_optional({"gear": gear, "tool": tool}, cut=cut, machine=machine, setup=setup)
+        if nc is not None:
+            body["output"] = {"nc": nc}
+        return self._request("POST", "/api/v1/bevel/split-trajectory", body)
+
+    def split_trajectory_nc(self, job_id: int) -> str:
+        """GET /api/v1/bevel/split-trajectory/{id}/nc: the stored job's NC program as text."""
+        return self._request("GET", f"/api/v1/bevel/split-trajectory/{int(job_id)}/nc", expect_json=False)
+
 
 # --- CSV grids (clients/FORMATS.md; the same format as the gearloop CLI) -------------------------
 

@@ -106,6 +106,13 @@
     detail.appendChild(message("Loading job " + id + "\u2026", "loading"));
     try {
       const job = await api("GET", "/api/v1/corrections/" + id);
+      if (P.isSplitTrajectory(job)) {
+        if (ticket !== state.ticket) return;
+        detail.textContent = "";
+        showSplitTrajectory(job, detail);
+        document.body.setAttribute("data-job-shown", String(id));
+        return;
+      }
       const chain = await lineage(id);
       if (ticket !== state.ticket) return;
       detail.textContent = "";
@@ -129,6 +136,18 @@
       detail.textContent = "";
       detail.appendChild(message("Cannot load job " + id + ": " + e.message));
     }
+  }
+
+  // A split-bevel trajectory job: its NC program and JSON to download, the paths, the head
+  // angles along the face and the passes (no replay, next part or simulation: nothing was
+  // measured).
+  function showSplitTrajectory(job, detail) {
+    const r = job.result || {};
+    const actions = P.html("div", { class: "actions downloads" }, [P.html("span", { class: "note", text: "Download:" })]);
+    if (typeof r.nc_program === "string") actions.appendChild(downloadLink("job" + job.id + ".nc", r.nc_program, "text/plain"));
+    actions.appendChild(downloadLink("job" + job.id + ".json", JSON.stringify(job), "application/json"));
+    detail.appendChild(actions);
+    detail.appendChild(P.renderJob(job, [job]));
   }
 
   // Replays the stored measurement with another solver (POST .../replay); the new job opens.

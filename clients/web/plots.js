@@ -362,6 +362,39 @@
     return chart;
   }
 
+  // The traceability of a job (part, serial, teeth, measuring time and file, machine, batch,
+  // submitter): one row per given field.
+  function traceRows(trace) {
+    if (!trace) return [];
+    const labels = [
+      ["part_number", "part number"], ["serial", "serial"], ["teeth", "measured teeth"],
+      ["measured_at", "measured at"], ["file_name", "measuring file"], ["machine_id", "machine"],
+      ["batch_id", "batch"], ["submitted_by", "submitted by"],
+    ];
+    const rows = [];
+    for (const [key, label] of labels) {
+      if (trace[key] === undefined || trace[key] === null) continue;
+      rows.push([label, Array.isArray(trace[key]) ? trace[key].join(", ") : String(trace[key])]);
+    }
+    return rows;
+  }
+
+  // The tolerance and the PASS/FAIL of the measured and the predicted part (a job with a tolerance).
+  function verdictRows(verdict) {
+    if (!verdict) return [];
+    const t = verdict.tolerance || {};
+    const limits = [];
+    if (t.rms_um !== undefined) limits.push("rms " + fmt(t.rms_um, 2) + " \u00b5m");
+    if (t.max_um !== undefined) limits.push("max " + fmt(t.max_um, 2) + " \u00b5m");
+    if (t.iso_class !== undefined) limits.push("ISO 1328-1 class " + t.iso_class);
+    const part = (v) => (v ? v.verdict + (v.failed && v.failed.length ? " (misses " + v.failed.join(", ") + ")" : "") : "\u2013");
+    return [
+      ["tolerance", limits.join(", ")],
+      ["verdict measured", part(verdict.measured)],
+      ["verdict predicted", part(verdict.predicted)],
+    ];
+  }
+
   function summaryTable(job) {
     const r = job.result || {};
     const req = job.request || {};
@@ -393,6 +426,8 @@
     if (setupRows) rows.splice(2, 2, ...setupRows);
     if (job.parent_job_id) rows.push(["replay of job", String(job.parent_job_id)]);
     if (job.settings_source_job_id) rows.push(["ground with settings of job", String(job.settings_source_job_id)]);
+    rows.push(...verdictRows(r.verdict));
+    rows.push(...traceRows(job.trace));
     const table = html("table", { class: "summary" });
     for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));
     return table;
@@ -521,9 +556,200 @@
     return box;
   }
 
+  // --- Split bevel trajectory (kind "split_trajectory", docs/split-bevel.md) ------------------
+
+  // A 5-axis flank-milling trajectory of a split bevel wheel: its result holds passes of points,
+  // not grids.
+  function isSplitTrajectory(job) {
+    return (job || {}).kind === "split_trajectory" || (job || {}).machine_kind === "head-head-5-axis-mill";
+  }
+
+  const FLANK_COLOUR = { convex: "#1f77b4", concave: "#d62728" };
+
+  // A point and a direction of the blank frame in machine coordinates: blank_to_machine is the
+  // 4 x 4 row-major [M, apex; 0 0 0 1] of the result.
+  function toMachine(t, v, isPoint) {
+    const out = [0, 1, 2].map((i) => t[4 * i] * v[0] + t[4 * i + 1] * v[1] + t[4 * i + 2] * v[2] + (isPoint ? t[4 * i + 3] : 0));
+    return out;
+  }
+
+  // One orthographic projection of the tool-centre paths with the tool axes drawn as segments at
+  // about ten stations of each pass, on one scale for both coordinates (the shape is true).
+  //   paths: [{flank, points: [[u, v]], axes: [[u0, v0, u1, v1]]}]; opts.title, uLabel, vLabel, subtitle
+  function pathProjection(paths, opts) {
+    const width = opts.width || 430;
+    const height = opts.height || 400;
+    const m = { left: 64, right: 14, top: 44, bottom: 46 };
+    const pw = width - m.left - m.right;
+    const ph = height - m.top - m.bottom;
+    const us = [];
+    const vs = [];
+    for (const p of paths) {
+      for (const q of p.points) us.push(q[0]), vs.push(q[1]);
+      for (const a of p.axes) us.push(a[0], a[2]), vs.push(a[1], a[3]);
+    }
+    const root = svg("svg", { class: "chart split-projection", viewBox: "0 0 " + width + " " + height, width: width, height: height, role: "img", "aria-label": opts.title });
+    root.appendChild(svg("text", { x: m.left, y: 16, class: "plot-title" }, [opts.title]));
+    if (opts.subtitle) root.appendChild(svg("text", { x: m.left, y: 30, class: "plot-subtitle" }, [opts.subtitle]));
+    if (!us.length) return root;
+    // One scale: the larger span fills its side, the other is centred.
+    const uMid = (Math.min(...us) + Math.max(...us)) / 2;
+    const vMid = (Math.min(...vs) + Math.max(...vs)) / 2;
+    const scale = Math.min(pw / (Math.max(...us) - Math.min(...us) || 1), ph / (Math.max(...vs) - Math.min(...vs) || 1)) * 0.92;
+    const U = (u) => m.left + pw / 2 + (u - uMid) * scale;
+    const V = (v) => m.top + ph / 2 - (v - vMid) * scale;
+    const ur = niceTicks(uMid - pw / 2 / scale, uMid + pw / 2 / scale, 4);
+    const vr = niceTicks(vMid - ph / 2 / scale, vMid + ph / 2 / scale, 4);
+    for (const t of ur.ticks) {
+      if (U(t) < m.left || U(t) > m.left + pw) continue;
+      root.appendChild(svg("line", { x1: U(t), x2: U(t), y1: m.top, y2: m.top + ph, class: "grid-line" }));
+      root.appendChild(svg("text", { x: U(t), y: m.top + ph + 16, "text-anchor": "middle", class: "tick-label" }, [tickLabel(t, ur.step)]));
+    }
+    for (const t of vr.ticks) {
+      if (V(t) < m.top || V(t) > m.top + ph) continue;
+      root.appendChild(svg("line", { x1: m.left, x2: m.left + pw, y1: V(t), y2: V(t), class: "grid-line" }));
+      root.appendChild(svg("text", { x: m.left - 6, y: V(t) + 4, "text-anchor": "end", class: "tick-label" }, [tickLabel(t, vr.step)]));
+    }
+    root.appendChild(svg("rect", { x: m.left, y: m.top, width: pw, height: ph, fill: "none", stroke: "#888" }));
+    root.appendChild(svg("text", { x: m.left + pw / 2, y: height - 8, "text-anchor": "middle", class: "axis-title" }, [opts.uLabel]));
+    const ym = m.top + ph / 2;
+    root.appendChild(svg("text", { x: 14, y: ym, "text-anchor": "middle", class: "axis-title", transform: "rotate(-90 14 " + ym + ")" }, [opts.vLabel]));
+    for (const p of paths) {
+      const col = FLANK_COLOUR[p.flank] || "#555";
+      for (const a of p.axes) {
+        root.appendChild(svg("line", { x1: U(a[0]).toFixed(1), y1: V(a[1]).toFixed(1), x2: U(a[2]).toFixed(1), y2: V(a[3]).toFixed(1), stroke: col, "stroke-opacity": 0.45, class: "tool-axis" }));
+      }
+      root.appendChild(
+        svg("polyline", {
+          points: p.points.map((q) => U(q[0]).toFixed(1) + "," + V(q[1]).toFixed(1)).join(" "),
+          fill: "none",
+          stroke: col,
+          "stroke-width": 1.5,
+          class: "series tool-path",
+          "data-name": p.flank + " " + p.level,
+        })
+      );
+    }
+    let lx = m.left + 8;
+    for (const flank of ["convex", "concave"]) {
+      if (!paths.some((p) => p.flank === flank)) continue;
+      root.appendChild(svg("line", { x1: lx, x2: lx + 16, y1: m.top + 10, y2: m.top + 10, stroke: FLANK_COLOUR[flank], "stroke-width": 2 }));
+      root.appendChild(svg("text", { x: lx + 20, y: m.top + 14, class: "legend" }, [flank]));
+      lx += 80;
+    }
+    return root;
+  }
+
+  // The tool-centre paths and tool axes of every pass in machine coordinates, projected onto the
+  // machine's X-Y (plan) and X-Z (front) planes.
+  function splitProjections(result) {
+    const t = ((result.setup || {}).blank_to_machine || []).length === 16 ? result.setup.blank_to_machine : [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+    const passes = result.passes || [];
+    let extent = 0;
+    const machine = passes.map((pass) => (pass.points || []).map((q) => ({ o: toMachine(t, q.tool_centre_mm, true), a: toMachine(t, q.tool_axis, false) })));
+    for (const pts of machine) for (const q of pts) extent = Math.max(extent, Math.abs(q.o[0] - machine[0][0].o[0]), Math.abs(q.o[1] - machine[0][0].o[1]), Math.abs(q.o[2] - machine[0][0].o[2]));
+    // Axis segments of a round length near a quarter of the paths' extent.
+    const axisLength = niceTicks(0, Math.max(1, extent * 0.25), 1).step;
+    const box = html("div", { class: "chart-row split-paths" });
+    for (const [i, j, name] of [[0, 1, "plan X\u2013Y"], [0, 2, "front X\u2013Z"]]) {
+      const paths = passes.map((pass, k) => {
+        const pts = machine[k];
+        const every = Math.max(1, Math.ceil(pts.length / 10));
+        const axes = pts.filter((_, n) => n % every === 0 || n === pts.length - 1).map((q) => [q.o[i], q.o[j], q.o[i] + axisLength * q.a[i], q.o[j] + axisLength * q.a[j]]);
+        return { flank: pass.flank, level: pass.level, points: pts.map((q) => [q.o[i], q.o[j]]), axes };
+      });
+      box.appendChild(
+        pathProjection(paths, {
+          title: "tool-centre paths, " + name,
+          subtitle: "machine coordinates; tool axes drawn " + axisLength + " mm long, tip \u2192 spindle",
+          uLabel: "XYZ"[i] + " [mm]",
+          vLabel: "XYZ"[j] + " [mm]",
+        })
+      );
+    }
+    return box;
+  }
+
+  // A and B along the face (pitch-line arc length from the toe), one curve per flank (A and B
+  // follow the tool axis, the flank ruling, which every depth level shares).
+  function splitAngleCurves(result) {
+    const firstOfFlank = {};
+    for (const pass of result.passes || []) if (!firstOfFlank[pass.flank]) firstOfFlank[pass.flank] = pass;
+    const box = html("div", { class: "chart-row split-angles" });
+    for (const axis of ["A", "B"]) {
+      const series = Object.values(firstOfFlank).map((pass) => ({
+        name: axis + " " + pass.flank,
+        x: pass.points.map((q) => q.arc_mm),
+        y: pass.points.map((q) => q[axis + "_deg"]),
+        colour: FLANK_COLOUR[pass.flank],
+      }));
+      box.appendChild(lineChart(series, { title: axis + " along the face", xLabel: "pitch-line arc from the toe [mm]", yLabel: axis + " [\u00b0]", width: 430 }));
+    }
+    return box;
+  }
+
+  function rangeText(values, digits) {
+    const v = values.filter(isNum);
+    return v.length ? fmt(Math.min(...v), digits) + " \u2026 " + fmt(Math.max(...v), digits) : "\u2013";
+  }
+
+  // Per pass: flank, level, stations, tool tip height, A and B ranges, side deviation.
+  function splitPassTable(result) {
+    const table = html("table", { class: "delta split-passes" });
+    table.appendChild(html("tr", {}, ["pass", "flank", "level", "stations", "tip height [mm]", "A [\u00b0]", "B [\u00b0]", "side deviation [mm]"].map((h) => html("th", { text: h }))));
+    (result.passes || []).forEach((pass, k) => {
+      const pts = pass.points || [];
+      const dev = pass.side_deviation_mm || {};
+      table.appendChild(
+        html("tr", { "data-pass": k + 1 }, [
+          html("td", { text: String(k + 1) }),
+          html("td", { text: pass.flank }),
+          html("td", { text: String(pass.level) }),
+          html("td", { text: String(pts.length) }),
+          html("td", { text: fmt(pass.tip_height_mm, 3) }),
+          html("td", { text: rangeText(pts.map((q) => q.A_deg), 3) }),
+          html("td", { text: rangeText(pts.map((q) => q.B_deg), 3) }),
+          html("td", { text: fmt(dev.min, 4) + " \u2026 " + fmt(dev.max, 4) }),
+        ])
+      );
+    });
+    return table;
+  }
+
+  function renderSplitTrajectory(job) {
+    const r = job.result || {};
+    const d = r.derived || {};
+    const gear = (job.request || {}).gear || {};
+    const section = html("section", { class: "job-view split-trajectory", "data-job-id": job.id });
+    section.appendChild(html("h2", { text: "Job " + job.id }));
+    const points = (r.passes || []).reduce((n, p) => n + (p.points || []).length, 0);
+    const rows = [
+      ["job", job.id + " (split_trajectory)"],
+      ["created", job.created_utc || "\u2013"],
+      ["machine", "head-head 5-axis mill (X Y Z A B), split bevel wheel segment"],
+      ["gear", (gear.teeth || "?") + " teeth, \u03b4 " + fmt(gear.pitch_angle_deg, 2) + "\u00b0, " + (gear.hand || "?") + " hand, \u03b1 " + fmt(gear.pressure_angle_deg, 1) + "\u00b0"],
+      ["base circle, normal module", fmt(d.base_radius_mm, 3) + " mm, " + fmt(d.normal_module_mm, 4) + " mm"],
+      ["cone distance", fmt(d.inner_cone_distance_mm, 2) + " \u2026 " + fmt(d.outer_cone_distance_mm, 2) + " mm"],
+      ["spiral angle", fmt(d.inner_spiral_angle_deg, 3) + " \u2026 " + fmt(d.outer_spiral_angle_deg, 3) + "\u00b0"],
+      ["passes, points", (r.passes || []).length + ", " + points],
+      ["time", fmt(job.elapsed_ms, 1) + " ms"],
+    ];
+    const table = html("table", { class: "summary" });
+    for (const [k, v] of rows) table.appendChild(html("tr", {}, [html("th", { text: k }), html("td", { text: v })]));
+    section.appendChild(table);
+    section.appendChild(html("h3", { text: "Tool-centre paths and tool axes" }));
+    section.appendChild(splitProjections(r));
+    section.appendChild(html("h3", { text: "Head angles along the face" }));
+    section.appendChild(splitAngleCurves(r));
+    section.appendChild(html("h3", { text: "Passes" }));
+    section.appendChild(splitPassTable(r));
+    return section;
+  }
+
   // The whole view of one job: summary, three topographies on one colour scale with the ISO
   // 1328-1 figures beside them, the axis corrections and the convergence of its lineage.
   function renderJob(job, lineage) {
+    if (isSplitTrajectory(job)) return renderSplitTrajectory(job);
     const r = job.result || {};
     const measured = measuredGrid(job);
     const target = targetGrid(job);
@@ -589,5 +815,5 @@
     return section;
   }
 
-  global.GearloopPlots = { isBevel, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, renderShaving, measuredGrid, targetGrid, html, svg, fmt, colour };
+  global.GearloopPlots = { isBevel, isSplitTrajectory, renderSplitTrajectory, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, renderShaving, measuredGrid, targetGrid, html, svg, fmt, colour };
 })(window);

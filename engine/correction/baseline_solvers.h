@@ -8,6 +8,7 @@
 #define GEARLOOP_ENGINE_CORRECTION_BASELINE_SOLVERS_H_
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "engine/correction/correction.h"
 #include "engine/correction/problem.h"
@@ -19,13 +20,24 @@ namespace correction_internal {
 // bounds; no regularisation, no refinement. Returns delta (num_parameters).
 Eigen::VectorXd SolvePlainLeastSquares(const CorrectionProblem& problem);
 
-// The global-best particle swarm over the free coefficients, each within
-// +-pso_box of the current value (the cone angle's box in degrees) and the
-// bounds, minimising the stock-limited objective sum_i w_i f_i^2, f_i = S_i
-// dzeta - delta_i where S_i dzeta < 0, else -delta_i (delta = t - m). Seeded by
-// options.pso_seed. Returns delta (num_parameters).
+// What the swarm went through: the best objective after the start and after
+// each generation (pso_generations + 1 entries, never increasing).
+struct SwarmTrace {
+  std::vector<double> best_objective;
+};
+
+// The published particle swarm (MODEL.md §6) over the free coefficients, each
+// within +-pso_box of the current value in its own unit (mm, rad, 1/mm) and
+// within the bounds. It searches the model linearised at the current
+// parameters over the used points, with the point weights w_i and delta = t -
+// m: next part, sum_i w_i (S_i dzeta - delta_i)^2; rework, the paper's
+// one-sided sum_i w_i f_i^2, f_i = S_i dzeta - delta_i where S_i dzeta < 0,
+// else -delta_i. Deterministic in options.pso_seed. Returns delta
+// (num_parameters); `trace` (optional) receives the best objective per
+// generation.
 Eigen::VectorXd SolveParticleSwarm(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem);
+                                   const CorrectionProblem& problem,
+                                   SwarmTrace* trace = nullptr);
 
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -11,7 +11,8 @@
 //      pso / lsq-plain (baseline_solvers.cc)
 //   -> SafeStep: the motion bound and the exact-model check that the next part
 //   is predicted better than with the current settings (safe_step.cc)
-//   -> PredictExactly: the exact model at the new parameters.
+//   -> PredictExactly: the exact model at the new parameters
+//   -> PredictionBand: how sure that prediction is (prediction_band.cc).
 #include "engine/correction/correction.h"
 
 #include <algorithm>
@@ -23,6 +24,7 @@
 #include "engine/correction/baseline_solvers.h"
 #include "engine/correction/machine_state.h"
 #include "engine/correction/outliers.h"
+#include "engine/correction/prediction_band.h"
 #include "engine/correction/problem.h"
 #include "engine/correction/refinement.h"
 #include "engine/correction/regularisation.h"
@@ -183,9 +185,12 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
   return step;
 }
 
-// Solve, SafeStep and PredictExactly for one prepared problem.
+// Solve, SafeStep, PredictExactly and the prediction band for one prepared
+// problem; `state`: the machine-state solve it is linearised at (reported), or
+// null.
 CorrectionResult SolveProblem(const CorrectionOptions& options,
-                              CorrectionProblem problem) {
+                              CorrectionProblem problem,
+                              const CorrectionResult* state = nullptr) {
   CorrectionResult result;
   CorrectionSummary& summary = result.summary;
   summary.solver = options.solver;
@@ -223,6 +228,8 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
     summary.status = CorrectionStatus::kNoSafeImprovement;
     summary.message = no_safe_improvement;
   }
+  if (state != nullptr) ReportMachineState(*state, &summary);
+  EstimatePredictionBand(problem, &result);
   return result;
 }
 
@@ -236,10 +243,10 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   const CorrectionResult state = SolveProblem(options, state_problem);
   Eigen::VectorXd state_parameters;
   if (!AcceptMachineState(problem, state, &state_parameters)) return false;
-  *result = SolveProblem(options, RelinearisedAt(problem, state_parameters));
+  *result =
+      SolveProblem(options, RelinearisedAt(problem, state_parameters), &state);
   if (!result->summary.IsSolutionUsable()) return false;
   result->parameters = problem.parameters + result->delta;
-  ReportMachineState(state, &result->summary);
   return true;
 }
 

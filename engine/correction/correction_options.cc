@@ -153,6 +153,9 @@ std::string CorrectionSummary::BriefReport() const {
         << elapsed_ms << " ms";
     if (!outlier_indices.empty())
       out << ", " << outlier_indices.size() << " outlier(s)";
+    if (!tooth_outlier_indices.empty())
+      out << ", " << tooth_outlier_indices.size()
+          << " point(s) with a tooth left out";
     out << ", machine state "
         << (machine_state_estimated ? "estimated" : "commanded");
     if (safe_step_checked) {
@@ -160,6 +163,11 @@ std::string CorrectionSummary::BriefReport() const {
           << step_fraction << " (exact rms " << safe_step_current_rms_um
           << " -> " << safe_step_predicted_rms_um << ")";
     }
+    const PredictionBand& band = prediction_band;
+    out << ", next part true rms " << band.expected_true_rms_um
+        << " um (2 sigma " << band.true_rms_low_um[1] << ".."
+        << band.true_rms_high_um[1] << ", noise " << band.noise_sigma_um
+        << " um " << (band.noise_stated ? "stated" : "estimated") << ")";
   }
   return out.str();
 }

@@ -59,6 +59,7 @@ void ReportMachineState(const CorrectionResult& state,
   summary->machine_state_estimated = true;
   summary->machine_state_size = state.summary.correction_size;
   summary->machine_state_misfit_rms_um = state.summary.residual_rms_um;
+  summary->machine_state_dof = state.summary.effective_dof;
 }
 
 }  // namespace correction_internal

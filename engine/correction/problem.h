@@ -74,6 +74,10 @@ struct CorrectionProblem {
   Eigen::VectorXd lower;
   Eigen::VectorXd upper;
 
+  // The commanded parameters (the measured part was ground with them), kept
+  // when the problem is linearised again at an estimated machine state.
+  Eigen::VectorXd commanded_parameters;
+
   // The linearisation at `parameters`.
   Eigen::VectorXd parameters;
   ModelEvaluation evaluation;   // d0 = evaluation.deviations_um, statuses,

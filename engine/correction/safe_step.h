@@ -9,11 +9,13 @@
 //      solver's estimate of the machine's state, or the commanded parameters);
 //      alpha = 1, 1/2, 1/4, ... is kept at the first value whose prediction has
 //      a lower rms over the used points than keeping the current settings (e)
-//      and loses no used point. When none is, the change is zero and the
-//      outcome says why. (Checking at the commanded parameters as well was
-//      tried: where the estimated state earns its place, the commanded point
-//      predicts the good step worse and the loop stalls, 15.8 -> 7.9 um on
-//      the spur gear instead of -> 1.10.)
+//      and loses no used point, and (linearised at an estimated state) whose
+//      change at the commanded parameters agrees with the change at the
+//      state to within the latter's rms. When none is, the change is zero
+//      and the outcome says why. (Asking the commanded point for a better
+//      rms, or for every point still reached, was tried: where the estimated
+//      state earns its place, the commanded point predicts the good step
+//      worse and the spur-crowning loop stalls at 7.9 um instead of 1.10.)
 //
 //   SafeStepOutcome outcome;
 //   delta = BoundAxisMotion(options, problem, delta, &outcome);

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "server/codec/bevel_codec.h"
+#include "server/codec/trace_codec.h"
 
 namespace gearloop {
 
@@ -40,6 +41,7 @@ nlohmann::json JobSummaryJson(const JobRecord& job) {
       {"server_version", job.server_version},
       {"parent_job_id", OptionalToJson(job.parent_job_id)},
       {"settings_source_job_id", OptionalToJson(job.settings_source_job_id)},
+      {"trace", JobTraceJson(job)},
       {"location", JobLocation(job.id)}};
 }
 
@@ -52,6 +54,7 @@ nlohmann::json CreatedJobJson(const JobRecord& job,
       {"status", job.status},
       {"parent_job_id", OptionalToJson(job.parent_job_id)},
       {"settings_source_job_id", OptionalToJson(job.settings_source_job_id)},
+      {"trace", JobTraceJson(job)},
       {"result", result}};
 }
 
@@ -81,17 +84,20 @@ nlohmann::json BatchToJson(const BatchRecord& batch) {
     }
     items.push_back(j);
   }
-  return {{"id", batch.id},
-          {"status", batch.status},
-          {"created_utc", batch.created_utc},
-          {"finished_utc",
-           batch.finished_utc.empty() ? nlohmann::json(nullptr)
-                                      : nlohmann::json(batch.finished_utc)},
-          {"total", batch.total},
-          {"done", batch.done},
-          {"failed", batch.failed},
-          {"pending", batch.total - batch.done - batch.failed},
-          {"items", items}};
+  nlohmann::json answer = {
+      {"id", batch.id},
+      {"status", batch.status},
+      {"created_utc", batch.created_utc},
+      {"finished_utc",
+       batch.finished_utc.empty() ? nlohmann::json(nullptr)
+                                  : nlohmann::json(batch.finished_utc)},
+      {"total", batch.total},
+      {"done", batch.done},
+      {"failed", batch.failed},
+      {"pending", batch.total - batch.done - batch.failed},
+      {"items", items}};
+  if (!batch.submitted_by.empty()) answer["submitted_by"] = batch.submitted_by;
+  return answer;
 }
 
 }  // namespace gearloop

@@ -22,11 +22,11 @@ nlohmann::json OptionalToJson(const std::optional<int64_t>& value);
 
 // A job as the history lists it: id, created_utc, kind, status, gear {teeth,
 // normal_module_mm, helix_angle_deg, hand}, flank, machine_kind, the solver
-// figures, the links and its location.
+// figures, the links, the trace (trace_codec.h) and its location.
 nlohmann::json JobSummaryJson(const JobRecord& job);
 
 // The 201 answer to a new correction job: id, created_utc, kind, status, the
-// links and `result`.
+// links, the trace and `result`.
 nlohmann::json CreatedJobJson(const JobRecord& job,
                               const nlohmann::json& result);
 

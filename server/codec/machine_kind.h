@@ -17,6 +17,9 @@ namespace gearloop {
 // machine.kind of each family.
 constexpr const char* kFlatWheelGrinderKind = "flat-wheel-grinder";
 constexpr const char* kFreeFormBevelGeneratorKind = "free-form-bevel-generator";
+// The machine of split bevel wheels (SPLIT_BEVEL.md): not a correction family,
+// its jobs are trajectories (server/services/split_bevel_service.h).
+constexpr const char* kHeadHead5AxisMillKind = "head-head-5-axis-mill";
 
 enum class MachineKind {
   kFlatWheelGrinder,  // "flat-wheel-grinder" (also when machine or machine.kind

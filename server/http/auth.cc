@@ -101,4 +101,20 @@ bool Authorize(const std::vector<TokenEntry>& tokens,
   return true;
 }
 
+std::string TokenName(const std::vector<TokenEntry>& tokens,
+                      const std::string& authorization_header) {
+  const std::string prefix = "Bearer ";
+  if (tokens.empty() || authorization_header.size() <= prefix.size() ||
+      authorization_header.compare(0, prefix.size(), prefix) != 0)
+    return std::string();
+  const std::string hash =
+      Sha256Hex(authorization_header.substr(prefix.size()));
+  std::string name;
+  for (const TokenEntry& entry : tokens) {
+    if (CRYPTO_memcmp(entry.sha256_hex.data(), hash.data(), hash.size()) == 0)
+      name = entry.name;
+  }
+  return name;
+}
+
 }  // namespace gearloop

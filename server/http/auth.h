@@ -43,6 +43,12 @@ bool Authorize(const std::vector<TokenEntry>& tokens,
                Access access,
                ApiError* error);
 
+// The name of the token an "Authorization: Bearer <token>" header carries, as
+// the token file gives it; "" without tokens, for an unknown token or a token
+// without a name. Stored with the jobs the token submits (traceability).
+std::string TokenName(const std::vector<TokenEntry>& tokens,
+                      const std::string& authorization_header);
+
 }  // namespace gearloop
 
 #endif  // GEARLOOP_SERVER_HTTP_AUTH_H_

@@ -15,15 +15,19 @@
 #include "server/http/auth.h"
 #include "server/http/batch_runner.h"
 #include "server/http/metrics.h"
+#include "server/http/openapi_document.h"
 #include "server/respond.h"
 #include "server/services/bevel_service.h"
 #include "server/services/correction_service.h"
 #include "server/services/grinder_service.h"
 #include "server/services/history_service.h"
 #include "server/services/measurement_service.h"
+#include "server/services/reach_service.h"
 #include "server/services/service_context.h"
+#include "server/services/settings_service.h"
 #include "server/services/shaving_service.h"
 #include "server/services/simulation_service.h"
+#include "server/services/split_bevel_service.h"
 #include "storage/job_repository.h"
 
 // Last: <httplib.h> pulls in <resolv.h>, whose `_res` macro breaks Eigen's
@@ -202,11 +206,41 @@ const ApiRoute kApiRoutes[] = {
      nullptr,
      ExportCorrection},
     {"POST",
+     "/api/v1/targets/reach",
+     "POST /api/v1/targets/reach",
+     Access::kRead,
+     nullptr,
+     ReachTarget},
+    {"GET",
+     "/api/v1/openapi.yaml",
+     "GET /api/v1/openapi.yaml",
+     Access::kOpen,
+     ServeOpenApiDocument,
+     nullptr},
+    {"GET",
+     R"(/api/v1/corrections/(\d+)/settings)",
+     "GET /api/v1/corrections/{id}/settings",
+     Access::kRead,
+     nullptr,
+     GetCorrectionSettings},
+    {"POST",
      "/api/v1/shaving/cutter-target",
      "POST /api/v1/shaving/cutter-target",
      Access::kRead,
      ShavingCutterTarget,
      nullptr},
+    {"POST",
+     "/api/v1/bevel/split-trajectory",
+     "POST /api/v1/bevel/split-trajectory",
+     Access::kWrite,
+     nullptr,
+     CreateSplitTrajectory},
+    {"GET",
+     R"(/api/v1/bevel/split-trajectory/(\d+)/nc)",
+     "GET /api/v1/bevel/split-trajectory/{id}/nc",
+     Access::kRead,
+     nullptr,
+     GetSplitTrajectoryNc},
 };
 
 }  // namespace
@@ -614,6 +648,9 @@ class GearloopServer::Impl {
     context_.queued_batch_items = [this] { return batches_->Queued(); };
     context_.enqueue_batch_items = [this](std::vector<PendingBatchItem> items) {
       batches_->Enqueue(std::move(items));
+    };
+    context_.token_name = [this](const std::string& header) {
+      return TokenName(tokens_, header);
     };
     context_.max_batch_items = options_.max_batch_items;
     context_.max_queued_batch_items = options_.max_queued_batch_items;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -11,8 +12,11 @@
 #include "engine/core/axis_motion.h"
 #include "server/codec/correction_codec.h"
 #include "server/codec/job_codec.h"
+#include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/tolerance_codec.h"
+#include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
 #include "server/services/shaving_service.h"
 
@@ -222,7 +226,61 @@ ApiError NoStoredJob(const std::string& id_text) {
   return ApiError{404, "not_found", "no stored correction job " + id_text, ""};
 }
 
+// The overall ISO 1328-1 class of result.iso1328.<which> (null when none).
+nlohmann::json OverallIsoClass(const nlohmann::json& result,
+                               const char* which) {
+  return result.value("iso1328", nlohmann::json::object())
+      .value(which, nlohmann::json::object())
+      .value("classes", nlohmann::json::object())
+      .value("overall", nlohmann::json());
+}
+
+// result.verdict of a job with a tolerance: the measured part (against the
+// target) and the predicted next part. A solve that converged but whose
+// predicted part misses the tolerance is "target_partly_reachable", never
+// "converged": the machine configuration cannot make the rest of the target
+// (best_reachable_rms_um says how much of it stays).
+void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
+  const CorrectionSummary& s = run->result.summary;
+  nlohmann::json& result = run->result_json;
+  const nlohmann::json measured =
+      PartVerdictJson(tolerance,
+                      {s.initial_rms_um,
+                       s.initial_max_um,
+                       OverallIsoClass(result, "target_relative")});
+  const nlohmann::json predicted =
+      PartVerdictJson(tolerance,
+                      {s.residual_rms_um,
+                       s.residual_max_um,
+                       OverallIsoClass(result, "predicted")});
+  result["verdict"] = {{"tolerance", ToleranceToJson(tolerance)},
+                       {"measured", measured},
+                       {"predicted", predicted}};
+  if (predicted["verdict"] == "PASS" ||
+      s.status != CorrectionStatus::kConverged)
+    return;
+  char best[64];
+  std::snprintf(best, sizeof(best), "%.2f", s.best_reachable_rms_um);
+  result["status"] = "target_partly_reachable";
+  result["message"] =
+      "the predicted part misses the tolerance (" +
+      MissedLimitsText(tolerance, predicted) +
+      "): the solve converged, but this machine configuration reaches at "
+      "best " +
+      best +
+      " um rms of the target at the allowed orders; allow higher orders "
+      "or more axes (options.max_order), or relax the tolerance";
+  run->job.status = "target_partly_reachable";
+}
+
 }  // namespace
+
+std::string SubmitterOf(const ServiceContext& context,
+                        const httplib::Request& req) {
+  return context.token_name
+             ? context.token_name(req.get_header_value("Authorization"))
+             : std::string();
+}
 
 nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                         const Eigen::VectorXd& delta,
@@ -296,6 +354,10 @@ bool RunCorrection(const ServiceContext& context,
       !ResolveMeasurementFile(body, &resolved, &file_report, error))
     return false;
   const nlohmann::json& parsed = file_report.is_null() ? body : resolved;
+  std::optional<Tolerance> tolerance;
+  if (!ParseJobTrace(body, &run->job, error) ||
+      !ParseTolerance(body, &tolerance, error))
+    return false;
   CorrectionProblem problem;
   CorrectionRequest request;
   // The stored request is the body as sent (a file stays a file); a shaving
@@ -303,6 +365,13 @@ bool RunCorrection(const ServiceContext& context,
   run->request = body;
   if (!ParseCorrection(parsed, &problem, &request, &run->request, error))
     return false;
+  if (tolerance && tolerance->iso_class && !problem.flank_quality_json) {
+    *error = InvalidValue("tolerance.iso_class",
+                          "ISO 1328-1 classes are computed for an involute "
+                          "gear's flank (flat-wheel grinder) only; give "
+                          "rms_um or max_um");
+    return false;
+  }
   if (request.settings_source_job_id &&
       !context.repository->JobExists(*request.settings_source_job_id)) {
     *error = InvalidValue(
@@ -325,6 +394,10 @@ bool RunCorrection(const ServiceContext& context,
     }
     run->job.result_json = run->result_json.dump();
   }
+  if (tolerance) {
+    ApplyTolerance(*tolerance, run);
+    run->job.result_json = run->result_json.dump();
+  }
   if (context.record_solve_seconds)
     context.record_solve_seconds(run->solve_seconds);
   return true;
@@ -340,6 +413,7 @@ void CreateCorrection(const ServiceContext& context,
       !RunCorrection(context, body, &run, &error)) {
     return RespondError(res, error);
   }
+  run.job.submitted_by = SubmitterOf(context, req);
   StoreAndRespond(
       context, "correction", Dump(run.request), std::nullopt, &run, res);
 }
@@ -351,17 +425,29 @@ void ReplayCorrection(const ServiceContext& context,
   std::optional<JobRecord> parent;
   if (ParseId(req.matches[1], &id)) parent = context.repository->ReadJob(id);
   if (!parent) return RespondError(res, NoStoredJob(req.matches[1].str()));
+  if (parent->machine_kind == kHeadHead5AxisMillKind) {
+    // A trajectory, not a correction: nothing was measured to solve again.
+    return RespondError(
+        res,
+        InvalidValue("",
+                     "job " + std::to_string(id) +
+                         " is a split-bevel trajectory, not a correction; post "
+                         "its request (GET /api/v1/corrections/" +
+                         std::to_string(id) +
+                         ") to /api/v1/bevel/split-trajectory again"));
+  }
   nlohmann::json changes = nlohmann::json::object();
   ApiError error;
   if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))
     return RespondError(res, error);
   for (const auto& item : changes.items()) {
-    if (item.key() != "options" && item.key() != "target") {
+    if (item.key() != "options" && item.key() != "target" &&
+        item.key() != "tolerance") {
       return RespondError(
           res,
-          InvalidRequest(
-              item.key(),
-              "a replay may change only \"options\" and \"target\""));
+          InvalidRequest(item.key(),
+                         "a replay may change only \"options\", \"target\" "
+                         "and \"tolerance\""));
     }
   }
   nlohmann::json request =
@@ -380,9 +466,18 @@ void ReplayCorrection(const ServiceContext& context,
     request["options"].merge_patch(changes["options"]);
   }
   if (changes.contains("target")) request["target"] = changes["target"];
+  // A new tolerance replaces the stored one; null removes it.
+  if (changes.contains("tolerance")) {
+    if (changes["tolerance"].is_null()) {
+      request.erase("tolerance");
+    } else {
+      request["tolerance"] = changes["tolerance"];
+    }
+  }
   CorrectionRun run;
   if (!RunCorrection(context, request, &run, &error))
     return RespondError(res, error);
+  run.job.submitted_by = SubmitterOf(context, req);
   StoreAndRespond(context, "replay", Dump(run.request), id, &run, res);
 }
 
@@ -398,6 +493,8 @@ void RunBatchItem(const ServiceContext& context, const PendingBatchItem& item) {
       job.created_utc = CurrentUtcIso8601();
       job.request_json = Dump(run.request);
       job.server_version = context.server_version;
+      job.batch_id = item.batch_id;
+      job.submitted_by = item.submitted_by;
       context.repository->CompleteBatchItem(item.batch_id, item.index, job);
       return;
     }

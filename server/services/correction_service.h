@@ -83,13 +83,18 @@ nlohmann::json CorrectionAxisMotionJson(const CorrectionProblem& problem,
                                         const Eigen::VectorXd& delta,
                                         const CorrectionSummary& summary);
 
+// The name of the token that sent `req` ("" for none): the submitter stored
+// with its jobs.
+std::string SubmitterOf(const ServiceContext& context,
+                        const httplib::Request& req);
+
 // POST /api/v1/corrections: 201 with the stored job and its result.
 void CreateCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res);
 // POST /api/v1/corrections/{id}/replay: the stored request with "options"
-// merged (RFC 7396) and "target" replaced, solved again and stored as a child
-// of job {id}.
+// merged (RFC 7396), "target" replaced and "tolerance" replaced (null removes
+// it), solved again and stored as a child of job {id}.
 void ReplayCorrection(const ServiceContext& context,
                       const httplib::Request& req,
                       httplib::Response& res);

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "server/codec/job_codec.h"
+#include "server/codec/trace_codec.h"
+#include "server/services/correction_service.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
@@ -77,11 +79,12 @@ bool ReadGearFilter(const httplib::Request& req,
   if (req.has_param("flank")) {
     const std::string flank = req.get_param_value("flank");
     if (flank != "left" && flank != "right" && flank != "convex" &&
-        flank != "concave") {
+        flank != "concave" && flank != "both") {
       *error =
           InvalidValue("query.flank",
-                       "query.flank must be \"left\" or \"right\" (a gear) or "
-                       "\"convex\" or \"concave\" (a bevel pinion)");
+                       "query.flank must be \"left\" or \"right\" (a gear), "
+                       "\"convex\" or \"concave\" (a bevel flank) or \"both\" "
+                       "(a split-bevel trajectory of both flanks)");
       return false;
     }
     filter->flank = flank;
@@ -135,7 +138,14 @@ bool CheckQueryKeys(const httplib::Request& req, ApiError* error) {
                                                   "kind",
                                                   "status",
                                                   "created_from",
-                                                  "created_to"};
+                                                  "created_to",
+                                                  "part_number",
+                                                  "serial",
+                                                  "tooth",
+                                                  "machine_id",
+                                                  "file_name",
+                                                  "batch_id",
+                                                  "submitted_by"};
   for (const auto& [key, value] : req.params) {
     if (std::find(kKnown.begin(), kKnown.end(), key) != kKnown.end()) continue;
     std::string message = "unknown query parameter " + key;
@@ -175,6 +185,44 @@ bool ReadCreatedRange(const httplib::Request& req,
   return true;
 }
 
+// Reads the traceability filters: part_number, serial, tooth, machine_id,
+// batch_id, submitted_by and file_name.
+bool ReadTraceFilter(const httplib::Request& req,
+                     JobFilter* filter,
+                     ApiError* error) {
+  const std::pair<const char*, std::optional<std::string> JobFilter::*>
+      texts[] = {{"part_number", &JobFilter::part_number},
+                 {"serial", &JobFilter::serial},
+                 {"machine_id", &JobFilter::machine_id},
+                 {"submitted_by", &JobFilter::submitted_by},
+                 {"file_name", &JobFilter::file_name}};
+  for (const auto& [key, member] : texts) {
+    if (!req.has_param(key)) continue;
+    const std::string text = req.get_param_value(key);
+    if (text.empty() || text.size() > kMaxTraceTextLength) {
+      const std::string field = std::string("query.") + key;
+      *error = InvalidRequest(field,
+                              field + " must hold 1 to " +
+                                  std::to_string(kMaxTraceTextLength) +
+                                  " characters");
+      return false;
+    }
+    filter->*member = text;
+  }
+  long long tooth = 0, batch_id = 0;
+  if (req.has_param("tooth")) {
+    if (!ReadIntegerParam(req, "tooth", 1, 100000, &tooth, error)) return false;
+    filter->tooth = static_cast<int>(tooth);
+  }
+  if (req.has_param("batch_id")) {
+    if (!ReadIntegerParam(
+            req, "batch_id", 1, 1000000000000LL, &batch_id, error))
+      return false;
+    filter->batch_id = batch_id;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool ParseJobFilter(const httplib::Request& req,
@@ -190,16 +238,25 @@ bool ParseJobFilter(const httplib::Request& req,
   if (!ReadGearFilter(req, filter, error)) return false;
   if (!ReadChoiceParam(req,
                        "kind",
-                       {"correction", "replay", "batch_item", "closed_loop"},
+                       {"correction",
+                        "replay",
+                        "batch_item",
+                        "closed_loop",
+                        "split_trajectory"},
                        &filter->kind,
                        error) ||
       !ReadChoiceParam(req,
                        "status",
-                       {"converged", "not_converged", "no_safe_improvement"},
+                       {"converged",
+                        "not_converged",
+                        "no_safe_improvement",
+                        "target_partly_reachable",
+                        "computed"},
                        &filter->status,
                        error))
     return false;
-  return ReadCreatedRange(req, filter, error);
+  return ReadTraceFilter(req, filter, error) &&
+         ReadCreatedRange(req, filter, error);
 }
 
 void ListCorrections(const ServiceContext& context,
@@ -292,10 +349,12 @@ void CreateBatch(const ServiceContext& context,
                  "too many batch items are waiting; try again later",
                  ""});
   }
-  const int64_t batch_id = context.repository->CreateBatch(texts);
+  const std::string submitter = SubmitterOf(context, req);
+  const int64_t batch_id = context.repository->CreateBatch(texts, submitter);
   std::vector<PendingBatchItem> pending(texts.size());
   for (size_t i = 0; i < texts.size(); ++i)
-    pending[i] = {batch_id, static_cast<int>(i), std::move(texts[i])};
+    pending[i] = {
+        batch_id, static_cast<int>(i), std::move(texts[i]), submitter};
   if (context.enqueue_batch_items)
     context.enqueue_batch_items(std::move(pending));
   res.set_header("Location", BatchLocation(batch_id));

@@ -15,7 +15,8 @@
 namespace gearloop {
 
 // The query of the history listing: limit, offset, teeth, module_mm, flank,
-// kind, status, created_from, created_to.
+// kind, status, created_from, created_to, and the trace: part_number, serial,
+// tooth, machine_id, batch_id, submitted_by, file_name.
 bool ParseJobFilter(const httplib::Request& req,
                     JobFilter* filter,
                     ApiError* error);

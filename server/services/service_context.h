@@ -41,6 +41,10 @@ struct ServiceContext {
   // accepted ones only wait).
   std::function<size_t()> queued_batch_items;
   std::function<void(std::vector<PendingBatchItem> items)> enqueue_batch_items;
+  // The name of the token in a request's Authorization header ("" for none),
+  // stored as the submitter of its jobs and batches; may be empty.
+  std::function<std::string(const std::string& authorization_header)>
+      token_name;
   // Most items in one batch, and most batch items waiting at once (503 beyond).
   int max_batch_items = 1000;
   int max_queued_batch_items = 20000;

@@ -8,7 +8,9 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import unittest
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 from gearloop_client import read_csv_grid
@@ -68,7 +70,7 @@ class CliTest(unittest.TestCase):
             self.assertIn(word, done.stdout)
         for command in ("submit", "list", "show", "replay", "batch", "simulate", "closed-loop", "report", "health",
                         "nominal", "evaluate", "bevel-convert", "bevel-closed-loop", "import", "correct",
-                        "export"):
+                        "export", "settings", "lineage", "bevel-sensitivity", "reach"):
             sub = self.run_cli(command, "--help")
             self.assertEqual(sub.returncode, 0, command)
             self.assertIn("usage: gearloop " + command, sub.stdout)
@@ -83,7 +85,9 @@ class CliTest(unittest.TestCase):
         self.assertIn("server ok", done.stdout)
         dead = self.run_cli("--timeout", "5", "health", server=f"http://127.0.0.1:{free_port()}")
         self.assertEqual(dead.returncode, 2)
-        self.assertIn("cannot reach", dead.stderr)
+        self.assertIn("cannot reach http://127.0.0.1:", dead.stderr)
+        self.assertIn("Is the server running?", dead.stderr)
+        self.assertIn("--server URL or GEARLOOP_SERVER", dead.stderr)
 
     def test_submit_csv_and_json_measurements(self) -> None:
         residual_csv = self.dir / "residual.csv"
@@ -239,6 +243,55 @@ class CliTest(unittest.TestCase):
         self.assertEqual(self.run_cli("bevel-closed-loop", "--error", "X_mm=big").returncode, 1)
         self.assert_server_refused("at corrections", "bevel-closed-loop", "--corrections", "50")
         self.assert_server_refused("at hidden_errors.Q_mm", "bevel-closed-loop", "--error", "Q_mm=0.01", "--corrections", "1")
+
+    def test_split_trajectory_flags_file_nc_and_show(self) -> None:
+        wheel = ["--teeth", "75", "--pitch-angle-deg", "70", "--module-mm", "40", "--face-width-mm", "240",
+                 "--spiral-angle-deg", "35", "--hand", "right", "--pressure-angle-deg", "20",
+                 "--tool-radius-mm", "8", "--stock-mm", "0.2"]
+        nc_path = self.dir / "slot3.nc"
+        done = self.run_cli("split-trajectory", *wheel, "--slot", "3", "--levels", "4", "--steps", "5",
+                            "--pivot-mm", "300", "--nc", str(nc_path))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [line.split() for line in done.stdout.splitlines() if line.split()[:1] and line.split()[0].isdigit()]
+        self.assertEqual([(r[1], r[2], r[3]) for r in rows],
+                         [(f, str(j), "5") for f in ("convex", "concave") for j in range(4)])
+        # pass flank level stations A_lo .. A_hi B_lo .. B_hi max_dev mm
+        self.assertEqual((rows[0][4], rows[0][6]), ("15.529", "17.388"))
+        self.assertEqual((rows[0][7], rows[0][9]), ("5.297", "11.244"))
+        self.assertAlmostEqual(float(rows[0][10]), 0.2, places=4)
+        nc = nc_path.read_text()
+        self.assertTrue(nc.startswith("%\n(GEARLOOP SPLIT-BEVEL 1)\n"))
+        self.assertIn("G01 X1336.2082 Y-43.8387 Z-168.4312 A17.3882 B11.2437 F200.0\n", nc)
+        self.assertTrue(nc.endswith("M30\n%\n"))
+        job_id = done.stdout.split()[1]
+        shown = self.run_cli("show", job_id)
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("split_trajectory", shown.stdout)
+        self.assertRegex(shown.stdout, r"(?m)^\s+8\s+concave\s+3\s+5\s")
+        listed = self.run_cli("list", "--kind", "split_trajectory")
+        self.assertRegex(listed.stdout, rf"(?m)^{job_id}\s+\S+\s+split_trajectory\s+computed\s+75z mn30.303\s+both")
+        # A request file; the options set members over it.
+        request = {"gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+                            "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+                            "pressure_angle_deg": 20},
+                   "tool": {"radius_mm": 8}, "cut": {"flanks": ["concave"], "depth_levels": 3, "steps": 7}}
+        path = self.dir / "split.json"
+        path.write_text(json.dumps(request))
+        done = self.run_cli("--json", "split-trajectory", str(path), "--levels", "2")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        answer = json.loads(done.stdout)
+        self.assertEqual([(p["flank"], p["level"], len(p["points"])) for p in answer["passes"]],
+                         [("concave", 0, 7), ("concave", 1, 7)])
+        self.assertNotIn("nc_program", answer)
+
+    def test_split_trajectory_refusals(self) -> None:
+        self.assert_server_refused("tool.radius_mm", "split-trajectory", "--teeth", "75", "--pitch-angle-deg", "70",
+                                   "--module-mm", "40", "--face-width-mm", "240", "--spiral-angle-deg", "35",
+                                   "--hand", "right", "--pressure-angle-deg", "20", "--tool-radius-mm", "20")
+        self.assert_server_refused("gear.pitch_angle_deg", "split-trajectory", "--teeth", "75")
+        done = self.run_cli("split-trajectory", "--steps", "many")
+        self.assertEqual(done.returncode, 1, done.stderr)
+        self.assertIn("--steps takes an integer", done.stderr)
 
     def test_replay_with_changed_option(self) -> None:
         job = self.submit()
@@ -428,6 +481,181 @@ class CliTest(unittest.TestCase):
         self.assertEqual(self.run_cli("export", str(job["id"])).returncode, 1)
         self.assert_server_refused("404 not_found", "export", "987654", "--format", "gde")
         self.assertEqual(self.run_cli("correct", setup).returncode, 1)   # no --measurement-file
+
+    def test_settings_listing_as_table_csv_and_nc(self) -> None:
+        job = self.submit()
+        table = self.run_cli("settings", str(job["id"]))
+        self.assertEqual(table.returncode, 0, table.stderr)
+        self.assertIn("gearloop settings listing 1, job %d" % job["id"], table.stdout)
+        self.assertIn("axis motion over the roll range", table.stdout)
+        out = self.dir / "settings.csv"
+        done = self.run_cli("settings", str(job["id"]), "--format", "csv", "--samples", "5", "-o", str(out))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        lines = out.read_text().strip().split("\n")
+        self.assertEqual(lines[0], "record,block,power,roll_rad,unit,absolute,change,change_unit")
+        records = [line.split(",") for line in lines[1:]]
+        settings, delta = job["result"]["settings"]["axes"], job["result"]["delta"]["axes"]
+        for record, axis, power, _, unit, absolute, change, _ in records:
+            if record == "coefficient" and axis in ("X", "Y", "Z"):
+                self.assertAlmostEqual(float(absolute), settings[axis][int(power)], delta=1e-9)
+                self.assertAlmostEqual(float(change), delta[axis][int(power)], delta=1e-9)
+        motion = [r for r in records if r[0] == "motion"]
+        self.assertEqual(len(motion), 6 * 5)
+        # The ends of the roll range are sampled as the result states its motion.
+        z = [r for r in motion if r[1] == "Z"]
+        axis_motion = job["result"]["axis_motion"]
+        self.assertAlmostEqual(float(z[0][3]), axis_motion["roll_rad"][0], delta=1e-9)
+        self.assertAlmostEqual(float(z[0][6]), axis_motion["axes"]["Z"]["change_um"][0], delta=1e-6)
+        self.assertAlmostEqual(float(z[-1][6]), axis_motion["axes"]["Z"]["change_um"][-1], delta=1e-6)
+        nc = self.run_cli("settings", str(job["id"]), "--format", "nc")
+        self.assertEqual(nc.returncode, 0, nc.stderr)
+        x0 = [line for line in nc.stdout.splitlines() if line.startswith("X_A0 = ")]
+        self.assertEqual(len(x0), 1)
+        self.assertAlmostEqual(float(x0[0].split()[2]), settings["X"][0], delta=1e-9)
+        self.assertEqual(self.run_cli("settings", str(job["id"]), "--format", "xml").returncode, 1)
+        self.assertEqual(self.run_cli("settings", str(job["id"]), "--samples", "1").returncode, 1)
+        self.assert_server_refused("404 not_found", "settings", "987654")
+
+    def test_tolerance_verdict_and_exit_code(self) -> None:
+        request = json.loads((EXAMPLES / "request.json").read_text())
+        request["tolerance"] = {"rms_um": 0.01, "max_um": 0.02}
+        tight = self.dir / "tight.json"
+        tight.write_text(json.dumps(request))
+        done = self.run_cli("submit", str(tight), str(EXAMPLES / "measurement.csv"))
+        self.assertEqual(done.returncode, 5, done.stderr)
+        self.assertIn("tolerance            rms 0.01 um, max 0.02 um", done.stdout)
+        self.assertIn("verdict predicted    FAIL  (misses rms_um, max_um)", done.stdout)
+        as_json = json.loads(self.run_cli("--json", "submit", str(tight), str(EXAMPLES / "measurement.csv")).stdout)
+        self.assertIn(as_json["status"], ("target_partly_reachable", "not_converged"))
+        request["tolerance"] = {"rms_um": 900}
+        loose = self.dir / "loose.json"
+        loose.write_text(json.dumps(request))
+        done = self.run_cli("submit", str(loose), str(EXAMPLES / "measurement.csv"))
+        self.assertEqual(done.returncode, 0, done.stdout)
+        self.assertIn("verdict measured     PASS", done.stdout)
+        self.assertIn("verdict predicted    PASS", done.stdout)
+        folder = self.dir / "tolerance-batch"
+        folder.mkdir()
+        shutil.copy(EXAMPLES / "measurement.csv", folder / "part1.csv")
+        batch = self.run_cli("batch", str(tight), str(folder))
+        self.assertEqual(batch.returncode, 5, batch.stderr)
+        self.assertIn("verdict (measured/predicted)", batch.stdout)
+        self.assertIn("/FAIL", batch.stdout)
+
+    def test_lineage_lists_the_settings_chain(self) -> None:
+        first = self.submit()
+        second = self.submit("--settings-from", str(first["id"]))
+        done = self.run_cli("lineage", str(second["id"]))
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [line.split() for line in done.stdout.splitlines()[1:-1]]
+        self.assertEqual([r[0] for r in rows], [str(first["id"]), str(second["id"]) + "*"])
+        self.assertEqual(rows[1][5], str(first["id"]))   # "from": ground with the first job's settings
+        self.assertIn("2 jobs in the lineage of job %d" % second["id"], done.stdout)
+        as_json = json.loads(self.run_cli("--json", "lineage", str(first["id"])).stdout)
+        self.assertEqual([j["id"] for j in as_json["jobs"]], [first["id"], second["id"]])
+        self.assert_server_refused("404 not_found", "lineage", "987654")
+        self.assertEqual(self.run_cli("lineage", "x").returncode, 1)
+
+    def test_bevel_sensitivity_ranks_the_axes(self) -> None:
+        done = self.run_cli("bevel-sensitivity", "--side", "convex", "--top", "4")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        answer = json.loads(self.run_cli("--json", "bevel-sensitivity", "--side", "convex").stdout)
+        lines = done.stdout.splitlines()
+        offsets = lines[2:2 + len(answer["offset_ranking"])]
+        self.assertEqual([line.split()[1] for line in offsets], answer["offset_ranking"])
+        first = next(o for o in answer["offsets"] if o["axis"] == answer["offset_ranking"][0])
+        self.assertAlmostEqual(float(offsets[0].split()[4]), first["max_abs_um"], delta=0.001)
+        coefficients = lines[lines.index("") + 3:]
+        self.assertEqual([line.split()[1] for line in coefficients], answer["coefficient_ranking"][:4])
+        bad = self.run_cli("bevel-sensitivity", "--linear-error-mm", "-1")
+        self.assertEqual(bad.returncode, 3, bad.stderr)
+        self.assertIn("errors.linear_error_mm", bad.stderr)
+
+    def test_reach_of_the_example_target(self) -> None:
+        done = self.run_cli("reach", str(EXAMPLES / "request.json"))
+        answer = json.loads(self.run_cli("--json", "reach", str(EXAMPLES / "request.json")).stdout)
+        share = answer["components"][0]["reachable_share"]
+        # The README's lead crowning on a fixed wheel: only part of it can be made.
+        self.assertEqual(done.returncode, 5 if share < 0.99 else 0, done.stderr)
+        row = next(line for line in done.stdout.splitlines() if line.startswith("lead_crowning 4 um"))
+        self.assertEqual(row.split()[-2], "%.1f" % (100 * share))
+        self.assertAlmostEqual(float(row.split()[3]), answer["components"][0]["target_rms_um"], delta=0.001)
+        self.assertIn("all together, every axis to order 6", done.stdout)
+        self.assert_server_refused("target.modifications", "reach", str(self.sample_setup()))
+
+    def test_trace_stored_shown_and_filtered(self) -> None:
+        setup = str(self.sample_setup())
+        serial = "S-%d" % os.getpid()
+        done = self.run_cli("--json", "correct", setup, "--measurement-file", str(SAMPLES / "sample_topography.mka"),
+                            "--part-number", "4711-A", "--serial", serial, "--teeth", "1,10,19",
+                            "--measured-at", "2026-11-22T07:45:00Z", "--machine-id", "RZ260-2")
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        job = json.loads(done.stdout)
+        self.assertEqual(job["trace"], {"part_number": "4711-A", "serial": serial, "teeth": [1, 10, 19],
+                                        "measured_at": "2026-11-22T07:45:00Z",
+                                        "file_name": "sample_topography.mka", "machine_id": "RZ260-2"})
+        shown = self.run_cli("show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("part 4711-A, serial " + serial + ", teeth 1 10 19, measured 2026-11-22T07:45:00Z, "
+                      "file sample_topography.mka, machine RZ260-2", shown.stdout)
+        listed = self.run_cli("list", "--serial", serial, "--tooth", "10")
+        self.assertEqual(listed.returncode, 0, listed.stderr)
+        self.assertIn("4711-A/" + serial, listed.stdout)
+        self.assertIn("1 of 1 jobs", listed.stdout)
+        none = self.run_cli("list", "--serial", serial, "--tooth", "2")
+        self.assertIn("0 of 0 jobs", none.stdout)
+        self.assert_server_refused("query.tooth", "list", "--tooth", "0")
+        self.assert_server_refused("trace.measured_at", "submit", str(EXAMPLES / "request.json"),
+                                   str(EXAMPLES / "measurement.csv"), "--measured-at", "tuesday")
+        bad = self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv"),
+                           "--teeth", "1,x")
+        self.assertEqual(bad.returncode, 1)
+        self.assertIn("--teeth", bad.stderr)
+
+class CannedLoopServer(BaseHTTPRequestHandler):
+    """Answers every closed-loop request with the loop in `answer` (a server whose solver made
+    the parts worse, which the real one cannot be made to do on demand)."""
+    answer: dict = {}
+
+    def do_POST(self) -> None:  # noqa: N802 (http.server's name)
+        self.rfile.read(int(self.headers.get("Content-Length", "0")))
+        body = json.dumps(self.answer).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+class CliClosedLoopExitTest(unittest.TestCase):
+    def run_loop(self, true_rms: list) -> subprocess.CompletedProcess:
+        CannedLoopServer.answer = {
+            "completed": True, "message": "", "hidden_errors": {},
+            "iterations": [{"part": i, "true_rms_um": v, "true_max_um": v, "measured_rms_um": v}
+                           for i, v in enumerate(true_rms)]}
+        server = ThreadingHTTPServer(("127.0.0.1", 0), CannedLoopServer)
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        try:
+            return subprocess.run([CLI, "--server", "http://127.0.0.1:%d" % server.server_address[1],
+                                   "closed-loop", str(EXAMPLES / "scenario.json")],
+                                  capture_output=True, text=True, timeout=60)
+        finally:
+            server.shutdown()
+            server.server_close()
+
+    def test_a_diverged_loop_exits_5_and_says_so(self) -> None:
+        diverged = self.run_loop([4.5, 90.0, 1700.0])
+        self.assertEqual(diverged.returncode, 5, diverged.stderr)
+        self.assertIn("the loop diverged: part 2 deviates 1700.000 um rms from the target, part 0 4.500 um",
+                      diverged.stderr)
+        improved = self.run_loop([4.5, 0.06, 0.07])
+        self.assertEqual(improved.returncode, 0, improved.stderr)
+        self.assertNotIn("diverged", improved.stderr)
+
 
 class CliTokenTest(unittest.TestCase):
     def test_token_is_sent_and_refusals_are_api_errors(self) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import os
 import unittest
 
 from gearloop_client import (BEVEL_MACHINE_KIND, Client, GearloopApiError, GearloopTransportError,
@@ -74,6 +75,23 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(replay["result"]["solver"], "lsq-plain")
         lineage = self.client.lineage(replay["id"])
         self.assertIn(replay["id"], [j["id"] for j in lineage["jobs"]])
+
+    def test_trace_tolerance_and_settings_listing(self) -> None:
+        request = dict(self.request)
+        request["trace"] = {"part_number": "PY-1", "serial": "S-%d" % os.getpid(), "teeth": [4]}
+        request["tolerance"] = {"rms_um": 1000}
+        job = self.client.create_correction(request)
+        self.assertEqual(job["trace"]["part_number"], "PY-1")
+        self.assertEqual(job["result"]["verdict"]["predicted"]["verdict"], "PASS")
+        found = self.client.list_corrections(serial=request["trace"]["serial"], tooth=4)
+        self.assertEqual([j["id"] for j in found["jobs"]], [job["id"]])
+        csv_text = self.client.correction_settings(job["id"], samples=3)
+        rows = [line.split(",") for line in csv_text.strip().split("\n")]
+        self.assertEqual(rows[0][0], "record")
+        x0 = next(r for r in rows if r[:3] == ["coefficient", "X", "0"])
+        self.assertAlmostEqual(float(x0[5]), job["result"]["settings"]["axes"]["X"][0], delta=1e-9)
+        self.assertEqual(len([r for r in rows if r[0] == "motion" and r[1] == "X"]), 3)
+        self.assertIn("operationId: getCorrectionSettings", self.client.openapi_document())
 
     def test_api_error_carries_code_message_and_field(self) -> None:
         bad = copy.deepcopy(self.request)
@@ -320,6 +338,62 @@ class BevelClientTest(unittest.TestCase):
         with self.assertRaises(GearloopApiError) as caught:
             self.client.simulate_bevel_closed_loop(self.job, corrections=0)
         self.assertEqual((caught.exception.status, caught.exception.field), (422, "corrections"))
+
+
+class SplitTrajectoryClientTest(unittest.TestCase):
+    """split_trajectory and split_trajectory_nc against the real server, on the wheel of
+    docs/split-bevel.md (z = 75, delta = 70 deg, m_et = 40 mm, beta_m = 35 deg right hand)."""
+
+    server: RunningServer
+    client: Client
+    gear = {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40, "face_width_mm": 240,
+            "mean_spiral_angle_deg": 35, "hand": "right", "pressure_angle_deg": 20}
+    tool = {"radius_mm": 8, "stock_mm": 0.2}
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        cls.server = RunningServer().__enter__()
+        cls.client = Client(cls.server.url, timeout=120)
+
+    @classmethod
+    def tearDownClass(cls) -> None:
+        cls.server.__exit__(None, None, None)
+
+    def test_trajectory_job_and_nc_program(self) -> None:
+        answer = self.client.split_trajectory(self.gear, self.tool,
+                                              cut={"slot_index": 3, "depth_levels": 4, "steps": 5},
+                                              machine={"pivot_length_mm": 300}, nc=True)
+        self.assertAlmostEqual(answer["derived"]["base_radius_mm"], 1209.286851, places=5)
+        self.assertEqual([(p["flank"], p["level"]) for p in answer["passes"]],
+                         [("convex", j) for j in range(4)] + [("concave", j) for j in range(4)])
+        first = answer["passes"][0]["points"][0]
+        self.assertAlmostEqual(first["A_deg"], 17.3882, places=4)
+        self.assertAlmostEqual(first["B_deg"], 11.2437, places=4)
+        self.assertAlmostEqual(first["X_mm"], 1336.2082, places=4)
+        nc = self.client.split_trajectory_nc(answer["job_id"])
+        self.assertEqual(nc, answer["nc_program"])
+        self.assertIn("G01 X1336.2082 Y-43.8387 Z-168.4312 A17.3882 B11.2437 F200.0\n", nc)
+        job = self.client.get_correction(answer["job_id"])
+        self.assertEqual((job["kind"], job["machine_kind"], job["flank"]),
+                         ("split_trajectory", "head-head-5-axis-mill", "both"))
+        self.assertEqual(job["result"]["passes"], answer["passes"])
+        listed = self.client.list_corrections(kind="split_trajectory")
+        self.assertIn(answer["job_id"], [j["id"] for j in listed["jobs"]])
+        # Without nc the answer leaves the listing out; the job keeps it.
+        lean = self.client.split_trajectory(self.gear, self.tool, cut={"flanks": ["concave"], "steps": 3})
+        self.assertNotIn("nc_program", lean)
+        self.assertTrue(self.client.split_trajectory_nc(lean["job_id"]).startswith("%\n(GEARLOOP SPLIT-BEVEL 1)\n"))
+
+    def test_refusals_name_the_field(self) -> None:
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.split_trajectory(self.gear, {"radius_mm": 20})
+        self.assertEqual((caught.exception.status, caught.exception.field), (422, "tool.radius_mm"))
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.split_trajectory(self.gear, self.tool, machine={"a_limits_deg": [-5, 5]})
+        self.assertEqual((caught.exception.status, caught.exception.field), (422, "machine.a_limits_deg"))
+        with self.assertRaises(GearloopApiError) as caught:
+            self.client.split_trajectory_nc(987654)
+        self.assertEqual(caught.exception.status, 404)
 
 
 class TokenTest(unittest.TestCase):

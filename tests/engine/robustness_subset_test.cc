@@ -42,12 +42,12 @@ TEST(RobustnessSubset, DefaultOptionsMakeNoPartWorse) {
   ExpectNoWorsePart(CorrectionOptions());
 }
 
-// DISABLED: with every order 0-6 open the third correction still makes
-// scenarios 11 (0.38 -> 0.55 um, predicted 0.56), 16 (3.10 -> 67.3 um,
-// predicted 2.33) and 18 (0.20 -> 1.0 um, predicted 0.99) worse; the full
-// benchmark has 29 worse rounds of 600 this way. A bounded, smooth higher-order
-// correction (issue 13, item 3) must enable it, with this definition of worse
-// unchanged.
+// DISABLED: with every order 0-6 open the second or third correction still
+// makes scenarios 7 (0.19 -> 0.30 um, predicted 0.18), 11 (0.29 -> 2.89 um,
+// predicted 0.47) and 18 (0.19 -> 0.90 -> 1.28 um) worse; the full benchmark
+// has 20 worse rounds of 600 this way (BENCHMARKS.md, "Robustness"). A
+// bounded, smooth higher-order correction that is also safe (issue 13, item
+// 3) must enable it, with this definition of worse unchanged.
 TEST(RobustnessSubset, DISABLED_EveryOrderOpenMakesNoPartWorse) {
   CorrectionOptions options;
   options.default_max_order = 6;

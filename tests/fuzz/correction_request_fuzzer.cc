@@ -24,12 +24,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "server/codec/correction_codec.h"
 #include "server/codec/grinder_codec.h"
 #include "server/codec/measurement_codec.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/tolerance_codec.h"
+#include "server/codec/trace_codec.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {
@@ -83,6 +86,47 @@ void CheckMeasurementFile(const nlohmann::json& body) {
   }
 }
 
+// The job's trace and tolerance (trace_codec.h, tolerance_codec.h): what is
+// accepted lies within the documented limits, what is not is a named refusal.
+void CheckTraceAndTolerance(const nlohmann::json& body) {
+  gearloop::JobRecord job;
+  gearloop::ApiError error;
+  if (gearloop::ParseJobTrace(body, &job, &error)) {
+    for (const std::string* text : {&job.part_number,
+                                    &job.serial,
+                                    &job.measured_at,
+                                    &job.file_name,
+                                    &job.machine_id}) {
+      Check(text->size() <= gearloop::kMaxTraceTextLength,
+            "trace texts within their length");
+    }
+    Check(
+        job.measured_at.empty() || gearloop::IsIso8601DateTime(job.measured_at),
+        "an accepted measuring time is ISO 8601");
+    Check(job.tooth_numbers.size() <= gearloop::kMaxTraceTeeth,
+          "at most the documented number of teeth");
+    for (int tooth : job.tooth_numbers) Check(tooth >= 1, "teeth count from 1");
+  } else {
+    CheckRefusal(error);
+  }
+  std::optional<gearloop::Tolerance> tolerance;
+  error = gearloop::ApiError();
+  if (gearloop::ParseTolerance(body, &tolerance, &error)) {
+    if (!tolerance) return;
+    Check(tolerance->rms_um || tolerance->max_um || tolerance->iso_class,
+          "an accepted tolerance has a limit");
+    Check(!tolerance->rms_um || *tolerance->rms_um > 0.0,
+          "a positive rms limit");
+    Check(!tolerance->max_um || *tolerance->max_um > 0.0,
+          "a positive max limit");
+    Check(!tolerance->iso_class ||
+              (*tolerance->iso_class >= 1 && *tolerance->iso_class <= 11),
+          "an ISO 1328-1 class 1..11");
+  } else {
+    CheckRefusal(error);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -128,6 +172,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
 
   CheckMeasurementFile(body);
+  CheckTraceAndTolerance(body);
   // The body as a plunge-shaving cutter target (POST
   // /api/v1/shaving/cutter-target): an accepted one passes the engine's own
   // check, with its radii filled in.

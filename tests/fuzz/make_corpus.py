@@ -14,6 +14,9 @@ OUT_DIR/csv_grid/            CSV grids: clients/examples/measurement.csv and the
 OUT_DIR/mka/                 Klingelnberg curve files: the sample of tests/formats/data, with LF
                              and without byte-order mark, in Latin-1, as plain Profil: blocks,
                              truncated, and with a huge value count
+OUT_DIR/split_bevel_request/ split-trajectory request bodies: the wheel of docs/split-bevel.md,
+                             with every optional field, a pinion to a chord tolerance, and
+                             refusals (both of a pair, a tool too wide, out-of-limit axes)
 OUT_DIR/gde/                 GDE XML: the sample, a measured/target/predicted export layout, and
                              a few broken ones (truncated, decimal comma, duplicate point)
 
@@ -71,6 +74,34 @@ def write_measurement_files(out):
     return n
 
 
+def write_split_bevel_requests(out):
+    directory = os.path.join(out, "split_bevel_request")
+    os.makedirs(directory, exist_ok=True)
+    wheel = {"gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+                      "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+                      "pressure_angle_deg": 20},
+             "tool": {"radius_mm": 8, "stock_mm": 0.2},
+             "cut": {"slot_index": 3, "flanks": ["convex", "concave"], "depth_levels": 4, "steps": 5},
+             "machine": {"pivot_length_mm": 300}, "output": {"nc": True}}
+    full = json.loads(json.dumps(wheel))
+    full["gear"].update({"addendum_mm": 28, "dedendum_mm": 36, "slot_width_mm": 45})
+    full["cut"].update({"from": "heel", "feed_mm_per_min": 150})
+    full["machine"].update({"a_limits_deg": [-110, 110], "b_limits_deg": [-200, 200]})
+    full["setup"] = {"apex_mm": [10, -5, 600], "segment_mid_deg": 14, "segment_angle_deg": 30}
+    pinion = {"gear": {"teeth": 19, "pitch_angle_deg": 20, "outer_cone_distance_mm": 877,
+                       "face_width_mm": 120, "outer_spiral_angle_deg": 38, "hand": "left",
+                       "pressure_angle_deg": 20},
+              "tool": {"radius_mm": 6}, "cut": {"depth_levels": 1, "chord_tolerance_mm": 0.05}}
+    bodies = [wheel, full, pinion]
+    for edit in ({"tool": {"radius_mm": 30}}, {"machine": {"a_limits_deg": [-5, 5]}},
+                 {"cut": {"steps": 5, "chord_tolerance_mm": 0.01}}):
+        bodies.append(dict(wheel, **edit))
+    both = json.loads(json.dumps(wheel))
+    both["gear"]["outer_cone_distance_mm"] = 1600
+    bodies.append(both)
+    return sum(write(directory, json.dumps(b)) for b in bodies)
+
+
 def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -88,6 +119,10 @@ def main():
     n_requests = 0
     valid = dict(request, measurement={"deviations_um": measurement})
     n_requests += write(requests, json.dumps(valid))
+    # The job's trace and tolerance (issue 16).
+    n_requests += write(requests, json.dumps(dict(valid, trace={
+        "part_number": "4711-A", "serial": "S1", "teeth": [1, 10], "measured_at": "2026-11-22T07:45:00+01:00",
+        "file_name": "S1.mka", "machine_id": "RZ260-2"}, tolerance={"rms_um": 1.5, "max_um": 4, "iso_class": 6})))
     n_requests += write(requests, json.dumps(dict(valid, options={
         "solver": "pso", "mode": "rework", "max_order": {"A": 1}, "probe_noise_um": 0.3,
         "pso_particles": 10, "pso_generations": 20, "point_weights": [[1] * 9] * 5})))
@@ -125,8 +160,10 @@ def main():
         n_grids += write(grids, b"\x0c\x08" + text)  # 5 x 9, missing points allowed
         n_grids += write(grids, b"\x04\x08" + text)  # 5 x 9, complete (a target grid)
     n_files = write_measurement_files(out)
+    n_split = write_split_bevel_requests(out)
     print(f"make_corpus: {n_requests} request seeds in {requests}, {n_grids} grid seeds in {grids}, "
-          f"{n_files} measurement-file seeds in {out}/mka and {out}/gde")
+          f"{n_files} measurement-file seeds in {out}/mka and {out}/gde, "
+          f"{n_split} split-trajectory seeds in {out}/split_bevel_request")
     return 0
 
 

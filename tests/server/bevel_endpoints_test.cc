@@ -299,6 +299,52 @@ TEST_F(BevelEndpointsTest,
   EXPECT_EQ(replay.body["result"]["motion"]["A_rad"].size(), 6u);
 }
 
+// A bevel job takes an rms/max tolerance (no ISO 1328-1 classes for a pinion
+// flank) and lists its corrected motions for the machine.
+TEST_F(BevelEndpointsTest, JudgesToleranceAndListsTheCorrectedMotion) {
+  const nlohmann::json job = PublishedJob("convex");
+  const nlohmann::json nominal =
+      Post("/api/v1/bevel/conversions", {{"job", job}}).body["motion"];
+  const Answer measured =
+      Post("/api/v1/bevel/evaluate",
+           {{"job", job}, {"motion", WithHiddenErrors(nominal)}});
+  ASSERT_EQ(measured.status, 200);
+  nlohmann::json request = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", job},
+      {"motion", nominal},
+      {"measurement", {{"deviations_um", measured.body["deviations_um"]}}},
+      {"options", {{"default_max_order", 2}}},
+      {"tolerance", {{"iso_class", 5}}}};
+  Answer refused = Post("/api/v1/corrections", request);
+  EXPECT_EQ(refused.status, 422);
+  EXPECT_EQ(refused.body["error"]["field"], "tolerance.iso_class");
+  request["tolerance"] = {{"rms_um", 0.5}};
+  const Answer created = Post("/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  EXPECT_EQ(result["verdict"]["measured"]["verdict"], "FAIL");
+  EXPECT_EQ(result["verdict"]["predicted"]["verdict"], "PASS");
+
+  const std::string path = "/api/v1/corrections/" +
+                           std::to_string(created.body["id"].get<int>()) +
+                           "/settings?format=nc";
+  const auto listing = client_->Get(path.c_str());
+  ASSERT_TRUE(listing);
+  ASSERT_EQ(listing->status, 200);
+  const std::string& text = listing->body;
+  for (const char* axis : {"A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"}) {
+    const std::string name = std::string(1, axis[0]) + "_A1 = ";
+    const size_t at = text.find("\n" + name);
+    ASSERT_NE(at, std::string::npos) << name;
+    EXPECT_NEAR(
+        std::stod(text.substr(at + 1 + name.size())),
+        result["motion"][axis][1].get<double>(),
+        1e-9 * (1.0 + std::fabs(result["motion"][axis][1].get<double>())))
+        << axis;
+  }
+}
+
 TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
   const nlohmann::json job = PublishedJob("concave");
   const nlohmann::json scenario = {

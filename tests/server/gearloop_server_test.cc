@@ -11,9 +11,12 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "engine/core/units.h"
@@ -891,12 +894,13 @@ TEST_F(GearloopServerTest, KeepsJobsAcrossARestart) {
 
 nlohmann::json WaitForBatch(httplib::Client& client,
                             const std::string& location,
-                            double timeout_s) {
+                            double timeout_s,
+                            const httplib::Headers& headers = {}) {
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::duration<double>(timeout_s);
   nlohmann::json batch;
   while (std::chrono::steady_clock::now() < deadline) {
-    batch = Send(client, "GET", location).body;
+    batch = Send(client, "GET", location, "", headers).body;
     if (batch.value("status", "") == "finished") return batch;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
@@ -1140,6 +1144,390 @@ TEST_F(GearloopServerTest, ChecksBearerTokensAndRoles) {
   EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections").status, 401);
   // Liveness and metrics stay open for the monitoring.
   EXPECT_EQ(Send(*client_, "GET", "/healthz").status, 200);
+}
+
+TEST_F(GearloopServerTest, StoresTheTraceOfAJobAndFiltersTheHistoryByIt) {
+  TempPath token_file("gearloop_tokens");
+  {
+    std::ofstream out(token_file.path());
+    out << "write " << Sha256Hex("cell-secret") << " cmm-cell-3\n";
+    out << "write " << Sha256Hex("planner-secret") << " planner\n";
+  }
+  nlohmann::json traced = CorrectionRequest();
+  const nlohmann::json plain = traced;
+  traced["trace"] = {{"part_number", "4711-A"},
+                     {"serial", "S0042"},
+                     {"teeth", {1, 10, 19}},
+                     {"measured_at", "2026-11-22T07:45:00+01:00"},
+                     {"file_name", "4711-A_S0042.mka"},
+                     {"machine_id", "RZ260-2"}};
+  ServerOptions options;
+  options.token_file = token_file.path();
+  StartServer(options);
+  const httplib::Headers cell = {{"Authorization", "Bearer cell-secret"}};
+  const httplib::Headers planner = {{"Authorization", "Bearer planner-secret"}};
+  const Answer created =
+      Send(*client_, "POST", "/api/v1/corrections", traced.dump(), cell);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  nlohmann::json expected = traced["trace"];
+  expected["submitted_by"] = "cmm-cell-3";
+  EXPECT_EQ(created.body["trace"], expected);
+  const int64_t id = created.body["id"];
+  const Answer job = Send(
+      *client_, "GET", "/api/v1/corrections/" + std::to_string(id), "", cell);
+  EXPECT_EQ(job.body["trace"], expected);
+  const Answer other =
+      Send(*client_, "POST", "/api/v1/corrections", plain.dump(), planner);
+  ASSERT_EQ(other.status, 201);
+  EXPECT_EQ(other.body["trace"], nlohmann::json({{"submitted_by", "planner"}}));
+  // A replay keeps the part's trace and names who replayed it.
+  const Answer replay =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" + std::to_string(id) + "/replay",
+           "{}",
+           planner);
+  ASSERT_EQ(replay.status, 201);
+  EXPECT_EQ(replay.body["trace"]["serial"], "S0042");
+  EXPECT_EQ(replay.body["trace"]["submitted_by"], "planner");
+
+  const Answer accepted = Send(*client_,
+                               "POST",
+                               "/api/v1/batches",
+                               nlohmann::json({{"items", {traced}}}).dump(),
+                               cell);
+  ASSERT_EQ(accepted.status, 202);
+  const int64_t batch_id = accepted.body["id"];
+  const nlohmann::json batch =
+      WaitForBatch(*client_, accepted.location, 120.0, cell);
+  ASSERT_EQ(batch["status"], "finished") << batch.dump().substr(0, 400);
+  EXPECT_EQ(batch["submitted_by"], "cmm-cell-3");
+
+  const auto total = [&](const std::string& query) {
+    const Answer page =
+        Send(*client_, "GET", "/api/v1/corrections?" + query, "", cell);
+    EXPECT_EQ(page.status, 200) << query << ": " << page.body.dump();
+    return page.body.value("total", -1);
+  };
+  EXPECT_EQ(total(""), 4);
+  EXPECT_EQ(total("part_number=4711-A"), 3);
+  EXPECT_EQ(total("serial=S0042&tooth=10"), 3);
+  EXPECT_EQ(total("tooth=2"), 0);
+  EXPECT_EQ(total("machine_id=RZ260-2&submitted_by=planner"), 1);
+  EXPECT_EQ(total("submitted_by=planner"), 2);
+  EXPECT_EQ(total("file_name=4711-A_S0042.mka"), 3);
+  EXPECT_EQ(total("batch_id=" + std::to_string(batch_id)), 1);
+  const Answer in_batch =
+      Send(*client_,
+           "GET",
+           "/api/v1/corrections?batch_id=" + std::to_string(batch_id),
+           "",
+           cell);
+  EXPECT_EQ(in_batch.body["jobs"][0]["trace"]["batch_id"], batch_id);
+  EXPECT_EQ(in_batch.body["jobs"][0]["kind"], "batch_item");
+
+  for (const auto& [query, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"tooth=0", "query.tooth"},
+           {"tooth=x", "query.tooth"},
+           {"batch_id=-1", "query.batch_id"},
+           {"part_number=", "query.part_number"},
+           {"serial=" + std::string(201, 's'), "query.serial"}}) {
+    const Answer bad =
+        Send(*client_, "GET", "/api/v1/corrections?" + query, "", cell);
+    EXPECT_TRUE(bad.status == 400 || bad.status == 422) << query;
+    EXPECT_EQ(bad.body["error"]["field"], field) << query;
+  }
+}
+
+TEST_F(GearloopServerTest, RefusesABadTraceNamingItsField) {
+  const nlohmann::json good = CorrectionRequest();
+  const std::vector<std::tuple<nlohmann::json, int, std::string>> cases = {
+      {"S1", 400, "trace"},
+      {{{"serial", 42}}, 400, "trace.serial"},
+      {{{"serial", ""}}, 422, "trace.serial"},
+      {{{"part_number", "a\nb"}}, 422, "trace.part_number"},
+      {{{"measured_at", "yesterday"}}, 422, "trace.measured_at"},
+      {{{"measured_at", "2026-13-01T00:00Z"}}, 422, "trace.measured_at"},
+      {{{"teeth", 3}}, 400, "trace.teeth"},
+      {{{"teeth", {1, 1.5}}}, 400, "trace.teeth[1]"},
+      {{{"teeth", {4, 0}}}, 422, "trace.teeth[1]"},
+      {{{"teeth", {4, 4}}}, 422, "trace.teeth[1]"},
+      {{{"operator", "Max"}}, 400, "trace.operator"},
+  };
+  for (const auto& [trace, status, field] : cases) {
+    nlohmann::json request = good;
+    request["trace"] = trace;
+    const Answer answer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(answer.status, status) << trace.dump();
+    EXPECT_EQ(answer.body["error"]["field"], field) << trace.dump();
+  }
+  EXPECT_EQ(StoredJobs(), 0);
+}
+
+// Splits CSV text (no quoting) into rows of fields.
+std::vector<std::vector<std::string>> ParseCsv(const std::string& text) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::vector<std::string> fields;
+    std::istringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) fields.push_back(cell);
+    if (!line.empty() && line.back() == ',') fields.push_back("");
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+// The CSV listing parsed back gives the result's corrected settings, its delta
+// and its axis motion (computed by the solve, not by the listing).
+TEST_F(GearloopServerTest, ListsTheCorrectedSettingsForTheMachine) {
+  const Answer created =
+      Post(*client_, "/api/v1/corrections", CorrectionRequest());
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  const std::string path = created.location + "/settings";
+  httplib::Result csv = client_->Get((path + "?format=csv").c_str());
+  ASSERT_TRUE(csv);
+  ASSERT_EQ(csv->status, 200) << csv->body;
+  EXPECT_EQ(csv->get_header_value("Content-Type"), "text/csv; charset=utf-8");
+  const auto rows = ParseCsv(csv->body);
+  ASSERT_FALSE(rows.empty());
+  EXPECT_EQ(rows[0],
+            (std::vector<std::string>{"record",
+                                      "block",
+                                      "power",
+                                      "roll_rad",
+                                      "unit",
+                                      "absolute",
+                                      "change",
+                                      "change_unit"}));
+  std::map<std::string, int> coefficients_of, samples_of;
+  for (size_t r = 1; r < rows.size(); ++r) {
+    const std::vector<std::string>& row = rows[r];
+    ASSERT_EQ(row.size(), 8u) << r;
+    const std::string& axis = row[1];
+    const double absolute = std::stod(row[5]);
+    const double change = std::stod(row[6]);
+    const bool linear = axis == "X" || axis == "Y" || axis == "Z";
+    if (row[0] == "coefficient") {
+      const int k = std::stoi(row[2]);
+      EXPECT_EQ(k, coefficients_of[axis]++) << axis;
+      if (!linear) continue;
+      EXPECT_EQ(row[4],
+                k == 0 ? std::string("mm")
+                       : "mm/rad" + (k == 1 ? std::string()
+                                            : "^" + std::to_string(k)));
+      EXPECT_NEAR(absolute,
+                  result["settings"]["axes"][axis][k].get<double>(),
+                  1e-9 * (1.0 + std::abs(absolute)))
+          << axis << k;
+      EXPECT_NEAR(change, result["delta"]["axes"][axis][k].get<double>(), 1e-9)
+          << axis << k;
+    } else {
+      ASSERT_EQ(row[0], "motion") << r;
+      const int i = samples_of[axis]++;
+      const std::string unit = linear ? "um" : "urad";
+      EXPECT_EQ(row[7], unit);
+      EXPECT_NEAR(std::stod(row[3]),
+                  result["axis_motion"]["roll_rad"][i].get<double>(),
+                  1e-9);
+      EXPECT_NEAR(change,
+                  result["axis_motion"]["axes"][axis]["change_" + unit][i]
+                      .get<double>(),
+                  1e-6)
+          << axis << " at roll " << i;
+    }
+  }
+  for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
+    EXPECT_EQ(coefficients_of[axis], 7) << axis;
+    EXPECT_EQ(samples_of[axis], 9) << axis;
+  }
+  EXPECT_EQ(coefficients_of["cone_angle"], 1);
+
+  httplib::Result nc = client_->Get((path + "?format=nc").c_str());
+  ASSERT_TRUE(nc && nc->status == 200);
+  const std::string x0 = nc->body.substr(nc->body.find("\nX_A0 = ") + 8);
+  EXPECT_NEAR(
+      std::stod(x0), result["settings"]["axes"]["X"][0].get<double>(), 1e-9);
+  httplib::Result table = client_->Get(path.c_str());
+  ASSERT_TRUE(table && table->status == 200);
+  EXPECT_NE(table->body.find("axis motion over the roll range"),
+            std::string::npos);
+
+  Answer bad = Send(*client_, "GET", path + "?format=xml");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "query.format");
+  EXPECT_EQ(Send(*client_, "GET", "/api/v1/corrections/987654/settings").status,
+            404);
+}
+
+// A 10 um lead crowning from a perfect flank on the example gear: the fixed
+// wheel cannot make all of it. With a tight tolerance the job says so instead
+// of "converged"; with a loose one it converges and passes.
+TEST_F(GearloopServerTest,
+       JudgesPartsAgainstTheToleranceAndNamesWhatIsOutOfReach) {
+  nlohmann::json request = DefaultSetup();
+  request["measurement"] = {{"deviations_um", nlohmann::json::array()}};
+  for (int r = 0; r < 5; ++r)
+    request["measurement"]["deviations_um"].push_back(
+        std::vector<double>(9, 0.0));
+  request["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+  request["tolerance"] = {{"rms_um", 1.0}, {"max_um", 3.0}};
+  const Answer tight = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(tight.status, 201) << tight.body.dump();
+  const nlohmann::json& result = tight.body["result"];
+  const double residual = result["residual_rms_um"];
+  const double best = result["best_reachable_rms_um"];
+  ASSERT_GT(residual, 1.0) << "the scenario needs an unreachable target";
+  EXPECT_EQ(tight.body["status"], "target_partly_reachable");
+  EXPECT_EQ(result["status"], "target_partly_reachable");
+  EXPECT_NE(result["message"].get<std::string>().find("rms "),
+            std::string::npos);
+  EXPECT_NE(result["message"].get<std::string>().find("at best"),
+            std::string::npos);
+  EXPECT_GE(residual, best - 1e-9);
+  const nlohmann::json& verdict = result["verdict"];
+  EXPECT_EQ(verdict["tolerance"], request["tolerance"]);
+  EXPECT_EQ(verdict["predicted"]["verdict"], "FAIL");
+  EXPECT_DOUBLE_EQ(verdict["predicted"]["rms_um"].get<double>(), residual);
+  EXPECT_EQ(verdict["measured"]["verdict"], "FAIL");
+  EXPECT_NEAR(verdict["measured"]["max_um"].get<double>(), 10.0, 1e-6);
+  EXPECT_EQ(
+      Send(
+          *client_, "GET", "/api/v1/corrections?status=target_partly_reachable")
+          .body["total"],
+      1);
+
+  // Loose enough for what the machine makes: converged, the next part passes.
+  request["tolerance"] = {{"rms_um", residual + 0.5}};
+  const Answer loose = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(loose.status, 201);
+  EXPECT_EQ(loose.body["status"], "converged");
+  EXPECT_EQ(loose.body["result"]["verdict"]["predicted"]["verdict"], "PASS");
+  EXPECT_EQ(loose.body["result"]["verdict"]["predicted"]["failed"],
+            nlohmann::json::array());
+  // The ISO class of the predicted part decides as well.
+  const int predicted_class =
+      loose.body["result"]["iso1328"]["predicted"]["classes"]["overall"];
+  request["tolerance"] = {{"iso_class", predicted_class}};
+  EXPECT_EQ(Post(*client_, "/api/v1/corrections", request)
+                .body["result"]["verdict"]["predicted"]["verdict"],
+            "PASS");
+  if (predicted_class > 1) {
+    request["tolerance"] = {{"iso_class", predicted_class - 1}};
+    const Answer finer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(finer.body["result"]["verdict"]["predicted"]["failed"],
+              nlohmann::json::array({"iso_class"}));
+    EXPECT_EQ(finer.body["status"], "target_partly_reachable");
+  }
+  // A replay with a loose tolerance passes what the stored job failed.
+  const Answer replayed = Send(
+      *client_,
+      "POST",
+      "/api/v1/corrections/" + std::to_string(tight.body["id"].get<int>()) +
+          "/replay",
+      nlohmann::json({{"tolerance", {{"rms_um", residual + 0.5}}}}).dump());
+  ASSERT_EQ(replayed.status, 201) << replayed.body.dump();
+  EXPECT_EQ(replayed.body["status"], "converged");
+  EXPECT_EQ(replayed.body["result"]["verdict"]["predicted"]["verdict"], "PASS");
+  const Answer untoleranced =
+      Send(*client_,
+           "POST",
+           "/api/v1/corrections/" +
+               std::to_string(tight.body["id"].get<int>()) + "/replay",
+           R"({"tolerance": null})");
+  EXPECT_FALSE(untoleranced.body["result"].contains("verdict"));
+  // A job without a tolerance has no verdict and keeps the solver's status.
+  request.erase("tolerance");
+  const Answer plain = Post(*client_, "/api/v1/corrections", request);
+  EXPECT_FALSE(plain.body["result"].contains("verdict"));
+  EXPECT_EQ(plain.body["status"], "converged");
+}
+
+TEST_F(GearloopServerTest, RefusesABadToleranceNamingItsField) {
+  const nlohmann::json good = CorrectionRequest();
+  const std::vector<std::tuple<nlohmann::json, int, std::string>> cases = {
+      {1.0, 400, "tolerance"},
+      {nlohmann::json::object(), 400, "tolerance"},
+      {{{"rms_um", "1"}}, 400, "tolerance.rms_um"},
+      {{{"rms_um", 0}}, 422, "tolerance.rms_um"},
+      {{{"max_um", -2}}, 422, "tolerance.max_um"},
+      {{{"iso_class", 12}}, 422, "tolerance.iso_class"},
+      {{{"iso_class", 5.5}}, 400, "tolerance.iso_class"},
+      {{{"pitch_um", 5}}, 400, "tolerance.pitch_um"},
+  };
+  for (const auto& [tolerance, status, field] : cases) {
+    nlohmann::json request = good;
+    request["tolerance"] = tolerance;
+    const Answer answer = Post(*client_, "/api/v1/corrections", request);
+    EXPECT_EQ(answer.status, status) << tolerance.dump();
+    EXPECT_EQ(answer.body["error"]["field"], field) << tolerance.dump();
+  }
+  EXPECT_EQ(StoredJobs(), 0);
+}
+
+// The reach of a target before anything is ground: each modification's share
+// is what a correction from a perfect flank towards it can make (its best
+// reachable residual), and all together are judged the same way.
+TEST_F(GearloopServerTest, ReportsTheShareOfATargetTheMachineCanMake) {
+  nlohmann::json request = DefaultSetup();
+  const nlohmann::json lead = {{"kind", "lead_crowning"}, {"amount_um", 10}};
+  const nlohmann::json profile = {{"kind", "profile_crowning"},
+                                  {"amount_um", 5}};
+  request["target"] = {{"modifications", {lead, profile}}};
+  const Answer reach = Post(*client_, "/api/v1/targets/reach", request);
+  ASSERT_EQ(reach.status, 200) << reach.body.dump();
+  ASSERT_EQ(reach.body["components"].size(), 2u);
+  EXPECT_EQ(reach.body["components"][0]["modification"], lead);
+  EXPECT_EQ(reach.body["components"][1]["index"], 1);
+  nlohmann::json zero = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) zero.push_back(std::vector<double>(9, 0.0));
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    const nlohmann::json& c = reach.body["components"][i];
+    const double target = c["target_rms_um"];
+    const double left = c["unreachable_rms_um"];
+    const double share = c["reachable_share"];
+    EXPECT_GT(target, 0.0);
+    EXPECT_GE(share, 0.0);
+    EXPECT_LE(share, 1.0);
+    EXPECT_NEAR(share, 1.0 - (left * left) / (target * target), 1e-12);
+    // The same figures as a stored correction towards this modification alone.
+    nlohmann::json correction = DefaultSetup();
+    correction["measurement"] = {{"deviations_um", zero}};
+    correction["target"] = {{"modifications", {c["modification"]}}};
+    const Answer job = Post(*client_, "/api/v1/corrections", correction);
+    ASSERT_EQ(job.status, 201);
+    EXPECT_NEAR(left, job.body["result"]["best_reachable_rms_um"], 1e-9);
+    EXPECT_NEAR(target, job.body["result"]["initial_rms_um"], 1e-9);
+  }
+  EXPECT_EQ(StoredJobs(), 2);  // the reach itself stores nothing
+  const nlohmann::json& highest = reach.body["with_highest_orders"];
+  ASSERT_TRUE(highest.is_object());
+  EXPECT_EQ(highest["default_max_order"], 6);
+  EXPECT_GE(highest["rank"].get<int>(),
+            reach.body["combined"]["rank"].get<int>());
+
+  Answer bad = Post(*client_, "/api/v1/targets/reach", DefaultSetup());
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "target.modifications");
+  nlohmann::json measured = request;
+  measured["measurement"] = {{"deviations_um", zero}};
+  bad = Post(*client_, "/api/v1/targets/reach", measured);
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(bad.body["error"]["field"], "measurement");
+  nlohmann::json wrong = request;
+  wrong["target"]["modifications"][1]["kind"] = "wobble";
+  bad = Post(*client_, "/api/v1/targets/reach", wrong);
+  EXPECT_EQ(bad.status / 100, 4);
+  EXPECT_EQ(bad.body["error"]["field"].get<std::string>().rfind(
+                "target.modifications[1]", 0),
+            0u)
+      << bad.body.dump();
 }
 
 TEST(GearloopServer, RefusesANonLoopbackHostWithoutTokens) {

@@ -441,7 +441,11 @@ TEST_F(HostileRequestsTest, RefusesBadJobListQueriesNamingTheParameter) {
   for (const char* query : {"kind=correction",
                             "status=converged",
                             "created_from=2024-02-29",
-                            "created_to=2026-11-22T08:00:00Z"}) {
+                            "created_to=2026-11-22T08:00:00Z",
+                            "kind=split_trajectory",
+                            "status=target_partly_reachable",
+                            "part_number=P-17",
+                            "tooth=3"}) {
     auto result =
         client_->Get((std::string("/api/v1/corrections?") + query).c_str());
     ASSERT_TRUE(result);

@@ -205,6 +205,18 @@ class OpenApiTest : public ::testing::Test {
         << " does not match its schema:" << text;
   }
 
+  // A small split-bevel trajectory (docs/split-bevel.md's wheel, 5 stations).
+  static nlohmann::json SplitTrajectoryRequest() {
+    return nlohmann::json::parse(R"({
+      "gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+               "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+               "pressure_angle_deg": 20},
+      "tool": {"radius_mm": 8, "stock_mm": 0.2},
+      "cut": {"slot_index": 3, "depth_levels": 2, "steps": 5},
+      "machine": {"pivot_length_mm": 300},
+      "output": {"nc": true}})");
+  }
+
   nlohmann::json Measurement() {
     nlohmann::json request = DefaultSetup();
     request["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
@@ -283,6 +295,11 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
       "POST /api/v1/measurements/import",
       "GET /api/v1/corrections/{id}/export",
       "POST /api/v1/shaving/cutter-target",
+      "POST /api/v1/bevel/split-trajectory",
+      "GET /api/v1/bevel/split-trajectory/{id}/nc",
+      "GET /api/v1/corrections/{id}/settings",
+      "GET /api/v1/openapi.yaml",
+      "POST /api/v1/targets/reach",
   };
   EXPECT_EQ(operations, expected);
   for (const char* code : {"invalid_json",
@@ -304,11 +321,32 @@ TEST_F(OpenApiTest, ListsEveryOperationWithErrorCodes) {
   }
 }
 
+// The document served is this file, byte for byte, and needs no token.
+TEST_F(OpenApiTest, ServesTheDocumentItWasBuiltWith) {
+  std::ifstream in(std::string(GEARLOOP_SOURCE_DIR) + "/api/openapi.yaml");
+  ASSERT_TRUE(in.good());
+  std::stringstream file;
+  file << in.rdbuf();
+  auto served = Call("GET", "/api/v1/openapi.yaml", "", "");
+  ASSERT_TRUE(served);
+  EXPECT_EQ(served->status, 200);
+  EXPECT_EQ(served->get_header_value("Content-Type"),
+            "application/yaml; charset=utf-8");
+  EXPECT_EQ(served->body, file.str());
+}
+
 TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   // Jobs and a batch to point {id} at.
   nlohmann::json correction = DefaultSetup();
   correction["measurement"] = Measurement();
   correction["options"] = {{"probe_noise_um", 0.2}};
+  correction["trace"] = {{"part_number", "4711-A"},
+                         {"serial", "S1"},
+                         {"teeth", {3}},
+                         {"measured_at", "2026-11-22T07:45:00Z"},
+                         {"file_name", "S1.mka"},
+                         {"machine_id", "RZ260-2"}};
+  correction["tolerance"] = {{"rms_um", 0.5}, {"iso_class", 6}};
   auto created = Call("POST", "/api/v1/corrections", correction.dump(), "w");
   ASSERT_TRUE(created && created->status == 201);
   const std::string job_id =
@@ -320,6 +358,13 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   ASSERT_TRUE(batch && batch->status == 202);
   const std::string batch_id =
       std::to_string(ParseBody(batch)["id"].get<int64_t>());
+  const std::string split = SplitTrajectoryRequest().dump();
+  nlohmann::json split_impossible = SplitTrajectoryRequest();
+  split_impossible["tool"]["radius_mm"] = 40;
+  auto split_job = Call("POST", "/api/v1/bevel/split-trajectory", split, "w");
+  ASSERT_TRUE(split_job && split_job->status == 200);
+  const std::string split_id =
+      std::to_string(ParseBody(split_job)["job_id"].get<int64_t>());
 
   nlohmann::json closed_loop = DefaultSetup();
   closed_loop["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
@@ -357,6 +402,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   std::map<std::string, Call> calls = {
       {"GET /healthz", {"/healthz", "", "", ""}},
       {"GET /metrics", {"/metrics", "", "", ""}},
+      {"GET /api/v1/openapi.yaml", {"/api/v1/openapi.yaml", "", "", ""}},
       {"POST /api/v1/nominal",
        {"/api/v1/nominal", setup, impossible.dump(), "{\"gear\": 1}"}},
       {"POST /api/v1/evaluate",
@@ -369,7 +415,10 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         impossible_correction.dump(),
         "{\"gear\": 1}"}},
       {"GET /api/v1/corrections",
-       {"/api/v1/corrections", "", "?limit=0", "?limit=x"}},
+       {"/api/v1/corrections",
+        "?part_number=4711-A&tooth=3",
+        "?limit=0",
+        "?tooth=x"}},
       {"GET /api/v1/corrections/{id}",
        {"/api/v1/corrections/" + job_id, "", "", ""}},
       {"GET /api/v1/corrections/{id}/lineage",
@@ -409,6 +458,13 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
         shaving.dump(),
         shaving_impossible.dump(),
         "{\"work_gear\": 1}"}},
+      {"POST /api/v1/bevel/split-trajectory",
+       {"/api/v1/bevel/split-trajectory",
+        split,
+        split_impossible.dump(),
+        "{\"gear\": 1}"}},
+      {"GET /api/v1/bevel/split-trajectory/{id}/nc",
+       {"/api/v1/bevel/split-trajectory/" + split_id + "/nc", "", "", ""}},
   };
 
   // A measuring-machine file (issue 15): the sample gear and its .mka file.
@@ -438,6 +494,22 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
                  "x",
                  "&format=xml"}});
 
+  nlohmann::json reach = DefaultSetup();
+  reach["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+  nlohmann::json reach_impossible = reach;
+  reach_impossible["gear"]["teeth"] = 2;
+  calls.insert({"POST /api/v1/targets/reach",
+                {"/api/v1/targets/reach",
+                 reach.dump(),
+                 reach_impossible.dump(),
+                 "{\"gear\": 1}"}});
+  calls.insert({"GET /api/v1/corrections/{id}/settings",
+                {"/api/v1/corrections/" + job_id + "/settings?format=csv",
+                 "",
+                 "&samples=1",
+                 "&samples=x"}});
+
   for (const Operation& op : api_.operations) {
     const std::string key = op.method + " " + op.path;
     SCOPED_TRACE(key);
@@ -445,7 +517,8 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
     ASSERT_NE(it, calls.end()) << "no test call for " << key;
     const Call& call = it->second;
     const bool is_get = op.method == "GET";
-    const bool open = op.path == "/healthz" || op.path == "/metrics";
+    const bool open = op.path == "/healthz" || op.path == "/metrics" ||
+                      op.path == "/api/v1/openapi.yaml";
     const bool needs_write = op.statuses.count(403) > 0;
     const std::string token = needs_write ? "w" : "r";
     for (int status : op.statuses) {
@@ -594,6 +667,31 @@ TEST_F(OpenApiTest, MeasurementFileAnswersMatchTheirSchemas) {
 // grinder and bevel, stored or not, answers ClosedLoopResponse or
 // BevelClosedLoopResponse part by part, and each stored round is a job whose
 // result matches CorrectionResult or BevelCorrectionResult.
+TEST_F(OpenApiTest, SplitTrajectoryJobMatchesTheJobSchemas) {
+  const nlohmann::json answer = Expect("split trajectory",
+                                       "POST",
+                                       "/api/v1/bevel/split-trajectory",
+                                       SplitTrajectoryRequest().dump(),
+                                       "w",
+                                       200,
+                                       "POST /api/v1/bevel/split-trajectory");
+  ASSERT_TRUE(answer.contains("location"));
+  Expect("stored split trajectory",
+         "GET",
+         answer["location"].get<std::string>(),
+         "",
+         "r",
+         200,
+         "GET /api/v1/corrections/{id}");
+  Expect("history with a split trajectory",
+         "GET",
+         "/api/v1/corrections?kind=split_trajectory&flank=both",
+         "",
+         "r",
+         200,
+         "GET /api/v1/corrections");
+}
+
 TEST_F(OpenApiTest, GrinderAndBevelAnswersMatchTheirSchemas) {
   const nlohmann::json bevel_machine = {{"kind", "free-form-bevel-generator"}};
   const nlohmann::json bevel_job = {{"side", "concave"}, {"published", true}};

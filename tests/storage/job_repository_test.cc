@@ -73,7 +73,7 @@ class JobRepositoryTest : public ::testing::TestWithParam<bool> {
 };
 
 TEST_P(JobRepositoryTest, MigratesToCurrentSchema) {
-  EXPECT_EQ(repo_->SchemaVersion(), 2);
+  EXPECT_EQ(repo_->SchemaVersion(), 3);
   EXPECT_EQ(repo_->IntegrityCheck(), "ok");
   EXPECT_EQ(repo_->CountJobs(), 0);
 }
@@ -109,6 +109,98 @@ TEST_P(JobRepositoryTest, WritesAndReadsJobWithAllFields) {
   EXPECT_FALSE(repo_->ReadJob(id + 1000).has_value());
   EXPECT_TRUE(repo_->JobExists(id));
   EXPECT_FALSE(repo_->JobExists(id + 1000));
+}
+
+// A job with every traceability field, as a shop would submit it.
+JobRecord MakeTracedJob(int teeth,
+                        const std::string& part,
+                        const std::string& serial,
+                        std::vector<int> tooth_numbers) {
+  JobRecord job = MakeJob(teeth, "left");
+  job.part_number = part;
+  job.serial = serial;
+  job.tooth_numbers = std::move(tooth_numbers);
+  job.measured_at = "2026-11-22T07:45:00Z";
+  job.file_name = "part-" + serial + ".mka";
+  job.machine_id = "RZ260-2";
+  job.submitted_by = "cmm-cell";
+  return job;
+}
+
+void ExpectSameTrace(const JobRecord& read, const JobRecord& expected) {
+  SCOPED_TRACE("job " + std::to_string(read.id));
+  EXPECT_EQ(read.part_number, expected.part_number);
+  EXPECT_EQ(read.serial, expected.serial);
+  EXPECT_EQ(read.tooth_numbers, expected.tooth_numbers);
+  EXPECT_EQ(read.measured_at, expected.measured_at);
+  EXPECT_EQ(read.file_name, expected.file_name);
+  EXPECT_EQ(read.machine_id, expected.machine_id);
+  EXPECT_EQ(read.batch_id, expected.batch_id);
+  EXPECT_EQ(read.submitted_by, expected.submitted_by);
+}
+
+TEST_P(JobRepositoryTest, RoundTripsTraceabilityInEveryReadPath) {
+  const int64_t batch = repo_->CreateBatch({"{}"}, "line-3");
+  JobRecord traced = MakeTracedJob(37, "4711-A", "S0042", {1, 12, 25});
+  traced.batch_id = batch;
+  traced.id = repo_->CompleteBatchItem(batch, 0, traced);
+  const JobRecord bare = MakeJob(37, "right");
+  const int64_t bare_id = repo_->WriteJob(bare);
+  ExpectSameTrace(*repo_->ReadJob(traced.id), traced);
+  ExpectSameTrace(*repo_->ReadJob(bare_id), bare);
+  const JobPage page = repo_->ListJobs(JobFilter{});
+  ASSERT_EQ(page.jobs.size(), 2u);
+  ExpectSameTrace(page.jobs[1], traced);
+  ExpectSameTrace(page.jobs[0], bare);
+  ExpectSameTrace(repo_->ReadLineage(traced.id).at(0), traced);
+  EXPECT_EQ(repo_->ReadBatch(batch, false)->submitted_by, "line-3");
+}
+
+TEST_P(JobRepositoryTest, FiltersByTraceability) {
+  const int64_t batch = repo_->CreateBatch({"{}", "{}"}, "");
+  JobRecord a = MakeTracedJob(37, "4711-A", "S1", {1, 12});
+  a.batch_id = batch;
+  a.id = repo_->CompleteBatchItem(batch, 0, a);
+  JobRecord b = MakeTracedJob(37, "4711-A", "S2", {2, 21});
+  b.machine_id = "RZ260-1";
+  b.submitted_by = "planner";
+  b.id = repo_->WriteJob(b);
+  JobRecord c = MakeTracedJob(37, "0815", "S3", {121});
+  c.id = repo_->WriteJob(c);
+  repo_->WriteJob(MakeJob(37, "left"));
+  const auto ids = [this](const JobFilter& filter) {
+    std::vector<int64_t> out;
+    for (const JobRecord& job : repo_->ListJobs(filter).jobs)
+      out.push_back(job.id);
+    return out;
+  };
+  JobFilter f;
+  f.part_number = "4711-A";
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{b.id, a.id}));
+  f = JobFilter{};
+  f.serial = "S3";
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{c.id}));
+  // A tooth matches whole numbers only: 1 is not 12, 21 or 121.
+  f = JobFilter{};
+  f.tooth = 1;
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{a.id}));
+  f.tooth = 21;
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{b.id}));
+  f = JobFilter{};
+  f.machine_id = "RZ260-1";
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{b.id}));
+  f = JobFilter{};
+  f.batch_id = batch;
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{a.id}));
+  f = JobFilter{};
+  f.submitted_by = "planner";
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{b.id}));
+  f = JobFilter{};
+  f.file_name = "part-S1.mka";
+  EXPECT_EQ(ids(f), (std::vector<int64_t>{a.id}));
+  f.part_number = "0815";
+  EXPECT_TRUE(ids(f).empty());
+  EXPECT_EQ(repo_->ListJobs(f).total, 0);
 }
 
 TEST_P(JobRepositoryTest, RoundTripsMachineKindInEveryReadPath) {
@@ -318,7 +410,7 @@ TEST(OpenJobRepository, KeepsJobsAndBatchesAcrossReopen) {
     batch = repo->CreateBatch({"{}", "{}"});
   }
   std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
-  EXPECT_EQ(repo->SchemaVersion(), 2);
+  EXPECT_EQ(repo->SchemaVersion(), 3);
   ASSERT_TRUE(repo->ReadJob(id).has_value());
   EXPECT_EQ(repo->ReadJob(id)->request_json, MakeJob(37, "right").request_json);
   EXPECT_EQ(repo->ReadPendingBatchItems().size(), 2u);
@@ -356,7 +448,7 @@ TEST(OpenJobRepository, UsesWriteAheadLogWithForeignKeys) {
       sqlite3_prepare_v2(db, "PRAGMA user_version;", -1, &statement, nullptr),
       SQLITE_OK);
   ASSERT_EQ(sqlite3_step(statement), SQLITE_ROW);
-  EXPECT_EQ(sqlite3_column_int(statement, 0), 2);
+  EXPECT_EQ(sqlite3_column_int(statement, 0), 3);
   sqlite3_finalize(statement);
   sqlite3_close(db);
 }
@@ -598,7 +690,7 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
   for (int open = 0; open < 2; ++open) {
     SCOPED_TRACE(open == 0 ? "first open" : "reopen");
     std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
-    EXPECT_EQ(repo->SchemaVersion(), 2);
+    EXPECT_EQ(repo->SchemaVersion(), 3);
     EXPECT_EQ(repo->IntegrityCheck(), "ok");
     EXPECT_EQ(repo->CountJobs(), 4);
     for (const auto& [job, machine_kind] : expected) {
@@ -627,7 +719,7 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
     EXPECT_EQ(record->items[0].job_id, grinder.id);
     ASSERT_EQ(repo->ReadPendingBatchItems().size(), 1u);
   }
-  EXPECT_EQ(ReadRawUserVersion(temp.path()), 2);
+  EXPECT_EQ(ReadRawUserVersion(temp.path()), 3);
 
   // The migrated file takes new jobs of either family.
   std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
@@ -637,6 +729,66 @@ TEST(OpenJobRepository, MigratesAFileOfRelease010) {
   const int64_t id = repo->WriteJob(new_bevel);
   EXPECT_EQ(repo->ReadJob(id)->machine_kind, "free-form-bevel-generator");
   EXPECT_EQ(repo->CountJobs(), 5);
+}
+
+// Schema version 2 as the server after release 0.1.0 left it: release 0.1.0's
+// tables and the machine_kind column.
+constexpr const char* kVersion2Step =
+    "ALTER TABLE jobs ADD COLUMN machine_kind TEXT NOT NULL DEFAULT '';"
+    "PRAGMA user_version = 2;";
+
+TEST(OpenJobRepository, MigratesAFileOfSchemaVersion2) {
+  TempDatabasePath temp;
+  JobRecord grinder = MakeJob(37, "right");
+  grinder.created_utc = "2026-11-22T08:00:00.000Z";
+  int64_t batch = 0;
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(temp.path().c_str(), &db), SQLITE_OK);
+    ExecRaw(db, "PRAGMA foreign_keys = ON; PRAGMA journal_mode = WAL;");
+    ExecRaw(db, kRelease010Schema);
+    ExecRaw(db, kVersion2Step);
+    grinder.id = InsertRelease010Job(db, grinder);
+    ExecRaw(db,
+            "UPDATE jobs SET machine_kind = 'flat-wheel-grinder' WHERE "
+            "job_id = " +
+                std::to_string(grinder.id) + ";");
+    ExecRaw(db,
+            "INSERT INTO batches (created_utc, total_items, status)"
+            " VALUES ('2026-11-22T09:00:00.000Z', 1, 'running');");
+    batch = sqlite3_last_insert_rowid(db);
+    ExecRaw(db,
+            "INSERT INTO batch_items (batch_id, item_index, request_json) "
+            "VALUES (" +
+                std::to_string(batch) + ", 0, '{}');");
+    sqlite3_close(db);
+  }
+  ASSERT_EQ(ReadRawUserVersion(temp.path()), 2);
+  for (int open = 0; open < 2; ++open) {
+    SCOPED_TRACE(open == 0 ? "first open" : "reopen");
+    std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
+    EXPECT_EQ(repo->SchemaVersion(), 3);
+    EXPECT_EQ(repo->IntegrityCheck(), "ok");
+    const std::optional<JobRecord> read = repo->ReadJob(grinder.id);
+    ASSERT_TRUE(read.has_value());
+    ExpectSameJob(*read, grinder, /*with_documents=*/true);
+    EXPECT_EQ(read->machine_kind, "flat-wheel-grinder");
+    // Stored before traceability: none of it.
+    ExpectSameTrace(*read, JobRecord{});
+    const std::vector<PendingBatchItem> pending = repo->ReadPendingBatchItems();
+    ASSERT_EQ(pending.size(), 1u);
+    EXPECT_EQ(pending[0].submitted_by, "");
+  }
+  EXPECT_EQ(ReadRawUserVersion(temp.path()), 3);
+  // The migrated file takes traced jobs into its old batch.
+  std::unique_ptr<JobRepository> repo = OpenJobRepository(temp.path());
+  JobRecord traced = MakeTracedJob(37, "4711-A", "S7", {3});
+  traced.batch_id = batch;
+  traced.id = repo->CompleteBatchItem(batch, 0, traced);
+  ExpectSameTrace(*repo->ReadJob(traced.id), traced);
+  JobFilter filter;
+  filter.batch_id = batch;
+  EXPECT_EQ(repo->ListJobs(filter).total, 1);
 }
 
 TEST(OpenJobRepository, ThrowsStorageErrorForUnopenablePath) {

@@ -119,6 +119,7 @@ json SummariseBatchItems(ApiClient* client,
         row["initial_rms_um"] = result.value("initial_rms_um", json());
         row["residual_rms_um"] = result.value("residual_rms_um", json());
         row["residual_max_um"] = result.value("residual_max_um", json());
+        row["verdict"] = VerdictCell(result);
         if (row["status"] != "converged") *all_good = false;
       }
     } else {
@@ -138,9 +139,10 @@ void PrintBatchSummary(const std::string& batch_id,
             << " done, " << Member(batch, "failed") << " failed of "
             << Member(batch, "total") << "\n";
   std::cout << std::left << std::setw(28) << "file" << std::setw(6) << "job"
-            << std::setw(15) << "status" << std::right << std::setw(11)
+            << std::setw(25) << "status" << std::right << std::setw(11)
             << "before um" << std::setw(11) << "rms um" << std::setw(11)
             << "max um"
+            << "  verdict (measured/predicted)"
             << "\n";
   for (const json& row : rows) {
     std::string file =
@@ -154,11 +156,11 @@ void PrintBatchSummary(const std::string& batch_id,
                 << Member(row["error"], "message") << "\n";
       continue;
     }
-    std::cout << std::setw(15) << Member(row, "status") << std::right
+    std::cout << std::setw(25) << Member(row, "status") << std::right
               << std::setw(11) << Fixed(row.value("initial_rms_um", json()))
               << std::setw(11) << Fixed(row.value("residual_rms_um", json()))
               << std::setw(11) << Fixed(row.value("residual_max_um", json()))
-              << "\n";
+              << "  " << row.value("verdict", "-") << "\n";
   }
 }
 

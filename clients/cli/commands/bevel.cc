@@ -288,3 +288,112 @@ int RunBevelClosedLoop(const ParsedArgs& args,
 
 }  // namespace cli_internal
 }  // namespace gearloop
+
+namespace gearloop {
+namespace cli_internal {
+namespace {
+
+// One ranked row: the parameter (or axis), its offset and the flank error it
+// causes.
+void PrintSensitivityRow(int rank, const std::string& name, const json& row) {
+  std::ostringstream offset;
+  const json error = row.value("error", json());
+  if (error.is_number()) offset << std::setprecision(4) << error.get<double>();
+  std::cout << std::setw(4) << rank << "  " << std::left << std::setw(10)
+            << name << std::right << std::setw(12)
+            << (error.is_number() ? offset.str() : "-") << " " << std::left
+            << std::setw(11) << Member(row, "error_unit") << std::right
+            << std::setw(12) << Fixed(row.value("max_abs_um", json()))
+            << std::setw(12) << Fixed(row.value("rms_um", json())) << "\n";
+}
+
+// The rows of `items` named by `ranking` (key `key`), the first `top` of them.
+void PrintRanking(const json& answer,
+                  const char* items_key,
+                  const char* ranking_key,
+                  const char* key,
+                  int top) {
+  const json items = answer.value(items_key, json::array());
+  int rank = 0;
+  for (const json& name : answer.value(ranking_key, json::array())) {
+    if (rank >= top) break;
+    for (const json& row : items) {
+      if (row.value(key, json()) != name) continue;
+      PrintSensitivityRow(++rank, Text(name), row);
+      break;
+    }
+  }
+}
+
+}  // namespace
+
+const CommandSpec kBevelSensitivity{
+    "bevel-sensitivity",
+    "usage: gearloop bevel-sensitivity [JOB.json] [options]\n\n"
+    "Ranks the free-form generator's axes of a spiral-bevel pinion flank by "
+    "the flank error an\n"
+    "error of each causes (POST /api/v1/bevel/axis-sensitivity): first a "
+    "constant offset of each\n"
+    "axis, then every polynomial coefficient, largest rms flank error first. "
+    "JOB.json as for\n"
+    "`bevel-convert`; without it, the published pinion.\n\n"
+    "options:\n"
+    "  --side S                 convex | concave\n"
+    "  --linear-error-mm E      offset of X, Y, Z (server default 0.01)\n"
+    "  --angular-error-deg E    offset of A, B (server default 0.01)\n"
+    "  --top N                  coefficients listed (default 10)\n\n"
+    "Exit 0 done, 3 refused (the message names the field).\n",
+    {"--side", "--linear-error-mm", "--angular-error-deg", "--top"},
+    {},
+    0,
+    1};
+
+int RunBevelSensitivity(const ParsedArgs& args,
+                        ApiClient* client,
+                        const GlobalOptions& global) {
+  json body;
+  int bad = ReadBevelJob(kBevelSensitivity, args, &body);
+  if (bad >= 0) return bad;
+  for (const char* option : {"--linear-error-mm", "--angular-error-deg"}) {
+    if (!args.Has(option)) continue;
+    double value = 0.0;
+    if (!ParseNumber(args.Value(option), &value)) {
+      std::cerr << "gearloop bevel-sensitivity: " << option
+                << " takes a number\n";
+      return kExitUsage;
+    }
+    const std::string key = std::string(option).substr(2);
+    body["errors"][key == "linear-error-mm" ? "linear_error_mm"
+                                            : "angular_error_deg"] = value;
+  }
+  long long top = 10;
+  if (args.Has("--top") && !ParseCount(args.Value("--top"), 1, 1000, &top)) {
+    std::cerr << "gearloop bevel-sensitivity: --top takes 1 to 1000\n";
+    return kExitUsage;
+  }
+  const ApiResponse answer =
+      client->Post("/api/v1/bevel/axis-sensitivity", body);
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+    return kExitOk;
+  }
+  std::cout << "flank error of each axis offset, largest first (um)\n"
+            << "rank  axis            offset unit          max |dev|         "
+               "rms\n";
+  PrintRanking(answer.body, "offsets", "offset_ranking", "axis", 1000);
+  std::cout << "\nflank error of each coefficient (k of t^k), largest first "
+               "(um)\n"
+            << "rank  parameter       offset unit          max |dev|         "
+               "rms\n";
+  PrintRanking(answer.body,
+               "coefficients",
+               "coefficient_ranking",
+               "parameter",
+               static_cast<int>(top));
+  return kExitOk;
+}
+
+}  // namespace cli_internal
+}  // namespace gearloop

@@ -62,14 +62,22 @@ const CommandSpec kSubmit{
     "                        (they are fetched when REQUEST.json has no "
     "settings)\n"
     "  --residual-csv FILE   write the predicted residual grid as CSV\n"
-    "  --settings-out FILE   write the new machine settings as JSON\n\n"
-    "Exit 0 converged, 5 stored but not converged, 3 refused (the message "
-    "names the field).\n",
+    "  --settings-out FILE   write the new machine settings as JSON\n"
+    "(trace of the part, each optional:)\n" +
+        std::string(kTraceOptionsHelp) +
+        "\nExit 0 converged, 5 stored but not converged, 3 refused (the "
+        "message names the field).\n",
     {"--target",
      "--options",
      "--settings-from",
      "--residual-csv",
-     "--settings-out"},
+     "--settings-out",
+     "--part-number",
+     "--serial",
+     "--teeth",
+     "--measured-at",
+     "--machine-id",
+     "--file-name"},
     {},
     2,
     2};
@@ -80,6 +88,8 @@ int RunSubmit(const ParsedArgs& args,
   json request;
   int built = BuildCorrectionRequest(
       args.positional[0], args.positional[1], args, &request);
+  if (built >= 0) return built;
+  built = ApplyTraceOptions("submit", args, "", &request);
   if (built >= 0) return built;
   return SubmitCorrectionRequest(client, request, args, global);
 }

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "clients/cli/command_util.h"
 #include "clients/cli/commands/subcommands.h"
@@ -109,6 +110,60 @@ void PrintBevelMotion(const json& result) {
   }
 }
 
+// The trace of a job in one line: "part 4711-A, serial S1, teeth 1 10, ...";
+// empty when the job carries none.
+std::string TraceLine(const json& job) {
+  if (!job.contains("trace") || !job["trace"].is_object()) return "";
+  const json& trace = job["trace"];
+  const std::pair<const char*, const char*> fields[] = {
+      {"part_number", "part"},
+      {"serial", "serial"},
+      {"teeth", "teeth"},
+      {"measured_at", "measured"},
+      {"file_name", "file"},
+      {"machine_id", "machine"},
+      {"batch_id", "batch"},
+      {"submitted_by", "submitted by"}};
+  std::string line;
+  for (const auto& [key, label] : fields) {
+    if (!trace.contains(key)) continue;
+    std::string value;
+    if (trace[key].is_array()) {
+      for (const json& tooth : trace[key])
+        value += (value.empty() ? "" : " ") + Text(tooth);
+    } else {
+      value = Text(trace[key]);
+    }
+    line += (line.empty() ? "" : ", ") + std::string(label) + " " + value;
+  }
+  return line;
+}
+
+// The list's part column: "4711-A/S1", "4711-A", "/S1" or "-".
+std::string PartCell(const json& job) {
+  const json trace = job.value("trace", json::object());
+  const std::string part = trace.value("part_number", "");
+  const std::string serial = trace.value("serial", "");
+  if (part.empty() && serial.empty()) return "-";
+  return serial.empty() ? part : part + "/" + serial;
+}
+
+// The list's query options and their query parameters.
+const std::pair<const char*, const char*> kListQuery[] = {
+    {"--limit", "limit"},
+    {"--offset", "offset"},
+    {"--kind", "kind"},
+    {"--status", "status"},
+    {"--flank", "flank"},
+    {"--teeth", "teeth"},
+    {"--part-number", "part_number"},
+    {"--serial", "serial"},
+    {"--tooth", "tooth"},
+    {"--machine-id", "machine_id"},
+    {"--batch", "batch_id"},
+    {"--submitted-by", "submitted_by"},
+    {"--file-name", "file_name"}};
+
 }  // namespace
 
 const CommandSpec kList{
@@ -122,10 +177,30 @@ const CommandSpec kList{
     "  --status S       converged | not_converged | ...\n"
     "  --flank F        left | right (a gear), convex | concave (a bevel "
     "pinion)\n"
-    "  --teeth N        only gears with N teeth\n\n"
+    "  --teeth N        only gears with N teeth\n"
+    "  --part-number P  only jobs of part number P (the request's trace)\n"
+    "  --serial S       only jobs of serial number S\n"
+    "  --tooth N        only jobs that measured tooth N\n"
+    "  --machine-id M   only parts of machine M\n"
+    "  --batch N        only the jobs of batch N\n"
+    "  --submitted-by T only jobs submitted with the token named T\n"
+    "  --file-name F    only jobs of measuring file F\n\n"
     "columns: rms um is the predicted residual; parent N = a replay of job N,\n"
-    "<N = the part was ground with the corrected settings of job N.\n",
-    {"--limit", "--offset", "--kind", "--status", "--flank", "--teeth"},
+    "<N = the part was ground with the corrected settings of job N; part is\n"
+    "part number/serial.\n",
+    {"--limit",
+     "--offset",
+     "--kind",
+     "--status",
+     "--flank",
+     "--teeth",
+     "--part-number",
+     "--serial",
+     "--tooth",
+     "--machine-id",
+     "--batch",
+     "--submitted-by",
+     "--file-name"},
     {},
     0,
     0};
@@ -134,9 +209,7 @@ int RunList(const ParsedArgs& args,
             ApiClient* client,
             const GlobalOptions& global) {
   std::string query;
-  for (const char* key :
-       {"limit", "offset", "kind", "status", "flank", "teeth"}) {
-    const std::string option = std::string("--") + key;
+  for (const auto& [option, key] : kListQuery) {
     if (!args.Has(option)) continue;
     query += (query.empty() ? "?" : "&") + std::string(key) + "=" +
              UrlEncode(args.Value(option));
@@ -150,15 +223,21 @@ int RunList(const ParsedArgs& args,
   }
   const json jobs = answer.body.value("jobs", json::array());
   std::cout << std::left << std::setw(6) << "id" << std::setw(26)
-            << "created (UTC)" << std::setw(12) << "kind" << std::setw(15)
+            << "created (UTC)" << std::setw(17) << "kind" << std::setw(15)
             << "status" << std::setw(14) << "gear" << std::setw(7) << "flank"
             << std::right << std::setw(10) << "rms um" << std::setw(8)
             << "parent"
+            << "  part"
             << "\n";
   for (const json& job : jobs) {
     std::string gear = "-";
     if (job.value("machine_kind", "") == "free-form-bevel-generator") {
       gear = "bevel pinion";  // a pinion flank carries no tooth count or module
+    } else if (job.value("machine_kind", "") == "head-head-5-axis-mill" &&
+               job.contains("gear") && job["gear"].is_object()) {
+      // A split bevel wheel: its (constant) normal module, rounded.
+      gear = Member(job["gear"], "teeth") + "z mn" +
+             Fixed(job["gear"].value("normal_module_mm", json()), 3);
     } else if (job.contains("gear") && job["gear"].is_object()) {
       gear = Member(job["gear"], "teeth") + "z m" +
              Member(job["gear"], "normal_module_mm");
@@ -171,12 +250,12 @@ int RunList(const ParsedArgs& args,
       parent = "<" + Text(job["settings_source_job_id"]);
     }
     std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(26)
-              << Member(job, "created_utc") << std::setw(12)
+              << Member(job, "created_utc") << std::setw(17)
               << Member(job, "kind") << std::setw(15) << Member(job, "status")
               << std::setw(14) << gear << std::setw(7) << Member(job, "flank")
               << std::right << std::setw(10)
               << Fixed(job.value("residual_rms_um", json())) << std::setw(8)
-              << parent << "\n";
+              << parent << "  " << PartCell(job) << "\n";
   }
   std::cout << jobs.size() << " of " << Member(answer.body, "total")
             << " jobs\n";
@@ -225,6 +304,16 @@ int RunShow(const ParsedArgs& args,
   }
   std::cout << "created " << Member(job, "created_utc") << ", server "
             << Member(job, "server_version") << "\n";
+  const std::string trace = TraceLine(job);
+  if (!trace.empty()) std::cout << trace << "\n";
+  if (job.value("kind", std::string()) == "split_trajectory") {
+    std::cout << "job " << Member(job, "id")
+              << " (split_trajectory), NC program at /api/v1/bevel/"
+                 "split-trajectory/"
+              << Member(job, "id") << "/nc\n";
+    PrintSplitTrajectory(job.value("result", json::object()));
+    return kExitOk;
+  }
   const bool bevel = PrintJobSetup(job.value("request", json::object()));
   const json measured = MeasuredGrid(job);
   if (!measured.is_null()) PrintGrid("measured", measured);
@@ -232,6 +321,60 @@ int RunShow(const ParsedArgs& args,
   const json result = job.value("result", json::object());
   if (bevel && result.contains("motion") && result["motion"].is_object())
     PrintBevelMotion(result);
+  return kExitOk;
+}
+
+const CommandSpec kLineage{
+    "lineage",
+    "usage: gearloop lineage ID\n\n"
+    "Lists the settings lineage of job ID (GET "
+    "/api/v1/corrections/ID/lineage): "
+    "the jobs whose\n"
+    "corrected settings the part was ground with, back to the first "
+    "measurement, then every job\n"
+    "ground with settings descending from ID; oldest first, ID marked *.\n\n"
+    "columns: rms um is the predicted residual; from N = ground with the "
+    "settings of job N.\n",
+    {},
+    {},
+    1,
+    1};
+
+int RunLineage(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global) {
+  long long id = 0;
+  if (!ParseJobId(args.positional[0], &id)) {
+    std::cerr << "gearloop lineage: '" << args.positional[0]
+              << "' is not a job id\n";
+    return kExitUsage;
+  }
+  const ApiResponse answer =
+      client->Get("/api/v1/corrections/" + std::to_string(id) + "/lineage");
+  const int failure = CheckAnswer(answer);
+  if (failure >= 0) return failure;
+  if (global.json) {
+    PrintJson(answer.body);
+    return kExitOk;
+  }
+  const json jobs = answer.body.value("jobs", json::array());
+  std::cout << std::left << std::setw(8) << "id" << std::setw(26)
+            << "created (UTC)" << std::setw(12) << "kind" << std::setw(25)
+            << "status" << std::right << std::setw(10) << "rms um"
+            << std::setw(8) << "from"
+            << "  part\n";
+  for (const json& job : jobs) {
+    const std::string mark =
+        job.value("id", json()) == json(id) ? std::string("*") : "";
+    std::cout << std::left << std::setw(8) << Member(job, "id") + mark
+              << std::setw(26) << Member(job, "created_utc") << std::setw(12)
+              << Member(job, "kind") << std::setw(25) << Member(job, "status")
+              << std::right << std::setw(10)
+              << Fixed(job.value("residual_rms_um", json())) << std::setw(8)
+              << Member(job, "settings_source_job_id") << "  " << PartCell(job)
+              << "\n";
+  }
+  std::cout << jobs.size() << " jobs in the lineage of job " << id << "\n";
   return kExitOk;
 }
 

@@ -243,10 +243,12 @@ const CommandSpec kCorrect{
     "  --settings-from ID       the part was ground with the corrected "
     "settings of job ID\n"
     "  --residual-csv FILE      write the predicted residual grid as CSV\n"
-    "  --settings-out FILE      write the new machine settings as JSON\n\n"
-    "Exit 0 converged, 5 stored but not converged, 3 refused (the message "
-    "names the field,\n"
-    "the file line or the element path).\n",
+    "  --settings-out FILE      write the new machine settings as JSON\n"
+    "(trace of the part, each optional:)\n" +
+        std::string(kTraceOptionsHelp) +
+        "\nExit 0 converged, 5 stored but not converged, 3 refused (the "
+        "message names the field,\n"
+        "the file line or the element path).\n",
     {"--measurement-file",
      "--format",
      "--tooth",
@@ -255,7 +257,13 @@ const CommandSpec kCorrect{
      "--options",
      "--settings-from",
      "--residual-csv",
-     "--settings-out"},
+     "--settings-out",
+     "--part-number",
+     "--serial",
+     "--teeth",
+     "--measured-at",
+     "--machine-id",
+     "--file-name"},
     {},
     1,
     1};
@@ -275,6 +283,9 @@ int RunCorrect(const ParsedArgs& args,
       ReadMachineFile("correct", args.Value("--measurement-file"), args, &file);
   if (built >= 0) return built;
   request["measurement"] = {{"file", file}};
+  built = ApplyTraceOptions(
+      "correct", args, args.Value("--measurement-file"), &request);
+  if (built >= 0) return built;
   return SubmitCorrectionRequest(client, request, args, global);
 }
 

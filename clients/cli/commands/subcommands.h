@@ -11,6 +11,8 @@
 #ifndef GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 #define GEARLOOP_CLIENTS_CLI_COMMANDS_SUBCOMMANDS_H_
 
+#include <nlohmann/json.hpp>
+
 #include "clients/cli/api_client.h"
 #include "clients/cli/command_util.h"
 #include "clients/cli/commands.h"
@@ -75,6 +77,16 @@ int RunBevelClosedLoop(const ParsedArgs& args,
                        ApiClient* client,
                        const GlobalOptions& global);
 
+// commands/split_bevel.cc: split bevel wheels milled on a head-head 5-axis
+// machine.
+extern const CommandSpec kSplitTrajectory;
+int RunSplitTrajectory(const ParsedArgs& args,
+                       ApiClient* client,
+                       const GlobalOptions& global);
+// The derived data and the per-pass table of a split-trajectory result (the
+// POST answer or a stored job's "result"); `gearloop show` uses it too.
+void PrintSplitTrajectory(const nlohmann::json& result);
+
 // commands/grinder.cc: the grinder model without a correction.
 extern const CommandSpec kNominal;
 int RunNominal(const ParsedArgs& args,
@@ -103,6 +115,29 @@ extern const CommandSpec kShavingTarget;
 int RunShavingTarget(const ParsedArgs& args,
                      ApiClient* client,
                      const GlobalOptions& global);
+
+// commands/history.cc: the settings lineage of a job.
+extern const CommandSpec kLineage;
+int RunLineage(const ParsedArgs& args,
+               ApiClient* client,
+               const GlobalOptions& global);
+// commands/bevel.cc: the bevel generator's axes ranked by flank error.
+extern const CommandSpec kBevelSensitivity;
+int RunBevelSensitivity(const ParsedArgs& args,
+                        ApiClient* client,
+                        const GlobalOptions& global);
+
+// commands/reach.cc: the share of a target the machine can make.
+extern const CommandSpec kReach;
+int RunReach(const ParsedArgs& args,
+             ApiClient* client,
+             const GlobalOptions& global);
+
+// commands/settings.cc: the machine-ready settings listing of a job.
+extern const CommandSpec kSettings;
+int RunSettings(const ParsedArgs& args,
+                ApiClient* client,
+                const GlobalOptions& global);
 
 // commands/health.cc: whether the server is up.
 extern const CommandSpec kHealth;

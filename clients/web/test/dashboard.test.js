@@ -227,6 +227,8 @@ async function main() {
       wheel: { radius_mm: 350 },
       flank: "right",
       measurement: { file: { format: "mka", content: fs.readFileSync(path.join(samples, "sample_topography.mka"), "utf8") } },
+      trace: { part_number: "4711-A", serial: "S0042", measured_at: "2026-11-22T07:45:00Z", file_name: "sample_topography.mka", machine_id: "RZ260-2" },
+      tolerance: { rms_um: 0.05, iso_class: 11 },
     });
     const showById = async (id) => {
       await page.evaluate((n) => {
@@ -237,6 +239,17 @@ async function main() {
     await showById(fromFile.id);
     const overall = await page.$$eval("table.iso1328 tr.iso-overall td.iso-class", (tds) => tds.map((td) => td.textContent));
     check("the .mka sample's measured flank is class 6", overall[0] === "6" && overall[1] === "6", JSON.stringify(overall));
+    const traceShown = Object.fromEntries(await page.$$eval("table.summary tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent])));
+    check(
+      "the job's trace in its summary",
+      traceShown["part number"] === "4711-A" && traceShown["serial"] === "S0042" && traceShown["measuring file"] === "sample_topography.mka" && traceShown["machine"] === "RZ260-2",
+      JSON.stringify(traceShown)
+    );
+    check(
+      "the tolerance and the verdicts in the summary",
+      traceShown["tolerance"] === "rms 0.05 \u00b5m, ISO 1328-1 class 11" && traceShown["verdict measured"] === "FAIL (misses rms_um)" && traceShown["verdict predicted"] === fromFile.result.verdict.predicted.verdict + (fromFile.result.verdict.predicted.failed.length ? " (misses " + fromFile.result.verdict.predicted.failed.join(", ") + ")" : ""),
+      JSON.stringify(traceShown)
+    );
     await page.screenshot({ path: path.join(outDir, "dashboard-iso1328.png"), fullPage: true });
     await page.click("#export-gde");
     await page.waitForSelector("a[download='job" + fromFile.id + ".gde.xml']", { timeout: 30000 });
@@ -269,6 +282,10 @@ async function main() {
     await page.waitForSelector("body[data-ready]", { timeout: 30000 });
     check("report drawn", (await page.getAttribute("body", "data-ready")) === "true" && (await page.$$("svg.heatmap")).length === 3);
     await page.screenshot({ path: path.join(outDir, "report.png"), fullPage: true });
+    await page.goto(base + "/jobs/" + fromFile.id + "/report", { waitUntil: "load" });
+    await page.waitForSelector("body[data-ready]", { timeout: 30000 });
+    const reportTrace = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => tr.querySelector("th").textContent + "=" + tr.querySelector("td").textContent));
+    check("the report names part, serial and measuring time", reportTrace.includes("part number=4711-A") && reportTrace.includes("serial=S0042") && reportTrace.includes("measured at=2026-11-22T07:45:00Z"), JSON.stringify(reportTrace));
 
     // 6. The offline report written by `gearloop report` (no server needed to view it).
     if (cliBin) {
@@ -338,6 +355,41 @@ async function main() {
     const shavingText = await page.textContent("section.shaving-view");
     check("shaving: crossed-axes angle and wheel radii", /5\.090 deg/.test(shavingText) && /fixed 355\.78 mm/.test(shavingText) && /75\.342 mm/.test(shavingText), shavingText.slice(0, 300));
     await page.screenshot({ path: path.join(outDir, "dashboard-shaving.png"), fullPage: true });
+    // 6c. A split-bevel trajectory job (docs/split-bevel.md's wheel): the tool-centre paths and
+    // tool axes in two projections, A and B along the face, the passes, the NC program. 3 levels x
+    // 2 flanks = 6 passes of 21 stations; an axis at every 3rd station and the last: 8 per pass.
+    const split = await api(base, "POST", "/api/v1/bevel/split-trajectory", {
+      gear: { teeth: 75, pitch_angle_deg: 70, outer_transverse_module_mm: 40, face_width_mm: 240, mean_spiral_angle_deg: 35, hand: "right", pressure_angle_deg: 20 },
+      tool: { radius_mm: 8, stock_mm: 0.2 },
+      cut: { slot_index: 3, depth_levels: 3, steps: 21 },
+      machine: { pivot_length_mm: 300 },
+    });
+    await page.goto(base + "/#job=" + split.job_id, { waitUntil: "load" });
+    await page.waitForSelector("body[data-job-shown='" + split.job_id + "']", { timeout: 30000 });
+    const projections = await page.$$eval("section.split-trajectory svg.split-projection", (svgs) =>
+      svgs.map((s) => ({ title: s.querySelector(".plot-title").textContent, paths: s.querySelectorAll("polyline.tool-path").length, axes: s.querySelectorAll("line.tool-axis").length, points: Array.from(s.querySelectorAll("polyline.tool-path")).map((l) => l.getAttribute("points").split(" ").length) }))
+    );
+    check(
+      "split trajectory: paths in two projections",
+      projections.length === 2 && /X\u2013Y/.test(projections[0].title) && /X\u2013Z/.test(projections[1].title) && projections.every((p) => p.paths === 6 && p.points.every((n) => n === 21) && p.axes === 6 * 8),
+      JSON.stringify(projections.map((p) => [p.title, p.paths, p.axes]))
+    );
+    const angleSeries = await page.$$eval("section.split-trajectory .split-angles polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
+    check("split trajectory: A and B along the face", angleSeries.join() === "A convex,A concave,B convex,B concave", JSON.stringify(angleSeries));
+    const passRows = await page.$$eval("table.split-passes tr[data-pass]", (trs) => trs.map((tr) => Array.from(tr.querySelectorAll("td")).map((td) => td.textContent)));
+    const a0 = split.passes[0].points.map((q) => q.A_deg);
+    check(
+      "split trajectory: pass table",
+      passRows.length === 6 && passRows[0][1] === "convex" && passRows[3][1] === "concave" && passRows[0][3] === "21" && passRows[0][5] === Math.min(...a0).toFixed(3) + " \u2026 " + Math.max(...a0).toFixed(3),
+      JSON.stringify(passRows[0])
+    );
+    const nc = await page.evaluate(async (name) => {
+      const link = document.querySelector("a[download='" + name + "']");
+      return link ? (await fetch(link.href)).text() : "";
+    }, "job" + split.job_id + ".nc");
+    const served = await (await fetch(base + split.nc_location)).text();
+    check("split trajectory: NC program downloads", nc.startsWith("%\n(GEARLOOP SPLIT-BEVEL 1)\n") && nc === served, nc.slice(0, 40));
+    await page.screenshot({ path: path.join(outDir, "dashboard-split-trajectory.png"), fullPage: true });
 
     // 7. Unknown pages stay 404 and the API is untouched by the static routes.
     const missing = await fetch(base + "/static/nope.js");

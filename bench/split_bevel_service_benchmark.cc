@@ -1,0 +1,149 @@
+// split_bevel_service_benchmark: issue 14's request (2 000 stations x 10 depth
+// levels x 2 flanks = 40 000 points) through the server's service, as the
+// handler of POST /api/v1/bevel/split-trajectory runs it (parse, IsValid,
+// engine with the NC listing, the JSON answer, the job stored in a ":memory:"
+// history), and its parts. No socket: server-side time only. Run:
+// build/bench/split_bevel_service_benchmark (BENCHMARKS.md, "Split bevel
+// trajectory").
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "engine/split_bevel/trajectory.h"
+#include "server/codec/split_bevel_codec.h"
+#include "server/respond.h"
+#include "server/services/service_context.h"
+#include "server/services/split_bevel_service.h"
+#include "storage/job_repository.h"
+
+// Last: see server/respond.h.
+#include <httplib.h>
+
+namespace {
+
+// The engine benchmark's case (bench/split_bevel_benchmark.cc) in the API's
+// degrees: z = 75, delta = 70 deg, m_et = 40 mm, b = 240 mm, beta_m = 35 deg
+// right hand, alpha = 20 deg, r0 = 8 mm, 0.2 mm stock, pivot 300 mm, slot 3.
+std::string RequestBody(bool nc) {
+  nlohmann::json body = nlohmann::json::parse(R"({
+    "gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+             "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+             "pressure_angle_deg": 20},
+    "tool": {"radius_mm": 8, "stock_mm": 0.2},
+    "cut": {"slot_index": 3, "flanks": ["convex", "concave"], "depth_levels": 10,
+            "steps": 2000},
+    "machine": {"pivot_length_mm": 300}})");
+  body["output"] = {{"nc", nc}};
+  return body.dump();
+}
+
+// The whole handler: parse, validate, engine (always with the listing: the job
+// keeps it), answer dumped once, job written to a ":memory:" history.
+void ServiceBenchmark(benchmark::State& state,
+                      bool nc,
+                      const std::string& database = ":memory:") {
+  std::unique_ptr<gearloop::JobRepository> repository =
+      gearloop::OpenJobRepository(database);
+  gearloop::ServiceContext context;
+  context.repository = repository.get();
+  context.server_version = "bench";
+  context.log_solves = false;
+  httplib::Request req;
+  req.method = "POST";
+  req.path = "/api/v1/bevel/split-trajectory";
+  req.body = RequestBody(nc);
+  size_t bytes = 0;
+  for (auto _ : state) {
+    httplib::Response res;
+    gearloop::CreateSplitTrajectory(context, req, res);
+    if (res.status != 200) state.SkipWithError(res.body.substr(0, 200).c_str());
+    bytes = res.body.size();
+    benchmark::DoNotOptimize(res.body.data());
+  }
+  state.counters["answer_MB"] = static_cast<double>(bytes) / 1e6;
+}
+
+void BM_SplitTrajectoryService2000x10x2(benchmark::State& state) {
+  ServiceBenchmark(state, /*nc=*/false);
+}
+BENCHMARK(BM_SplitTrajectoryService2000x10x2)->Unit(benchmark::kMillisecond);
+
+void BM_SplitTrajectoryService2000x10x2WithNc(benchmark::State& state) {
+  ServiceBenchmark(state, /*nc=*/true);
+}
+BENCHMARK(BM_SplitTrajectoryService2000x10x2WithNc)
+    ->Unit(benchmark::kMillisecond);
+
+// The same with the history in a SQLite file (WAL, synchronous=NORMAL), as the
+// server keeps it: each job writes its 26.6 MB to the file.
+void BM_SplitTrajectoryService2000x10x2FileDb(benchmark::State& state) {
+  const std::string path = "/tmp/split_bevel_service_benchmark.sqlite";
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+  ServiceBenchmark(state, /*nc=*/false, path);
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+}
+BENCHMARK(BM_SplitTrajectoryService2000x10x2FileDb)
+    ->Unit(benchmark::kMillisecond);
+
+// Parts of the handler: the codec and the engine (with the listing), then the
+// JSON answer alone (building and dumping the 40 000 points).
+void BM_SplitTrajectoryCodecAndEngine(benchmark::State& state) {
+  const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
+  for (auto _ : state) {
+    gearloop::SplitBevelRequest request;
+    gearloop::ApiError error;
+    if (!gearloop::ParseSplitBevelRequest(body, &request, &error) ||
+        !gearloop::CheckSplitBevelRequest(request, &error))
+      state.SkipWithError(error.message.c_str());
+    const gearloop::SplitBevelResult result =
+        gearloop::ComputeSplitTrajectory(request);
+    benchmark::DoNotOptimize(result.nc_program.data());
+  }
+}
+BENCHMARK(BM_SplitTrajectoryCodecAndEngine)->Unit(benchmark::kMillisecond);
+
+void BM_SplitTrajectoryAnswerJson(benchmark::State& state) {
+  const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
+  gearloop::SplitBevelRequest request;
+  gearloop::ApiError error;
+  gearloop::ParseSplitBevelRequest(body, &request, &error);
+  const gearloop::SplitBevelResult result =
+      gearloop::ComputeSplitTrajectory(request);
+  for (auto _ : state) {
+    const std::string text = gearloop::SplitBevelResultJsonText(result);
+    benchmark::DoNotOptimize(text.data());
+  }
+}
+BENCHMARK(BM_SplitTrajectoryAnswerJson)->Unit(benchmark::kMillisecond);
+
+// Writing the job (the answer's text and the listing, 26.6 MB) to a ":memory:"
+// history.
+void BM_SplitTrajectoryStoreJob(benchmark::State& state) {
+  const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
+  gearloop::SplitBevelRequest request;
+  gearloop::ApiError error;
+  gearloop::ParseSplitBevelRequest(body, &request, &error);
+  const gearloop::SplitBevelResult result =
+      gearloop::ComputeSplitTrajectory(request);
+  gearloop::JobRecord job;
+  job.kind = "split_trajectory";
+  job.status = "computed";
+  job.machine_kind = "head-head-5-axis-mill";
+  job.request_json = body.dump();
+  job.result_json =
+      gearloop::AppendJsonMembers(gearloop::SplitBevelResultJsonText(result),
+                                  {{"nc_program", result.nc_program}});
+  std::unique_ptr<gearloop::JobRepository> repository =
+      gearloop::OpenJobRepository(":memory:");
+  for (auto _ : state) benchmark::DoNotOptimize(repository->WriteJob(job));
+}
+BENCHMARK(BM_SplitTrajectoryStoreJob)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,73 @@
+// The prediction band of the correction (prediction_band.h).
+#include "engine/correction/prediction_band.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gearloop {
+namespace correction_internal {
+
+double BandNoiseSigma(const CorrectionProblem& problem,
+                      const CorrectionSummary& summary,
+                      bool* stated) {
+  *stated = problem.probe_noise_um > 0.0;
+  if (*stated) return problem.probe_noise_um;
+  const double n = static_cast<double>(summary.num_points_used);
+  if (summary.machine_state_estimated) {
+    const double dof = summary.machine_state_dof;
+    if (n > dof + 1.0)
+      return summary.machine_state_misfit_rms_um * std::sqrt(n / (n - dof));
+  }
+  const double dof = summary.effective_dof;
+  if (n > dof + 1.0)
+    return summary.linear_residual_rms_um * std::sqrt(n / (n - dof));
+  return 0.0;
+}
+
+void EstimatePredictionBand(const CorrectionProblem& problem,
+                            CorrectionResult* result) {
+  CorrectionSummary& summary = result->summary;
+  PredictionBand& band = summary.prediction_band;
+  band.noise_sigma_um = BandNoiseSigma(problem, summary, &band.noise_stated);
+  const int points = problem.num_points;
+  result->predicted_residual_sigma_um = Eigen::VectorXd::Constant(points, kNaN);
+  double mean_variance = 0.0;
+  int used = 0;
+  for (int i : problem.used) {
+    if (!std::isfinite(result->predicted_residual_um(i))) continue;
+    // A stated sigma is one tooth's; an estimated one is already that of the
+    // mean the solver saw.
+    const double share = band.noise_stated ? problem.noise_share(i) : 1.0;
+    const double sigma_i = band.noise_sigma_um * std::sqrt(share);
+    result->predicted_residual_sigma_um(i) = sigma_i;
+    mean_variance += sigma_i * sigma_i;
+    ++used;
+  }
+  if (used == 0) return;
+  mean_variance /= used;
+  const double n = used;
+  const double kept = summary.safe_step_checked
+                          ? summary.motion_scale * summary.step_fraction
+                          : 1.0;
+  const double dof = std::min(kept * summary.effective_dof, n);
+  const double pred2 = summary.residual_rms_um * summary.residual_rms_um;
+  const double expected2 =
+      std::max(0.0, pred2 - mean_variance * (1.0 - 2.0 * dof / n));
+  double change2 = 0.0;
+  for (int i : problem.used)
+    if (std::isfinite(result->predicted_change_um(i)))
+      change2 +=
+          result->predicted_change_um(i) * result->predicted_change_um(i);
+  change2 /= n;
+  const double model2 = kModelShareOfChange * kModelShareOfChange * change2;
+  const double sd2 = std::sqrt(4.0 * (mean_variance / n + model2) * pred2 +
+                               2.0 * mean_variance * mean_variance / n);
+  band.expected_true_rms_um = std::sqrt(expected2);
+  for (int k = 1; k <= 2; ++k) {
+    band.true_rms_low_um[k - 1] = std::sqrt(std::max(0.0, expected2 - k * sd2));
+    band.true_rms_high_um[k - 1] = std::sqrt(expected2 + k * sd2);
+  }
+}
+
+}  // namespace correction_internal
+}  // namespace gearloop

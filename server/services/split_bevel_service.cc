@@ -1,0 +1,114 @@
+#include "server/services/split_bevel_service.h"
+
+#include <chrono>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "engine/core/units.h"
+#include "engine/split_bevel/trajectory.h"
+#include "server/codec/job_codec.h"
+#include "server/codec/split_bevel_codec.h"
+
+// Last: see server/respond.h.
+#include <glog/logging.h>
+#include <httplib.h>
+
+namespace gearloop {
+namespace {
+
+// The history columns of a computed trajectory: the gear (its normal module
+// and mean spiral angle stand for the module and helix angle of a cylindrical
+// gear), the flank or "both".
+JobRecord SplitTrajectoryJob(const ServiceContext& context,
+                             const SplitBevelRequest& request,
+                             const SplitBevelResult& result,
+                             double elapsed_ms) {
+  JobRecord job;
+  job.kind = kSplitTrajectoryJobKind;
+  job.status = "computed";
+  job.machine_kind = kHeadHead5AxisMillKind;
+  job.created_utc = CurrentUtcIso8601();
+  job.gear_teeth = result.derived.teeth;
+  job.gear_normal_module_mm = result.derived.normal_module_mm;
+  job.gear_helix_angle_deg = RadToDeg(result.derived.mean_spiral_angle_rad);
+  job.gear_hand = SplitBevelHandName(result.derived.hand);
+  job.flank = SplitBevelJobFlank(request);
+  job.elapsed_ms = elapsed_ms;
+  job.server_version = context.server_version;
+  return job;
+}
+
+}  // namespace
+
+std::string SplitTrajectoryNcLocation(int64_t job_id) {
+  return "/api/v1/bevel/split-trajectory/" + std::to_string(job_id) + "/nc";
+}
+
+void CreateSplitTrajectory(const ServiceContext& context,
+                           const httplib::Request& req,
+                           httplib::Response& res) {
+  nlohmann::json body;
+  ApiError error;
+  SplitBevelRequest request;
+  if (!ParseJsonBody(req.body, &body, &error) ||
+      !ParseSplitBevelRequest(body, &request, &error) ||
+      !CheckSplitBevelRequest(request, &error))
+    return RespondError(res, error);
+  const bool answer_nc = request.nc_program;
+  // The job keeps the NC program whether or not the answer carries it.
+  request.nc_program = true;
+  const auto start = std::chrono::steady_clock::now();
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  const double elapsed_ms = std::chrono::duration<double, std::milli>(
+                                std::chrono::steady_clock::now() - start)
+                                .count();
+  if (!result.ok) return RespondError(res, SplitBevelResultError(result));
+  // The points make the answer large (40 000 points are ~25 MB): dumped once,
+  // then stored and answered with different members appended.
+  const std::string text = SplitBevelResultJsonText(result);
+  const nlohmann::json nc = {{"nc_program", result.nc_program}};
+  JobRecord job = SplitTrajectoryJob(context, request, result, elapsed_ms);
+  job.request_json = Dump(body);
+  job.result_json = AppendJsonMembers(text, nc);
+  job.id = context.repository->WriteJob(job);
+  if (context.log_solves)
+    LOG(INFO) << "job " << job.id << " (" << job.kind
+              << "): " << result.passes.size() << " passes in " << elapsed_ms
+              << " ms";
+  nlohmann::json extra = {{"job_id", job.id},
+                          {"location", JobLocation(job.id)},
+                          {"nc_location", SplitTrajectoryNcLocation(job.id)}};
+  if (answer_nc) extra["nc_program"] = result.nc_program;
+  res.status = 200;
+  res.set_header("Location", JobLocation(job.id));
+  res.set_content(AppendJsonMembers(text, extra), "application/json");
+}
+
+void GetSplitTrajectoryNc(const ServiceContext& context,
+                          const httplib::Request& req,
+                          httplib::Response& res) {
+  int64_t id = 0;
+  std::optional<JobRecord> job;
+  if (ParseId(req.matches[1], &id)) job = context.repository->ReadJob(id);
+  if (!job || job->kind != kSplitTrajectoryJobKind) {
+    return RespondError(
+        res,
+        ApiError{404,
+                 "not_found",
+                 "no stored split-trajectory job " + req.matches[1].str(),
+                 ""});
+  }
+  const nlohmann::json result =
+      nlohmann::json::parse(job->result_json, nullptr, false);
+  if (!result.is_object() || !result.contains("nc_program") ||
+      !result["nc_program"].is_string())
+    throw std::runtime_error("stored result of job " + std::to_string(id) +
+                             " has no nc_program");
+  res.status = 200;
+  res.set_content(result["nc_program"].get<std::string>(),
+                  "text/plain; charset=utf-8");
+}
+
+}  // namespace gearloop
