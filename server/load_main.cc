@@ -55,28 +55,83 @@ struct LoadOptions {
   double rate = 0.0;
 };
 
-// Reads the command line; false on an unknown argument (reported).
-bool ParseArguments(int argc, char** argv, LoadOptions* options) {
-  for (int i = 1; i + 1 < argc; i += 2) {
+void PrintUsage(std::FILE* out) {
+  std::fprintf(out,
+               "usage: gearloop-load [--host 127.0.0.1] [--port 8080] "
+               "[--clients 1] [--seconds 10]\n"
+               "                     [--token T] [--rate R]\n"
+               "Posts corrections of the API.md example gear to a running "
+               "gearloop-server from\n"
+               "N concurrent clients, then prints latency percentiles and "
+               "throughput and checks\n"
+               "that every acknowledged job is stored. --rate R paces each "
+               "client to R requests\n"
+               "per second (0 = as fast as answers come).\n");
+}
+
+// A whole number or decimal of the argument `name`; false (reported) when it
+// is not one, or below `min`.
+bool ParseNumber(const std::string& name,
+                 const char* text,
+                 double min,
+                 double* out) {
+  char* end = nullptr;
+  const double value = std::strtod(text, &end);
+  if (end == text || *end != '\0' || !(value >= min) || value > 1e9) {
+    std::fprintf(stderr,
+                 "%s must be a number >= %g, not \"%s\"\n",
+                 name.c_str(),
+                 min,
+                 text);
+    return false;
+  }
+  *out = value;
+  return true;
+}
+
+// Reads the command line. Returns -1 to go on, or the exit code: 0 after
+// --help, 2 on a bad argument (reported, with the usage).
+int ParseArguments(int argc, char** argv, LoadOptions* options) {
+  for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      PrintUsage(stdout);
+      return 0;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "unknown or incomplete argument %s\n", arg.c_str());
+      PrintUsage(stderr);
+      return 2;
+    }
+    const char* value = argv[++i];
+    double number = 0;
+    bool ok = true;
     if (arg == "--host") {
-      options->host = argv[i + 1];
-    } else if (arg == "--port") {
-      options->port = std::atoi(argv[i + 1]);
-    } else if (arg == "--clients") {
-      options->clients = std::max(1, std::atoi(argv[i + 1]));
-    } else if (arg == "--seconds") {
-      options->seconds = std::atof(argv[i + 1]);
+      options->host = value;
     } else if (arg == "--token") {
-      options->token = argv[i + 1];
+      options->token = value;
+    } else if (arg == "--port") {
+      ok = ParseNumber(arg, value, 1, &number) && number <= 65535;
+      options->port = static_cast<int>(number);
+    } else if (arg == "--clients") {
+      ok = ParseNumber(arg, value, 1, &number);
+      options->clients = static_cast<int>(number);
+    } else if (arg == "--seconds") {
+      ok = ParseNumber(arg, value, 0, &number);
+      options->seconds = number;
     } else if (arg == "--rate") {
-      options->rate = std::atof(argv[i + 1]);
+      ok = ParseNumber(arg, value, 0, &number);
+      options->rate = number;
     } else {
       std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
-      return false;
+      ok = false;
+    }
+    if (!ok) {
+      PrintUsage(stderr);
+      return 2;
     }
   }
-  return true;
+  return -1;
 }
 
 // Has the server simulate a measurement of the default gear and returns the
@@ -182,7 +237,8 @@ void RunClient(const LoadOptions& options,
 
 int main(int argc, char** argv) {
   LoadOptions options;
-  if (!ParseArguments(argc, argv, &options)) return 2;
+  const int exit_code = ParseArguments(argc, argv, &options);
+  if (exit_code >= 0) return exit_code;
   httplib::Headers headers;
   if (!options.token.empty())
     headers.emplace("Authorization", "Bearer " + options.token);

@@ -3,6 +3,7 @@
 //   gearloop-server [--port 8080] [--db ./gearloop.sqlite] [--host 127.0.0.1]
 //   [--threads N]
 //                   [--token-file F] [--batch-workers N] [--quiet]
+//                   [--max-connections-per-client N] [--request-deadline S]
 //                   [--seed-demo]
 //
 // --seed-demo: once listening, an empty job history is seeded with a short
@@ -35,7 +36,11 @@ void PrintUsage() {
                "[--host 127.0.0.1]\n"
                "                       [--threads N] [--token-file F] "
                "[--batch-workers N] [--quiet]\n"
-               "                       [--seed-demo]\n";
+               "                       [--max-connections-per-client N] "
+               "[--request-deadline S]\n"
+               "                       [--seed-demo]\n"
+               "--threads: connections served at once (default 256); "
+               "docs/connections.md\n";
 }
 
 bool ParseInt(const char* text, int min, int max, int* out) {
@@ -77,6 +82,19 @@ int ParseArguments(int argc,
         std::cerr << "--batch-workers must be 1..64\n";
         return 2;
       }
+    } else if (arg == "--max-connections-per-client" && has_value) {
+      if (!ParseInt(
+              argv[++i], 1, 100000, &options->max_connections_per_client)) {
+        std::cerr << "--max-connections-per-client must be 1..100000\n";
+        return 2;
+      }
+    } else if (arg == "--request-deadline" && has_value) {
+      int seconds = 0;
+      if (!ParseInt(argv[++i], 1, 3600, &seconds)) {
+        std::cerr << "--request-deadline must be 1..3600 seconds\n";
+        return 2;
+      }
+      options->request_deadline_seconds = seconds;
     } else if (arg == "--db" && has_value) {
       options->database_path = argv[++i];
     } else if (arg == "--host" && has_value) {
@@ -143,7 +161,8 @@ int main(int argc, char** argv) {
   }
   const int port = server->Bind();
   if (port < 0) {
-    LOG(ERROR) << "cannot listen on " << options.host << ":" << options.port;
+    LOG(ERROR) << "cannot listen on " << options.host << ":" << options.port
+               << ": " << server->bind_error();
     return 1;
   }
   if (options.token_file.empty()) {

@@ -9,8 +9,6 @@
 namespace gearloop {
 namespace {
 // Bevel motion coefficients (and their hidden errors) may be any finite value.
-constexpr double kNoBound = std::numeric_limits<double>::infinity();
-
 const char* const kAxisKeys[kNumFreeFormAxes] = {
     "A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm"};
 
@@ -19,7 +17,9 @@ const char* const kAxisKeys[kNumFreeFormAxes] = {
 std::string ApiBevelField(const std::string& engine_field) {
   std::string field = engine_field;
   const std::string rad = "_rad";
-  if (field.size() > rad.size() &&
+  const bool is_rate =
+      field.size() > 8 && field.compare(field.size() - 8, 8, "_per_rad") == 0;
+  if (!is_rate && field.size() > rad.size() &&
       field.compare(field.size() - rad.size(), rad.size(), rad) == 0) {
     field = field.substr(0, field.size() - rad.size()) + "_deg";
   }
@@ -358,10 +358,12 @@ bool ParseFreeFormMotion(const nlohmann::json& value,
     }
     for (size_t k = 0; k < list.size(); ++k) {
       double v = 0.0;
+      // A machine's axis travels are metres at most: a coefficient beyond
+      // 1e6 (mm or rad per rad^k) is a unit mistake, not a motion.
       if (!ReadCoefficient(list[k],
                            field + "[" + std::to_string(k) + "]",
-                           kNoBound,
-                           "finite",
+                           /*max_abs=*/1e6,
+                           "finite and at most 1e6 in size",
                            &v,
                            error))
         return false;
@@ -657,10 +659,11 @@ bool ParseBevelHiddenErrors(const nlohmann::json& body,
         return false;
       }
       for (size_t k = 0; k < item.value().size(); ++k) {
+        // As the grinder's hidden errors (simulation_codec.cc).
         if (!ReadCoefficient(item.value()[k],
                              field + "[" + std::to_string(k) + "]",
-                             kNoBound,
-                             "finite",
+                             /*max_abs=*/1e3,
+                             "finite and at most 1e3 in size",
                              &hidden.coefficients[axis](k),
                              error)) {
           return false;

@@ -76,7 +76,19 @@ bool ParseModification(const nlohmann::json& value,
     return false;
   }
   std::string kind;
-  if (!ReadString(value, path, "kind", true, &kind, error)) return false;
+  if (!CheckKeys(value,
+                 path,
+                 {"kind",
+                  "amount_um",
+                  "length_fraction",
+                  "shape",
+                  "second_amount_um",
+                  "second_length_fraction",
+                  "amount_gradient_um",
+                  "second_amount_gradient_um"},
+                 error) ||
+      !ReadString(value, path, "kind", true, &kind, error))
+    return false;
   if (!ParseModificationKind(kind, &modification->kind)) {
     *error = InvalidValue(JoinPath(path, "kind"),
                           "unknown modification kind \"" + kind + "\"");
@@ -125,6 +137,19 @@ bool ParseModification(const nlohmann::json& value,
   } else {
     *error = InvalidValue(JoinPath(path, "shape"),
                           "shape must be \"linear\" or \"parabolic\"");
+    return false;
+  }
+  // A modification of more than a millimetre is a unit mistake, and an
+  // amount like 1e308 would only make the solve fail later.
+  const std::pair<const char*, double> amounts[] = {
+      {"amount_um", modification->amount_um},
+      {"second_amount_um", modification->second_amount_um},
+      {"amount_gradient_um", modification->amount_gradient_um},
+      {"second_amount_gradient_um", modification->second_amount_gradient_um}};
+  for (const auto& [key, amount] : amounts) {
+    if (std::abs(amount) <= 1000.0) continue;
+    const std::string field = JoinPath(path, key);
+    *error = InvalidValue(field, field + " must lie in [-1000, 1000] um");
     return false;
   }
   ValidationIssue issue;
@@ -185,6 +210,40 @@ nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
 }
 
+// A deviation larger than this is taken for a unit mistake (a grid in nm
+// where the API speaks um) unless the request says allow_large_deviations.
+constexpr double kMaxPlausibleDeviationUm = 500.0;
+
+// 422 naming the first entry of a rows x columns grid (row-major, NaN =
+// absent) larger than kMaxPlausibleDeviationUm in size, unless allowed.
+bool CheckDeviationSizes(const Eigen::VectorXd& grid,
+                         const std::string& path,
+                         int columns,
+                         bool allow_large,
+                         ApiError* error) {
+  if (allow_large) return true;
+  for (int i = 0; i < grid.size(); ++i) {
+    if (!(std::abs(grid(i)) > kMaxPlausibleDeviationUm)) continue;
+    const std::string field = path + "[" + std::to_string(i / columns) + "][" +
+                              std::to_string(i % columns) + "]";
+    *error = InvalidValue(
+        field,
+        field + " is " + nlohmann::json(grid(i)).dump() +
+            " um: deviations beyond 500 um are refused as a unit mistake "
+            "(nm for um?); send \"allow_large_deviations\": true if they "
+            "are real");
+    return false;
+  }
+  return true;
+}
+
+bool ReadAllowLargeDeviations(const nlohmann::json& body,
+                              bool* allow,
+                              ApiError* error) {
+  *allow = false;
+  return ReadBool(body, "", "allow_large_deviations", false, allow, error);
+}
+
 // The measurement: one grid, or several teeth handed to the engine as they are
 // (it averages them and knows that an averaged point is less noisy).
 bool ParseCorrectionMeasurement(const nlohmann::json& body,
@@ -205,6 +264,10 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body,
         "measurement must be an object {\"deviations_um\": grid}");
     return false;
   }
+  bool allow_large = false;
+  if (!ReadAllowLargeDeviations(body, &allow_large, error) ||
+      !CheckKeys(measurement, "measurement", {"deviations_um", "teeth"}, error))
+    return false;
   std::vector<bool> present;
   if (measurement.contains("deviations_um")) {
     if (!ParseGridValues(measurement.at("deviations_um"),
@@ -221,7 +284,8 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body,
       if (!present[i])
         (*measured_um)(i) = std::numeric_limits<double>::quiet_NaN();
     }
-    return true;
+    return CheckDeviationSizes(
+        *measured_um, "measurement.deviations_um", columns, allow_large, error);
   }
   if (measurement.contains("teeth")) {
     const nlohmann::json& teeth = measurement.at("teeth");
@@ -241,6 +305,8 @@ bool ParseCorrectionMeasurement(const nlohmann::json& body,
       for (int i = 0; i < grid.size(); ++i) {
         if (!present[i]) grid(i) = std::numeric_limits<double>::quiet_NaN();
       }
+      if (!CheckDeviationSizes(grid, path, columns, allow_large, error))
+        return false;
       measured_teeth_um->push_back(grid);
     }
     measured_um->resize(0);
@@ -320,6 +386,11 @@ bool ParseCorrectionTarget(
                             "grid} or {\"modifications\": [...]}");
     return false;
   }
+  if (!CheckKeys(target,
+                 "target",
+                 {"deviations_um", "modifications", "shaving"},
+                 error))
+    return false;
   if (target.contains("shaving")) {
     *error = InvalidValue("target.shaving",
                           "a shaving target is resolved by POST "
@@ -619,7 +690,27 @@ bool ReadOptionsObject(const nlohmann::json& j,
     *error = InvalidRequest(path, "options must be an object");
     return false;
   }
-  return ReadSolverAndMode(j, path, o, error) &&
+  static const std::vector<std::string> kOptionKeys = {"solver",
+                                                       "mode",
+                                                       "default_max_order",
+                                                       "max_order",
+                                                       "block_scales",
+                                                       "point_weights",
+                                                       "probe_noise_um",
+                                                       "regularisation_rule",
+                                                       "estimate_machine_state",
+                                                       "min_flank_effect_um",
+                                                       "max_num_iterations",
+                                                       "max_rework_passes",
+                                                       "rework_tolerance_um",
+                                                       "outlier_threshold",
+                                                       "outlier_min_um",
+                                                       "max_outlier_fraction",
+                                                       "pso_particles",
+                                                       "pso_generations",
+                                                       "pso_seed"};
+  return CheckKeys(j, path, kOptionKeys, error) &&
+         ReadSolverAndMode(j, path, o, error) &&
          ReadBlockOptions(j, path, o, error) &&
          ReadPointWeights(j, rows, columns, o, error) &&
          ReadNoiseOptions(j, path, o, error) &&

@@ -26,9 +26,15 @@ std::string ApiFieldPath(const std::string& engine_field) {
   };
   const auto it = kRenames.find(engine_field);
   if (it != kRenames.end()) return it->second;
-  // Any other *_rad field of the engine is *_deg in the API.
+  // Any other angle (*_rad) of the engine is *_deg in the API; a rate per
+  // radian (machine.traverse_mm_per_rad) is read as the client wrote it.
   const std::string suffix = "_rad";
-  if (engine_field.size() > suffix.size() &&
+  const std::string per_rad = "_per_rad";
+  const bool is_rate =
+      engine_field.size() > per_rad.size() &&
+      engine_field.compare(
+          engine_field.size() - per_rad.size(), per_rad.size(), per_rad) == 0;
+  if (!is_rate && engine_field.size() > suffix.size() &&
       engine_field.compare(
           engine_field.size() - suffix.size(), suffix.size(), suffix) == 0) {
     return engine_field.substr(0, engine_field.size() - suffix.size()) + "_deg";
@@ -88,6 +94,18 @@ bool ReadGearData(const nlohmann::json& request,
   if (!RequireObject(request, "", key.c_str(), /*required=*/true, &gear, error))
     return false;
   const std::string& path = key;
+  if (!CheckKeys(*gear,
+                 path,
+                 {"teeth",
+                  "normal_module_mm",
+                  "normal_pressure_angle_deg",
+                  "helix_angle_deg",
+                  "hand",
+                  "face_width_mm",
+                  "tip_radius_mm",
+                  "root_radius_mm"},
+                 error))
+    return false;
   long long teeth = 0;
   double pressure_angle_deg = 0.0;
   double helix_angle_deg = 0.0;
@@ -153,6 +171,7 @@ bool ReadWheel(const nlohmann::json& request,
                ApiError* error) {
   const nlohmann::json* wheel = nullptr;
   if (!RequireObject(request, "", "wheel", true, &wheel, error) ||
+      !CheckKeys(*wheel, "wheel", {"radius_mm"}, error) ||
       !ReadNumber(
           *wheel, "wheel", "radius_mm", true, &s->wheel.radius_mm, error)) {
     return false;
@@ -169,7 +188,11 @@ bool ReadMachine(const nlohmann::json& request,
     return false;
   if (machine != nullptr) {
     if (!RequireFlatWheelGrinder(request, error)) return false;
-    if (!ReadNumber(
+    if (!CheckKeys(*machine,
+                   "machine",
+                   {"kind", "k1_mm", "k2_mm", "traverse_mm_per_rad"},
+                   error) ||
+        !ReadNumber(
             *machine, "machine", "k1_mm", false, &s->machine.k1_mm, error) ||
         !ReadNumber(
             *machine, "machine", "k2_mm", false, &s->machine.k2_mm, error) ||
@@ -202,7 +225,12 @@ bool ReadGridOptions(const nlohmann::json& request,
   if (grid != nullptr) {
     long long profile_points = grid_options->profile_points;
     long long lead_points = grid_options->lead_points;
-    if (!ReadInteger(
+    if (!CheckKeys(
+            *grid,
+            "grid",
+            {"profile_points", "lead_points", "profile_range", "lead_range"},
+            error) ||
+        !ReadInteger(
             *grid, "grid", "profile_points", false, &profile_points, error) ||
         !ReadInteger(
             *grid, "grid", "lead_points", false, &lead_points, error) ||
@@ -360,6 +388,13 @@ bool ReadWheelShape(const nlohmann::json& settings,
     return false;
   if (wheel != nullptr) {
     const std::string wheel_path = JoinPath(path, "wheel");
+    if (!CheckKeys(*wheel,
+                   wheel_path,
+                   {"cone_angle_deg",
+                    "parabola_coefficient_per_mm",
+                    "parabola_vertex_mm"},
+                   error))
+      return false;
     double cone_angle_deg = 0.0;
     if (!ReadNumber(*wheel,
                     wheel_path,
@@ -415,7 +450,8 @@ bool ParseMachineSettings(const nlohmann::json& settings,
     return false;
   }
   MachineSettings s;
-  if (!ReadAxes(settings, path, &s, error) ||
+  if (!CheckKeys(settings, path, {"axes", "wheel"}, error) ||
+      !ReadAxes(settings, path, &s, error) ||
       !ReadWheelShape(settings, path, &s, error))
     return false;
   *result = s;

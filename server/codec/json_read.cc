@@ -1,5 +1,6 @@
 #include "server/codec/json_read.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -393,5 +394,59 @@ nlohmann::json GridToJson(const Eigen::VectorXd& values,
 }
 
 double RoundTo1e9(double value) { return std::round(value * 1e9) / 1e9; }
+
+namespace {
+
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1,
+                         row[j - 1] + 1,
+                         diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+std::string NearestName(const std::string& name,
+                        const std::vector<std::string>& known) {
+  if (name.size() > 64) return "";
+  std::string best;
+  size_t best_distance = std::max<size_t>(1, name.size() / 3) + 1;
+  for (const std::string& candidate : known) {
+    const size_t distance = EditDistance(name, candidate);
+    if (distance < best_distance) {
+      best_distance = distance;
+      best = candidate;
+    }
+  }
+  return best;
+}
+
+bool CheckKeys(const nlohmann::json& object,
+               const std::string& path,
+               const std::vector<std::string>& allowed,
+               ApiError* error) {
+  if (!object.is_object()) return true;
+  for (const auto& item : object.items()) {
+    if (std::find(allowed.begin(), allowed.end(), item.key()) != allowed.end())
+      continue;
+    const std::string field = JoinPath(path, item.key());
+    std::string message = "unknown key " + field;
+    const std::string nearest = NearestName(item.key(), allowed);
+    if (!nearest.empty()) message += "; did you mean " + nearest + "?";
+    *error = InvalidValue(field, message);
+    return false;
+  }
+  return true;
+}
 
 }  // namespace gearloop

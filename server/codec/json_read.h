@@ -145,6 +145,19 @@ bool RequireObject(const nlohmann::json& request,
 // "gear").
 std::string JoinPath(const std::string& path, const std::string& key);
 
+// The name of `known` nearest to `name` by edit distance (at most a third of
+// its length, and at least 1 allowed), or "" when none is near.
+std::string NearestName(const std::string& name,
+                        const std::vector<std::string>& known);
+// Strict input: every key of `object` (at `path`) must be one of `allowed`.
+// An unknown key is a 422 naming it as the client wrote it, and the nearest
+// known key ("unknown key options.default_max_ordr; did you mean
+// default_max_order?").
+bool CheckKeys(const nlohmann::json& object,
+               const std::string& path,
+               const std::vector<std::string>& allowed,
+               ApiError* error);
+
 ApiError InvalidRequest(const std::string& field,
                         const std::string& message);  // 400
 ApiError InvalidValue(const std::string& field,

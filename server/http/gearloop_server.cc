@@ -34,6 +34,10 @@
 // headers if they come after it.
 #include <glog/logging.h>
 #include <httplib.h>
+#include <malloc.h>
+#include <strings.h>
+
+#include "server/http/bounded_http.h"
 
 #ifndef GEARLOOP_VERSION
 #define GEARLOOP_VERSION "0.0.0"
@@ -243,7 +247,8 @@ const ApiRoute kApiRoutes[] = {
 
 class GearloopServer::Impl {
  public:
-  explicit Impl(const ServerOptions& options) : options_(options) {
+  explicit Impl(const ServerOptions& options)
+      : options_(options), http_(LimitsFor(options)) {
     if (!options_.token_file.empty()) {
       tokens_ = LoadTokenFile(options_.token_file);
     } else if (!IsLoopbackHost(options_.host)) {
@@ -252,6 +257,7 @@ class GearloopServer::Impl {
                                "the server listens on loopback only");
     }
     repository_ = OpenJobRepository(options_.database_path);
+    ReleaseLargeBuffers();
     ConfigureContext();
     ConfigureHttp();
     RegisterRoutes();
@@ -273,14 +279,10 @@ class GearloopServer::Impl {
   }
 
   int Bind() {
-    if (options_.port == 0) {
-      port_ = http_.bind_to_any_port(options_.host);
-    } else {
-      port_ =
-          http_.bind_to_port(options_.host, options_.port) ? options_.port : -1;
-    }
+    port_ = http_.BindExclusive(options_.host, options_.port);
     return port_;
   }
+  const std::string& bind_error() const { return http_.bind_error(); }
 
   void Serve() {
     http_.listen_after_bind();
@@ -300,21 +302,31 @@ class GearloopServer::Impl {
   using Handler =
       std::function<void(const httplib::Request&, httplib::Response&)>;
 
+  // glibc raises its mmap threshold to the largest block freed so far (up to
+  // 32 MiB), after which a body-sized buffer is carved from the thread's
+  // arena, and the top of a thread's arena is never trimmed (malloc_trim
+  // trims the main arena's only): every connection thread kept ~8 MB after
+  // one large request. Fixed thresholds keep blocks of 256 KiB and more in
+  // their own mappings, given back on free.
+  static void ReleaseLargeBuffers() {
+    mallopt(M_MMAP_THRESHOLD, 256 << 10);
+    mallopt(M_TRIM_THRESHOLD, 512 << 10);
+  }
+
+  static ConnectionLimits LimitsFor(const ServerOptions& options) {
+    ConnectionLimits limits;
+    limits.max_connections = options.threads > 0 ? options.threads : 256;
+    limits.max_connections_per_client = options.max_connections_per_client;
+    limits.request_deadline_seconds = options.request_deadline_seconds;
+    limits.read_timeout_seconds = options.read_timeout_seconds;
+    limits.idle_timeout_seconds = options.idle_timeout_seconds;
+    return limits;
+  }
+
   void ConfigureHttp() {
-    const int threads =
-        options_.threads > 0
-            ? options_.threads
-            : std::max(
-                  16,
-                  4 * static_cast<int>(std::thread::hardware_concurrency()));
-    http_.new_task_queue = [threads] {
-      return new httplib::ThreadPool(threads);
-    };
+    // Bodies are read by the POST routes themselves (ReadBody), counted as
+    // they arrive; this is cpp-httplib's own backstop for the rest.
     http_.set_payload_max_length(options_.payload_max_bytes);
-    http_.set_read_timeout(options_.read_timeout_seconds, 0);
-    http_.set_write_timeout(10, 0);
-    http_.set_keep_alive_max_count(10000);
-    http_.set_keep_alive_timeout(5);
     // cpp-httplib writes the head and the body of a response separately; with
     // Nagle on, the body waits for the client's delayed ACK (~40 ms per request
     // on Linux).
@@ -324,67 +336,138 @@ class GearloopServer::Impl {
     SetLogger();
   }
 
-  // Answers what no route should see: a method cpp-httplib does not route (405
-  // on our paths) and an announced body larger than the server accepts (413,
-  // before reading it).
+  // A path of the API with the methods it serves and the access each needs.
+  struct KnownPath {
+    std::string source;
+    std::regex pattern;
+    std::map<std::string, Access> access;  // by method
+    std::string allow;                     // "GET, POST"
+  };
+
+  const KnownPath* FindPath(const std::string& path) const {
+    for (const KnownPath& known : known_paths_) {
+      if (std::regex_match(path, known.pattern)) return &known;
+    }
+    return nullptr;
+  }
+
+  // What the head of a request says about its body: a Content-Length that is
+  // a plain number within the limit, or chunked transfer coding (counted as it
+  // arrives by ReadBody), never both.
+  bool CheckFraming(const httplib::Request& req, ApiError* error) const {
+    const bool has_length = req.has_header("Content-Length");
+    const std::string coding = req.get_header_value("Transfer-Encoding");
+    if (req.has_header("Transfer-Encoding")) {
+      if (strcasecmp(coding.c_str(), "chunked") != 0) {
+        *error = InvalidRequest("",
+                                "Transfer-Encoding \"" + coding +
+                                    "\" is not supported (only "
+                                    "chunked)");
+        return false;
+      }
+      if (has_length) {
+        *error =
+            InvalidRequest("",
+                           "a request may not carry both Content-Length and "
+                           "Transfer-Encoding");
+        return false;
+      }
+      return true;
+    }
+    if (!has_length) return true;
+    const std::string length = req.get_header_value("Content-Length");
+    if (length.empty() || length.size() > 19 ||
+        length.find_first_not_of("0123456789") != std::string::npos) {
+      *error = InvalidRequest(
+          "", "Content-Length \"" + length + "\" is not a non-negative number");
+      return false;
+    }
+    if (std::stoull(length) > options_.payload_max_bytes) {
+      *error = TooLarge();
+      return false;
+    }
+    return true;
+  }
+
+  ApiError TooLarge() const {
+    return ApiError{413,
+                    "payload_too_large",
+                    "the request body is larger than the server accepts (" +
+                        std::to_string(options_.payload_max_bytes) + " bytes)",
+                    ""};
+  }
+
+  // Decides every request from its head before a byte of its body is read:
+  // the path (404), the method (405), the framing of the body (400, 413) and
+  // the token (401, 403). A refused request's body is never read: the
+  // connection is closed after the answer.
   void SetPreRoutingHandler() {
-    const size_t payload_max_bytes = options_.payload_max_bytes;
-    httplib::Server::HandlerWithResponse pre_routing =
-        [this, payload_max_bytes](const httplib::Request& req,
-                                  httplib::Response& res) {
-          t_request.start = Clock::now();
-          t_request.started = true;
-          t_request.route = "unmatched";
-          // cpp-httplib routes GET, HEAD (to the GET handlers), POST, PUT,
-          // PATCH, DELETE and OPTIONS, and answers any other method it parses
-          // (TRACE, CONNECT) 400 without looking at the path. On one of our
-          // paths that is a method the resource does not serve: 405.
-          static const std::set<std::string> kRouted = {
-              "GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"};
-          if (!kRouted.count(req.method)) {
-            for (const auto& [route, allow] : allow_by_route_) {
-              if (!std::regex_match(req.path, route)) continue;
-              t_request.route = "method_not_allowed";
-              res.set_header("Allow", allow);
-              RespondError(
-                  res,
-                  ApiError{405,
-                           "method_not_allowed",
-                           req.method + " is not allowed here; use " + allow,
-                           ""});
-              return httplib::Server::HandlerResponse::Handled;
-            }
-          }
-          // Refuse an announced oversized body before reading it (cpp-httplib
-          // would first read and discard it all, holding a worker for as long
-          // as the client cares to send), and close.
-          const std::string length = req.get_header_value("Content-Length");
-          if (!length.empty()) {
-            char* end = nullptr;
-            const unsigned long long bytes =
-                std::strtoull(length.c_str(), &end, 10);
-            if (end == length.c_str() || *end != '\0') {
-              res.set_header("Connection", "close");
-              RespondError(
-                  res, InvalidRequest("", "Content-Length is not a number"));
-              return httplib::Server::HandlerResponse::Handled;
-            }
-            if (bytes > payload_max_bytes) {
-              res.set_header("Connection", "close");
-              RespondError(
-                  res,
-                  ApiError{
-                      413,
-                      "payload_too_large",
-                      "the request body is larger than the server accepts (" +
-                          std::to_string(payload_max_bytes) + " bytes)",
-                      ""});
-              return httplib::Server::HandlerResponse::Handled;
-            }
-          }
-          return httplib::Server::HandlerResponse::Unhandled;
-        };
-    http_.set_pre_routing_handler(pre_routing);
+    http_.set_pre_routing_handler([this](const httplib::Request& req,
+                                         httplib::Response& res) {
+      t_request.start = Clock::now();
+      t_request.started = true;
+      t_request.route = "unmatched";
+      ApiError error;
+      const KnownPath* known = FindPath(req.path);
+      const std::string method = req.method == "HEAD" ? "GET" : req.method;
+      if (known == nullptr) {
+        error = ApiError{404, "not_found", "no such resource", ""};
+      } else if (!known->access.count(method)) {
+        t_request.route = "method_not_allowed";
+        res.set_header("Allow", known->allow);
+        error =
+            ApiError{405,
+                     "method_not_allowed",
+                     req.method + " is not allowed here; use " + known->allow,
+                     ""};
+      } else if (CheckFraming(req, &error) &&
+                 Authorize(tokens_, req, known->access.at(method), &error)) {
+        if (method == "POST" && !req.has_header("Content-Length") &&
+            !req.has_header("Transfer-Encoding")) {
+          // HTTP/1.1: no length and no coding means no body (cpp-httplib
+          // would read until the client closes).
+          const_cast<httplib::Request&>(req).set_header("Content-Length", "0");
+        }
+        return httplib::Server::HandlerResponse::Unhandled;
+      }
+      BoundedHttpServer::CloseAfterResponse();
+      RespondError(res, error);
+      return httplib::Server::HandlerResponse::Handled;
+    });
+  }
+
+  // Reads a POST body through `reader`, counting it as it arrives (chunked or
+  // not) and stopping at the limit. False with the error (413, 408, 400) when
+  // the body is refused; the connection is then closed.
+  bool ReadBody(const httplib::ContentReader& reader,
+                std::string* body,
+                ApiError* error) const {
+    const size_t limit = options_.payload_max_bytes;
+    bool too_large = false;
+    const bool read = reader([&](const char* data, size_t size) {
+      if (body->size() + size > limit) {
+        too_large = true;
+        return false;
+      }
+      body->append(data, size);
+      return true;
+    });
+    if (read) return true;
+    BoundedHttpServer::CloseAfterResponse();
+    if (too_large) {
+      *error = TooLarge();
+    } else if (BoundedHttpServer::DeadlinePassed()) {
+      *error = ApiError{408,
+                        "request_timeout",
+                        "the request body did not arrive in time",
+                        ""};
+    } else {
+      *error = InvalidRequest(
+          "",
+          "the request body could not be read (broken chunked coding, or "
+          "the connection ended early)");
+    }
+    return false;
   }
 
   void SetErrorHandlers() {
@@ -395,12 +478,19 @@ class GearloopServer::Impl {
         [](const httplib::Request&, httplib::Response& res) {
           if (!res.body.empty())
             return httplib::Server::HandlerResponse::Unhandled;
+          // cpp-httplib's own refusals (a broken head, a head that did not
+          // arrive in time) leave the rest of the request unread: close.
+          BoundedHttpServer::CloseAfterResponse();
+          if (BoundedHttpServer::DeadlinePassed()) res.status = 408;
           ApiError error;
           error.status = res.status;
           error.code = CodeForStatus(res.status);
           switch (res.status) {
             case 404:
               error.message = "no such resource";
+              break;
+            case 408:
+              error.message = "the request did not arrive in time";
               break;
             case 413:
               error.message =
@@ -454,29 +544,26 @@ class GearloopServer::Impl {
     });
   }
 
-  // Wraps a handler: records the route pattern for the metrics, checks the
-  // token, and catches every exception once, at the top (500 and one log line;
-  // OSRM request_handler.cpp).
-  Handler Route(const char* route, Access access, Handler handler) {
-    return [this, route, access, handler](const httplib::Request& req,
-                                          httplib::Response& res) {
-      t_request.route = route;
-      try {
-        ApiError error;
-        if (!Authorize(tokens_, req, access, &error))
-          return RespondError(res, error);
-        handler(req, res);
-      } catch (const std::exception& e) {
-        LOG(ERROR) << "internal error on " << req.method << " " << req.path
-                   << ": " << e.what();
-        res.headers.erase("Location");
-        RespondError(res,
-                     ApiError{500,
-                              "internal_error",
-                              "internal error; nothing was stored",
-                              ""});
-      }
-    };
+  // Wraps a handler: records the route pattern for the metrics and catches
+  // every exception once, at the top (500 and one log line; OSRM
+  // request_handler.cpp). The token was checked before routing.
+  static Handler Route(const char* route, Handler handler) {
+    return
+        [route, handler](const httplib::Request& req, httplib::Response& res) {
+          t_request.route = route;
+          try {
+            handler(req, res);
+          } catch (const std::exception& e) {
+            LOG(ERROR) << "internal error on " << req.method << " " << req.path
+                       << ": " << e.what();
+            res.headers.erase("Location");
+            RespondError(res,
+                         ApiError{500,
+                                  "internal_error",
+                                  "internal error; nothing was stored",
+                                  ""});
+          }
+        };
   }
 
   void Register(const std::string& method,
@@ -484,13 +571,53 @@ class GearloopServer::Impl {
                 const char* route,
                 Access access,
                 Handler handler) {
-    Handler wrapped = Route(route, access, std::move(handler));
+    Handler wrapped = Route(route, std::move(handler));
     if (method == "GET") {
       http_.Get(pattern, wrapped);
     } else {
-      http_.Post(pattern, wrapped);
+      http_.Post(pattern,
+                 [this, route, wrapped](const httplib::Request& req,
+                                        httplib::Response& res,
+                                        const httplib::ContentReader& reader) {
+                   ReadBodyAndHandle(route, wrapped, req, res, reader);
+                 });
     }
-    allowed_methods_[pattern].insert(method);
+    auto known = std::find_if(
+        known_paths_.begin(), known_paths_.end(), [&](const KnownPath& k) {
+          return k.source == pattern;
+        });
+    if (known == known_paths_.end()) {
+      known_paths_.push_back(KnownPath{pattern, std::regex(pattern), {}, ""});
+      known = known_paths_.end() - 1;
+    }
+    known->access[method] = access;
+  }
+
+  // A POST route: the body is read here (ReadBody), then the handler runs on
+  // it. Memory a large body took is handed back to the system afterwards, so
+  // that no thread keeps a plateau as large as the body limit.
+  void ReadBodyAndHandle(const char* route,
+                         const Handler& handler,
+                         const httplib::Request& req,
+                         httplib::Response& res,
+                         const httplib::ContentReader& reader) const {
+    t_request.route = route;
+    std::string body;
+    ApiError error;
+    const bool read = ReadBody(reader, &body, &error);
+    const bool large = body.size() > (1u << 20);
+    if (!read) {
+      RespondError(res, error);
+    } else {
+      // cpp-httplib hands content-reader routes a const request whose body it
+      // has not filled; the request object itself is not const
+      // (process_request owns it), and the handlers read req.body.
+      const_cast<httplib::Request&>(req).body = std::move(body);
+      handler(req, res);
+      const_cast<httplib::Request&>(req).body = std::string();
+    }
+    body = std::string();
+    if (large) malloc_trim(0);
   }
 
   // A service handler of the context (server/services/).
@@ -557,7 +684,7 @@ class GearloopServer::Impl {
       }
     }
     RegisterDashboard();
-    RegisterMethodNotAllowed();
+    FinishKnownPaths();
   }
 
   // The dashboard (clients/web, embedded in the binary). Its pages hold no
@@ -579,32 +706,12 @@ class GearloopServer::Impl {
              });
   }
 
-  // A known path with a method it does not serve: 405 with Allow (cpp-httplib
-  // alone says 404).
-  void RegisterMethodNotAllowed() {
-    for (const auto& [pattern, methods] : allowed_methods_) {
-      std::string allow;
-      for (const std::string& m : methods)
-        allow += (allow.empty() ? "" : ", ") + m;
-      allow_by_route_.emplace_back(std::regex(pattern), allow);
-      Handler not_allowed = Route(
-          "method_not_allowed",
-          Access::kOpen,
-          [allow](const httplib::Request& req, httplib::Response& res) {
-            res.set_header("Allow", allow);
-            RespondError(
-                res,
-                ApiError{405,
-                         "method_not_allowed",
-                         req.method + " is not allowed here; use " + allow,
-                         ""});
-          });
-      if (!methods.count("GET")) http_.Get(pattern, not_allowed);
-      if (!methods.count("POST")) http_.Post(pattern, not_allowed);
-      http_.Put(pattern, not_allowed);
-      http_.Patch(pattern, not_allowed);
-      http_.Delete(pattern, not_allowed);
-      http_.Options(pattern, not_allowed);
+  // The Allow header of each known path (405 answers).
+  void FinishKnownPaths() {
+    for (KnownPath& known : known_paths_) {
+      known.allow.clear();
+      for (const auto& [method, access] : known.access)
+        known.allow += (known.allow.empty() ? "" : ", ") + method;
     }
   }
 
@@ -613,14 +720,12 @@ class GearloopServer::Impl {
   std::unique_ptr<JobRepository> repository_;
   ServiceContext context_;
   Metrics metrics_;
-  httplib::Server http_;
+  BoundedHttpServer http_;
   std::unique_ptr<BatchRunner> batches_;
-  std::map<std::string, std::set<std::string>> allowed_methods_;
-  // Each route pattern with its Allow header, for the methods cpp-httplib has
-  // no handler table for (TRACE, CONNECT): the pre-routing handler answers
-  // those 405 itself. Filled once by RegisterRoutes before the server runs;
+  // Every route pattern with its methods: the pre-routing handler answers 404
+  // and 405 from it. Filled once by RegisterRoutes before the server runs;
   // read-only afterwards.
-  std::vector<std::pair<std::regex, std::string>> allow_by_route_;
+  std::vector<KnownPath> known_paths_;
   int port_ = -1;
 };
 
@@ -628,6 +733,9 @@ GearloopServer::GearloopServer(const ServerOptions& options)
     : impl_(std::make_unique<Impl>(options)) {}
 GearloopServer::~GearloopServer() = default;
 int GearloopServer::Bind() { return impl_->Bind(); }
+const std::string& GearloopServer::bind_error() const {
+  return impl_->bind_error();
+}
 void GearloopServer::Serve() { impl_->Serve(); }
 void GearloopServer::Stop() { impl_->Stop(); }
 int GearloopServer::port() const { return impl_->port(); }

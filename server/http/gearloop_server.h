@@ -34,10 +34,16 @@ struct ServerOptions {
   int port = 8080;
   // SQLite file of the job history (":memory:" for a throwaway one).
   std::string database_path = "./gearloop.sqlite";
-  // HTTP worker threads (0 = four per hardware thread, at least 16).
-  // cpp-httplib holds a thread per open keep-alive connection, so this bounds
-  // the clients served at once, not the CPU use.
+  // Connections served at once (0 = 256); each holds one thread
+  // (docs/connections.md). A connection beyond it is answered 503 at once.
   int threads = 0;
+  // Connections one client address may hold at once (503 beyond).
+  int max_connections_per_client = 128;
+  // A request's head and body must arrive within this many seconds of its
+  // first byte (408 beyond, and the connection is closed).
+  double request_deadline_seconds = 10.0;
+  // Seconds a keep-alive connection may wait idle for its next request.
+  double idle_timeout_seconds = 5.0;
   // Background workers running batch items.
   int batch_workers = 1;
   // Largest request body accepted [bytes]; larger ones are answered 413.
@@ -50,7 +56,7 @@ struct ServerOptions {
   std::string token_file;
   // One access-log line per request (method, path, status, ms) through glog.
   bool access_log = true;
-  // Seconds a client may take to send a request before it is cut off.
+  // Longest silence [s] while a request arrives before it is cut off.
   int read_timeout_seconds = 5;
 };
 
@@ -67,9 +73,11 @@ class GearloopServer {
   GearloopServer(const GearloopServer&) = delete;
   GearloopServer& operator=(const GearloopServer&) = delete;
 
-  // Binds the listening socket; returns the bound port, or -1 when the address
-  // is unusable.
+  // Binds the listening socket, without sharing the port with another
+  // process; returns the bound port, or -1 when the address is unusable (the
+  // reason in bind_error(), e.g. another server on the port).
   int Bind();
+  const std::string& bind_error() const;
   // Serves requests until Stop(); returns after in-flight requests have been
   // answered. Bind() must have succeeded. Batch workers stop with it (their
   // current item is finished; waiting items stay pending in the database).

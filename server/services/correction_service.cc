@@ -1,5 +1,6 @@
 #include "server/services/correction_service.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -112,12 +113,41 @@ bool ParseCorrection(const nlohmann::json& body,
   return true;
 }
 
+// Every block named in options.max_order and options.block_scales must be
+// one of the machine's parameter blocks: a 422 naming the entry as sent, and
+// the nearest block name.
+bool CheckBlockNames(const CorrectionProblem& problem,
+                     const CorrectionOptions& options,
+                     ApiError* error) {
+  std::vector<std::string> names;
+  for (const ParameterBlock& block : problem.model->ParameterBlocks())
+    names.push_back(block.name);
+  std::vector<std::pair<std::string, std::string>> used;
+  for (const auto& entry : options.max_order)
+    used.emplace_back("options.max_order", entry.first);
+  for (const auto& entry : options.block_scales)
+    used.emplace_back("options.block_scales", entry.first);
+  for (const auto& [path, name] : used) {
+    if (std::find(names.begin(), names.end(), name) != names.end()) continue;
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+    std::string message = "unknown parameter block " + JoinPath(path, name);
+    const std::string nearest = NearestName(name, names);
+    if (!nearest.empty()) message += "; did you mean " + nearest + "?";
+    *error = InvalidValue(JoinPath(path, name),
+                          message + " (the blocks are " + list + ")");
+    return false;
+  }
+  return true;
+}
+
 // The engine call and its result as answered and stored.
 bool Solve(const ServiceContext& context,
            const CorrectionProblem& problem,
            const CorrectionRequest& request,
            CorrectionRun* run,
            ApiError* error) {
+  if (!CheckBlockNames(problem, request.options, error)) return false;
   const auto start = std::chrono::steady_clock::now();
   CorrectionInput input;
   input.model = problem.model.get();

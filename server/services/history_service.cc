@@ -1,5 +1,6 @@
 #include "server/services/history_service.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <optional>
@@ -86,6 +87,71 @@ bool ReadGearFilter(const httplib::Request& req,
   return true;
 }
 
+// True when the date (and time) of an ISO-8601 text of the shape checked by
+// ReadCreatedRange exist: month 1-12, a day of that month, 00:00:00-23:59:59.
+bool IsCalendarTime(const std::string& text) {
+  const int year = std::stoi(text.substr(0, 4));
+  const int month = std::stoi(text.substr(5, 2));
+  const int day = std::stoi(text.substr(8, 2));
+  static const int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  if (month < 1 || month > 12 || day < 1) return false;
+  const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+  if (day > kDays[month - 1] + (month == 2 && leap ? 1 : 0)) return false;
+  if (text.size() < 16) return true;
+  if (std::stoi(text.substr(11, 2)) > 23 || std::stoi(text.substr(14, 2)) > 59)
+    return false;
+  return text.size() < 19 || std::stoi(text.substr(17, 2)) <= 59;
+}
+
+// Reads a query parameter that must be one of `values` (400 otherwise).
+bool ReadChoiceParam(const httplib::Request& req,
+                     const char* key,
+                     const std::vector<std::string>& values,
+                     std::optional<std::string>* out,
+                     ApiError* error) {
+  if (!req.has_param(key)) return true;
+  const std::string text = req.get_param_value(key);
+  if (std::find(values.begin(), values.end(), text) == values.end()) {
+    std::string list;
+    for (const std::string& v : values) list += (list.empty() ? "" : ", ") + v;
+    const std::string field = std::string("query.") + key;
+    *error = InvalidRequest(
+        field, field + " must be one of " + list + ", got \"" + text + "\"");
+    return false;
+  }
+  *out = text;
+  return true;
+}
+
+// Every query parameter must be one the job list knows (400 naming it).
+bool CheckQueryKeys(const httplib::Request& req, ApiError* error) {
+  static const std::vector<std::string> kKnown = {"limit",
+                                                  "offset",
+                                                  "teeth",
+                                                  "module_mm",
+                                                  "flank",
+                                                  "kind",
+                                                  "status",
+                                                  "created_from",
+                                                  "created_to",
+                                                  "part_number",
+                                                  "serial",
+                                                  "tooth",
+                                                  "machine_id",
+                                                  "file_name",
+                                                  "batch_id",
+                                                  "submitted_by"};
+  for (const auto& [key, value] : req.params) {
+    if (std::find(kKnown.begin(), kKnown.end(), key) != kKnown.end()) continue;
+    std::string message = "unknown query parameter " + key;
+    const std::string nearest = NearestName(key, kKnown);
+    if (!nearest.empty()) message += "; did you mean " + nearest + "?";
+    *error = InvalidRequest("query." + key, message);
+    return false;
+  }
+  return true;
+}
+
 // Reads created_from and created_to; the range must not be reversed.
 bool ReadCreatedRange(const httplib::Request& req,
                       JobFilter* filter,
@@ -95,7 +161,7 @@ bool ReadCreatedRange(const httplib::Request& req,
   for (const char* key : {"created_from", "created_to"}) {
     if (!req.has_param(key)) continue;
     const std::string text = req.get_param_value(key);
-    if (!std::regex_match(text, kTime)) {
+    if (!std::regex_match(text, kTime) || !IsCalendarTime(text)) {
       *error = InvalidRequest(
           std::string("query.") + key,
           std::string("query.") + key +
@@ -158,14 +224,32 @@ bool ParseJobFilter(const httplib::Request& req,
                     JobFilter* filter,
                     ApiError* error) {
   long long limit = 50, offset = 0;
-  if (!ReadIntegerParam(req, "limit", 1, 1000, &limit, error) ||
+  if (!CheckQueryKeys(req, error) ||
+      !ReadIntegerParam(req, "limit", 1, 1000, &limit, error) ||
       !ReadIntegerParam(req, "offset", 0, 1000000000, &offset, error))
     return false;
   filter->limit = static_cast<int>(limit);
   filter->offset = static_cast<int>(offset);
   if (!ReadGearFilter(req, filter, error)) return false;
-  if (req.has_param("kind")) filter->kind = req.get_param_value("kind");
-  if (req.has_param("status")) filter->status = req.get_param_value("status");
+  if (!ReadChoiceParam(req,
+                       "kind",
+                       {"correction",
+                        "replay",
+                        "batch_item",
+                        "closed_loop",
+                        "split_trajectory"},
+                       &filter->kind,
+                       error) ||
+      !ReadChoiceParam(req,
+                       "status",
+                       {"converged",
+                        "not_converged",
+                        "no_safe_improvement",
+                        "target_partly_reachable",
+                        "computed"},
+                       &filter->status,
+                       error))
+    return false;
   return ReadTraceFilter(req, filter, error) &&
          ReadCreatedRange(req, filter, error);
 }

@@ -382,6 +382,22 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
   nlohmann::json bad = scenario;
   bad["hidden_errors"] = {{"W_mm", {1}}};
   EXPECT_EQ(Post("/api/v1/simulations/measurement", bad).status, 400);
+  // Plausibility limits as for the grinder (issue 17): 1e308 is a 422 naming
+  // the coefficient, not a 200 with empty grids.
+  bad = scenario;
+  bad["hidden_errors"] = {{"X_mm", {1e308}}};
+  Answer huge = Post("/api/v1/simulations/measurement", bad);
+  EXPECT_EQ(huge.status, 422) << huge.body.dump();
+  EXPECT_EQ(huge.body["error"]["field"], "hidden_errors.X_mm[0]");
+  bad = scenario;
+  bad["motion"] = created.body["result"]["motion"];
+  bad["motion"]["A_rad"][1] = 1e308;
+  huge = Post("/api/v1/simulations/measurement", bad);
+  EXPECT_EQ(huge.status, 422) << huge.body.dump();
+  EXPECT_EQ(huge.body["error"]["field"], "motion.A_rad[1]");
+  huge =
+      Post("/api/v1/bevel/evaluate", {{"job", job}, {"motion", bad["motion"]}});
+  EXPECT_EQ(huge.status, 422) << huge.body.dump();
   bad = scenario;
   bad["noise_um"] = -1;
   const Answer refused = Post("/api/v1/simulations/measurement", bad);

@@ -8,14 +8,20 @@
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <openssl/sha.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <utility>
+#include <vector>
 
+#include "tests/server/raw_connection.h"
 #include "tests/server/server_test_util.h"
 
 #ifndef GEARLOOP_SOURCE_DIR
@@ -26,6 +32,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
+using testing_util::RawConnection;
 using testing_util::RunningServer;
 using testing_util::TempPath;
 
@@ -47,44 +54,6 @@ std::string DecodeBase64(const std::string& text) {
   }
   return out;
 }
-
-// A raw TCP connection to the server, for what httplib::Client will not send.
-class RawConnection {
- public:
-  explicit RawConnection(int port) {
-    fd_ = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<uint16_t>(port));
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    connected_ =
-        connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof(address)) ==
-        0;
-    timeval timeout{10, 0};
-    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof(timeout));
-  }
-  ~RawConnection() { close(fd_); }
-  bool connected() const { return connected_; }
-  void Send(const std::string& data) {
-    (void)send(fd_, data.data(), data.size(), MSG_NOSIGNAL);
-  }
-  // Until the end of a response head, the peer closing, or the 10 s socket
-  // timeout.
-  std::string ReceiveHead() {
-    std::string out;
-    char buffer[4096];
-    while (out.find("\r\n\r\n") == std::string::npos) {
-      const ssize_t n = recv(fd_, buffer, sizeof(buffer), 0);
-      if (n <= 0) break;
-      out.append(buffer, static_cast<size_t>(n));
-    }
-    return out;
-  }
-
- private:
-  int fd_ = -1;
-  bool connected_ = false;
-};
 
 class HostileRequestsTest : public ::testing::Test {
  protected:
@@ -192,6 +161,296 @@ TEST_F(HostileRequestsTest, CutsOffASlowClientWithoutHoldingTheServer) {
   EXPECT_LT(waited, 9.0);
   auto history = client_->Get("/api/v1/corrections");
   EXPECT_EQ(ParseBody(history)["total"], 0);
+}
+
+// Resident memory of this process (the server runs in it) [bytes].
+size_t ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  size_t pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * static_cast<size_t>(sysconf(_SC_PAGESIZE));
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// Sends a chunked body of `total` bytes of JSON-ish text in 64 KiB chunks
+// until the server stops taking it; returns the bytes it took.
+size_t SendChunked(RawConnection* connection, size_t total) {
+  const std::string piece(64 * 1024, ' ');
+  char size_line[32];
+  std::snprintf(size_line, sizeof(size_line), "%zx\r\n", piece.size());
+  const std::string chunk = size_line + piece + "\r\n";
+  size_t sent = 0;
+  while (sent < total && connection->Send(chunk)) sent += piece.size();
+  return sent;
+}
+
+TEST_F(HostileRequestsTest, Refuses200MegabyteChunkedBodyAsItArrives) {
+  const size_t before = ResidentBytes();
+  RawConnection connection(running_->port());
+  ASSERT_TRUE(connection.connected());
+  connection.Send(
+      "POST /api/v1/corrections HTTP/1.1\r\nHost: x\r\nContent-Type: "
+      "application/json\r\nTransfer-Encoding: chunked\r\n\r\n");
+  size_t sent = 0;
+  std::thread sender(
+      [&] { sent = SendChunked(&connection, size_t{200} << 20); });
+  const std::string head = connection.ReceiveHead();
+  sender.join();
+  EXPECT_EQ(head.rfind("HTTP/1.1 413", 0), 0u) << head;
+  EXPECT_NE(head.find("Connection: close"), std::string::npos) << head;
+  EXPECT_LT(sent, size_t{200} << 20) << "the server read the whole body";
+  const double grown_mb =
+      (static_cast<double>(ResidentBytes()) - static_cast<double>(before)) /
+      (1 << 20);
+  EXPECT_LT(grown_mb, 32.0);
+  std::printf(
+      "[ info     ] 200 MiB chunked body: 413 after %.1f MiB sent, "
+      "memory grew %.1f MB\n",
+      static_cast<double>(sent) / (1 << 20),
+      grown_mb);
+  auto health = client_->Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+}
+
+TEST_F(HostileRequestsTest, RefusesANegativeOrMalformedContentLength) {
+  for (const char* length : {"-1", "12abc", "+5", " ", "1e3"}) {
+    RawConnection connection(running_->port());
+    connection.Send(std::string("POST /api/v1/nominal HTTP/1.1\r\nHost: "
+                                "x\r\nContent-Length: ") +
+                    length + "\r\n\r\n{}");
+    const std::string head = connection.ReceiveHead();
+    EXPECT_EQ(head.rfind("HTTP/1.1 400", 0), 0u) << length << ": " << head;
+  }
+  // Both framings at once (request smuggling) and an unknown coding.
+  RawConnection both(running_->port());
+  both.Send(
+      "POST /api/v1/nominal HTTP/1.1\r\nHost: x\r\nContent-Length: "
+      "2\r\nTransfer-Encoding: chunked\r\n\r\n{}");
+  EXPECT_EQ(both.ReceiveHead().rfind("HTTP/1.1 400", 0), 0u);
+  RawConnection gzip(running_->port());
+  gzip.Send(
+      "POST /api/v1/nominal HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: "
+      "gzip\r\n\r\n");
+  EXPECT_EQ(gzip.ReceiveHead().rfind("HTTP/1.1 400", 0), 0u);
+}
+
+TEST_F(HostileRequestsTest, AnswersPutAndPatchWithoutBody405AtOnce) {
+  for (const char* method : {"PUT", "PATCH", "DELETE"}) {
+    RawConnection connection(running_->port());
+    const auto start = std::chrono::steady_clock::now();
+    connection.Send(std::string(method) +
+                    " /api/v1/corrections HTTP/1.1\r\nHost: x\r\n\r\n");
+    const std::string head = connection.ReceiveHead();
+    EXPECT_EQ(head.rfind("HTTP/1.1 405", 0), 0u) << method << ": " << head;
+    EXPECT_NE(head.find("Allow: GET, POST"), std::string::npos) << head;
+    EXPECT_LT(SecondsSince(start), 0.5) << method;
+  }
+  // An unknown path is 404 before its body is read.
+  RawConnection unknown(running_->port());
+  const auto start = std::chrono::steady_clock::now();
+  unknown.Send(
+      "POST /api/v1/nowhere HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: "
+      "chunked\r\n\r\n");
+  EXPECT_EQ(unknown.ReceiveHead().rfind("HTTP/1.1 404", 0), 0u);
+  EXPECT_LT(SecondsSince(start), 0.5);
+}
+
+std::string Sha256Hex(const std::string& text) {
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(
+      reinterpret_cast<const unsigned char*>(text.data()), text.size(), digest);
+  char hex[2 * SHA256_DIGEST_LENGTH + 1];
+  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i)
+    std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
+  return hex;
+}
+
+TEST(HostileRequests, RefusesAnUnauthenticatedBodyBeforeReadingIt) {
+  TempPath db;
+  TempPath token_file("gearloop_tokens");
+  {
+    std::ofstream out(token_file.path());
+    out << "write " << Sha256Hex("writer-secret") << " cell\n";
+  }
+  ServerOptions options;
+  options.database_path = db.path();
+  options.token_file = token_file.path();
+  RunningServer running(options);
+  ASSERT_GT(running.port(), 0);
+  // Announced within the limit, never sent: the answer cannot wait for it.
+  RawConnection announced(running.port());
+  auto start = std::chrono::steady_clock::now();
+  announced.Send(
+      "POST /api/v1/corrections HTTP/1.1\r\nHost: x\r\nContent-Length: "
+      "8000000\r\n\r\n{\"gear\":");
+  EXPECT_EQ(announced.ReceiveHead().rfind("HTTP/1.1 401", 0), 0u);
+  EXPECT_LT(SecondsSince(start), 1.0);
+  // 300 MiB chunked without a token: refused after a small part of it.
+  RawConnection chunked(running.port());
+  start = std::chrono::steady_clock::now();
+  chunked.Send(
+      "POST /api/v1/corrections HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: "
+      "chunked\r\n\r\n");
+  size_t sent = 0;
+  std::thread sender([&] { sent = SendChunked(&chunked, size_t{300} << 20); });
+  const std::string head = chunked.ReceiveHead();
+  sender.join();
+  EXPECT_EQ(head.rfind("HTTP/1.1 401", 0), 0u) << head;
+  EXPECT_LT(sent, size_t{64} << 20) << "the server read the body";
+}
+
+// A valid correction request of the default gear: a 5 x 9 measurement of a
+// few microns.
+nlohmann::json StrictCorrectionRequest() {
+  nlohmann::json request = testing_util::DefaultSetup();
+  nlohmann::json grid = nlohmann::json::array();
+  for (int i = 0; i < 5; ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < 9; ++j) row.push_back(0.5 * (i - 2) + 0.1 * (j - 4));
+    grid.push_back(row);
+  }
+  request["measurement"] = {{"deviations_um", grid}};
+  request["options"] = {{"default_max_order", 2}};
+  return request;
+}
+
+// Status and error field of a POST.
+std::pair<int, nlohmann::json> PostJson(httplib::Client* client,
+                                        const char* path,
+                                        const nlohmann::json& body) {
+  auto result = client->Post(path, body.dump(), "application/json");
+  if (!result) return {-1, nlohmann::json()};
+  return {result->status, ParseBody(result)};
+}
+
+TEST_F(HostileRequestsTest, RefusesUnknownKeysNamingTheNearestKnownOne) {
+  const nlohmann::json valid = StrictCorrectionRequest();
+  ASSERT_EQ(PostJson(client_.get(), "/api/v1/corrections", valid).first, 201);
+
+  nlohmann::json typo = valid;
+  typo["options"] = {{"default_max_ordr", 2}};
+  auto [status, body] = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "options.default_max_ordr");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find(
+                "did you mean default_max_order"),
+            std::string::npos)
+      << body.dump();
+
+  typo = valid;
+  typo["gear"]["modul"] = 6;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/nominal", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "gear.modul");
+
+  typo = valid;
+  typo["machine"]["traverse_mm_per_deg"] = 0;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/evaluate", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "machine.traverse_mm_per_deg");
+  EXPECT_NE(body["error"]["message"].get<std::string>().find(
+                "did you mean traverse_mm_per_rad"),
+            std::string::npos);
+
+  typo = valid;
+  typo["grid"]["lead_pints"] = 9;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "grid.lead_pints");
+
+  typo = valid;
+  typo["measurement"]["deviation_um"] = typo["measurement"]["deviations_um"];
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "measurement.deviation_um");
+
+  typo = valid;
+  typo["options"] = {{"max_order", {{"Q", 2}}}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "options.max_order.Q") << body.dump();
+
+  typo = valid;
+  typo["target"] = {{"modifications",
+                     {{{"kind", "profile_crowning"},
+                       {"amount_um", 2},
+                       {"lenght_fraction", 1}}}}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.modifications[0].lenght_fraction");
+
+  typo = valid;
+  typo["target"] = {{"deviation_um", nlohmann::json::array()}};
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.deviation_um");
+
+  typo = valid;
+  typo["wheel"]["radius"] = 350;
+  std::tie(status, body) = PostJson(client_.get(), "/api/v1/corrections", typo);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "wheel.radius");
+  EXPECT_EQ(ParseBody(client_->Get("/api/v1/corrections"))["total"], 1)
+      << "a refused request stored a job";
+}
+
+TEST_F(HostileRequestsTest, RefusesImplausibleDeviationsUnlessAllowed) {
+  nlohmann::json nanometres = StrictCorrectionRequest();
+  for (auto& row : nanometres["measurement"]["deviations_um"])
+    for (auto& value : row) value = value.get<double>() * 1000.0;
+  auto [status, body] =
+      PostJson(client_.get(), "/api/v1/corrections", nanometres);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "measurement.deviations_um[0][0]");
+  nanometres["allow_large_deviations"] = "yes";
+  EXPECT_EQ(PostJson(client_.get(), "/api/v1/corrections", nanometres).first,
+            400);
+  nanometres["allow_large_deviations"] = true;
+  EXPECT_EQ(PostJson(client_.get(), "/api/v1/corrections", nanometres).first,
+            201);
+
+  nlohmann::json huge_target = StrictCorrectionRequest();
+  huge_target["target"] = {
+      {"modifications",
+       {{{"kind", "profile_crowning"}, {"amount_um", 1e308}}}}};
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/corrections", huge_target);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.modifications[0].amount_um");
+}
+
+TEST_F(HostileRequestsTest, RefusesBadJobListQueriesNamingTheParameter) {
+  for (const auto& [query, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"kind=x", "query.kind"},
+           {"status=x", "query.status"},
+           {"created_from=2026-13-45", "query.created_from"},
+           {"created_to=2026-02-30", "query.created_to"},
+           {"created_from=2026-11-22T25:00:00Z", "query.created_from"},
+           {"knd=correction", "query.knd"}}) {
+    auto result = client_->Get(("/api/v1/corrections?" + query).c_str());
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 400) << query;
+    EXPECT_EQ(ParseBody(result)["error"]["field"], field) << query;
+  }
+  for (const char* query : {"kind=correction",
+                            "status=converged",
+                            "created_from=2024-02-29",
+                            "created_to=2026-11-22T08:00:00Z",
+                            "kind=split_trajectory",
+                            "status=target_partly_reachable",
+                            "part_number=P-17",
+                            "tooth=3"}) {
+    auto result =
+        client_->Get((std::string("/api/v1/corrections?") + query).c_str());
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 200) << query;
+  }
 }
 
 }  // namespace

@@ -267,5 +267,33 @@ TEST(MachineSettingsJson, RoundTripsWithConeAngleInDegrees) {
   EXPECT_DOUBLE_EQ(back.axes[1][6], 0.0);
 }
 
+// Engine angles (_rad) are degrees in the API; a rate per radian keeps its
+// name as the client wrote it (issue 17).
+TEST(ApiFieldPath, RenamesAnglesButNotRatesPerRadian) {
+  EXPECT_EQ(ApiFieldPath("gear.helix_angle_rad"), "gear.helix_angle_deg");
+  EXPECT_EQ(ApiFieldPath("machine.swivel_rad"), "machine.swivel_deg");
+  EXPECT_EQ(ApiFieldPath("machine.traverse_mm_per_rad"),
+            "machine.traverse_mm_per_rad");
+}
+
+TEST(CheckKeys, NamesTheUnknownKeyAndTheNearestKnownOne) {
+  ApiError error;
+  EXPECT_TRUE(CheckKeys(
+      nlohmann::json{{"radius_mm", 1}}, "wheel", {"radius_mm"}, &error));
+  EXPECT_FALSE(CheckKeys(nlohmann::json{{"default_max_ordr", 1}},
+                         "options",
+                         {"max_order", "default_max_order"},
+                         &error));
+  EXPECT_EQ(error.status, 422);
+  EXPECT_EQ(error.field, "options.default_max_ordr");
+  EXPECT_NE(error.message.find("did you mean default_max_order?"),
+            std::string::npos);
+  EXPECT_FALSE(CheckKeys(nlohmann::json{{"zzzzzz", 1}}, "", {"teeth"}, &error));
+  EXPECT_EQ(error.field, "zzzzzz");
+  EXPECT_EQ(error.message.find("did you mean"), std::string::npos);
+  EXPECT_EQ(NearestName("modul", {"normal_module_mm", "teeth"}), "");
+  EXPECT_EQ(NearestName("teth", {"normal_module_mm", "teeth"}), "teeth");
+}
+
 }  // namespace
 }  // namespace gearloop

@@ -12,7 +12,11 @@ server's resident memory (VmRSS) every few seconds, and fails when
     third by more than --max-rss-growth-mb (SQLite's page cache and the allocator's arenas
     settle within the first third),
   - latency drifts: the median of the 10 s window p50s in the last third exceeds three times
-    that of the first third plus 5 ms (loose: CI machines are shared).
+    that of the first third plus 5 ms (loose: CI machines are shared),
+  - beside the load, hostile clients (issue 17) are not contained: --slow-clients connections
+    trickle a body a byte every 0.5 s (each must be cut off, 408 or closed, and reconnects), a
+    client sends a 20 MiB chunked body every 2 s (each must be answered 413 before the end of
+    it), and /healthz, asked every second, must answer within 1 s.
 
 CI runs 60 s (ctest server_soak); the 10-minute soak of BENCHMARKS.md is
 
@@ -64,6 +68,72 @@ def wait_healthy(port, server, timeout_s=30.0):
     return False
 
 
+def trickle(port, stop, stats):
+    """One slow client: a body a byte every 0.5 s until the server cuts it off; again."""
+    while not stop.is_set():
+        try:
+            s = socket.create_connection(("127.0.0.1", port), timeout=5)
+            s.sendall(b"POST /api/v1/corrections HTTP/1.1\r\nHost: x\r\nContent-Length: 100000\r\n\r\n{")
+            answer = None
+            while answer is None and not stop.is_set():
+                s.sendall(b" ")
+                stop.wait(0.5)
+                s.setblocking(False)
+                try:
+                    answer = s.recv(4096)
+                except BlockingIOError:
+                    pass
+                s.setblocking(True)
+            if answer is not None:
+                stats["cut"] += 1
+                if answer and not answer.startswith(b"HTTP/1.1 408"):
+                    stats["bad"].append(answer[:60])
+            s.close()
+        except OSError:
+            stats["cut"] += 1  # reset by the server: cut off as well
+            stop.wait(0.2)
+
+
+def chunked_flood(port, stop, stats):
+    """A 20 MiB chunked body every 2 s; each must be refused (413) before its end."""
+    piece = b" " * 65536
+    chunk = b"%x\r\n" % len(piece) + piece + b"\r\n"
+    while not stop.is_set():
+        sent = 0
+        try:
+            s = socket.create_connection(("127.0.0.1", port), timeout=10)
+            s.sendall(b"POST /api/v1/corrections HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n")
+            answer = []
+            reader = threading.Thread(target=lambda: answer.append(s.recv(64)), daemon=True)
+            reader.start()
+            while sent < 20 << 20:
+                s.sendall(chunk)
+                sent += len(piece)
+            reader.join(10)
+            s.close()
+        except OSError:
+            pass
+        head = answer[0] if answer else b""
+        if head.startswith(b"HTTP/1.1 413") and sent < 20 << 20:
+            stats["refused"] += 1
+        else:
+            stats["bad"].append((head[:40], sent))
+        stop.wait(2.0)
+
+
+def watch_health(port, stop, stats):
+    while not stop.is_set():
+        begin = time.monotonic()
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/healthz", timeout=5) as r:
+                if r.status != 200:
+                    stats["failures"] += 1
+        except OSError:
+            stats["failures"] += 1
+        stats["worst_s"] = max(stats["worst_s"], time.monotonic() - begin)
+        stop.wait(1.0)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--server-bin", required=True)
@@ -75,6 +145,8 @@ def main():
                              " does not yet slow the schedule)")
     parser.add_argument("--sample-seconds", type=float, default=5.0)
     parser.add_argument("--max-rss-growth-mb", type=float, default=8.0)
+    parser.add_argument("--slow-clients", type=int, default=16, help="trickling connections beside the load")
+    parser.add_argument("--no-chunked", action="store_true", help="without the 20 MiB chunked bodies")
     args = parser.parse_args()
 
     failures = []
@@ -103,6 +175,16 @@ def main():
 
             sampler = threading.Thread(target=sample, daemon=True)
             sampler.start()
+            slow_stats = {"cut": 0, "bad": []}
+            chunked_stats = {"refused": 0, "bad": []}
+            health_stats = {"failures": 0, "worst_s": 0.0}
+            hostile = [threading.Thread(target=trickle, args=(port, stop, slow_stats), daemon=True)
+                       for _ in range(args.slow_clients)]
+            if not args.no_chunked:
+                hostile.append(threading.Thread(target=chunked_flood, args=(port, stop, chunked_stats), daemon=True))
+            hostile.append(threading.Thread(target=watch_health, args=(port, stop, health_stats), daemon=True))
+            for thread in hostile:
+                thread.start()
             output = []
             for line in load.stdout:
                 output.append(line)
@@ -111,6 +193,19 @@ def main():
             load_rc = load.wait()
             stop.set()
             sampler.join()
+            for thread in hostile:
+                thread.join(15)
+            print(f"soak: {args.slow_clients} slow clients cut off {slow_stats['cut']} times; "
+                  f"{chunked_stats['refused']} chunked 20 MiB bodies refused 413; "
+                  f"/healthz slowest {health_stats['worst_s']:.3f} s, {health_stats['failures']} failures")
+            if slow_stats["bad"]:
+                failures.append(f"slow clients answered other than 408: {slow_stats['bad'][:3]}")
+            if chunked_stats["bad"]:
+                failures.append(f"chunked bodies not refused 413 early: {chunked_stats['bad'][:3]}")
+            if not args.no_chunked and chunked_stats["refused"] == 0:
+                failures.append("no chunked body was refused")
+            if health_stats["failures"] or health_stats["worst_s"] > 1.0:
+                failures.append(f"/healthz: {health_stats['failures']} failures, slowest {health_stats['worst_s']:.3f} s")
             achieved = re.search(r"corrections \(([\d.]+)/s\)", "".join(output))
             if achieved and float(achieved.group(1)) < 0.25 * args.rate:
                 failures.append(f"only {achieved.group(1)} requests/s of {args.rate}")

@@ -121,7 +121,15 @@ add("measurement all null", edited(["measurement", "deviations_um"], [[None] * 9
 add("measurement teeth not a list", edited(["measurement"], {"teeth": 5}), 400)
 add("measurement teeth with a short grid", edited(["measurement"], {"teeth": [grid, grid[:3]]}), 400)
 add("target grid with null", dict(copy.deepcopy(BASE), target={"deviations_um": [[None] * 9] * 5}), 400)
-add("target neither grid nor modifications", dict(copy.deepcopy(BASE), target={"x": 1}), 400)
+# Strict input (issue 17): an unknown key is a 422 naming it.
+add("target neither grid nor modifications", dict(copy.deepcopy(BASE), target={"x": 1}), 422)
+add("options typo default_max_ordr", dict(copy.deepcopy(BASE), options={"default_max_ordr": 2}), 422)
+add("gear typo modul", edited(["gear", "modul"], 6), 422)
+add("machine traverse per degree", edited(["machine", "traverse_mm_per_deg"], 0), 422)
+add("measurement in nm", edited(["measurement", "deviations_um"], [[500.5] * 9 for _ in range(5)]), 422)
+add("target modification amount 1e308",
+    dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "profile_crowning", "amount_um": 1e308}]}), 422)
+add("options max_order unknown block", dict(copy.deepcopy(BASE), options={"max_order": {"Q": 2}}), 422)
 add("target modification unknown kind", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "wobble", "amount_um": 1}]}), 422)
 add("target modification without amount", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "lead_crowning"}]}), 400)
 add("target modification fraction 0", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "tip_relief", "amount_um": 5, "length_fraction": 0}]}), 422)
