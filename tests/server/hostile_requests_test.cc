@@ -206,7 +206,13 @@ TEST_F(HostileRequestsTest, Refuses200MegabyteChunkedBodyAsItArrives) {
   const double grown_mb =
       (static_cast<double>(ResidentBytes()) - static_cast<double>(before)) /
       (1 << 20);
+#ifndef GEARLOOP_SANITIZED_BUILD
+  // Not under AddressSanitizer: its allocator keeps freed memory in
+  // quarantine, so resident memory says nothing about what the server holds
+  // (the soak's memory limit is left out of the sanitizer run for the same
+  // reason). The 413 before the end of the body is checked there too.
   EXPECT_LT(grown_mb, 32.0);
+#endif
   std::printf(
       "[ info     ] 200 MiB chunked body: 413 after %.1f MiB sent, "
       "memory grew %.1f MB\n",
