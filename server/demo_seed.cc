@@ -174,6 +174,39 @@ bool SeedClosedLoop(DemoClient& client,
   return true;
 }
 
+// Step 5: what the machine can make of the replay's target before anything
+// is ground (POST /api/v1/targets/reach; nothing is stored).
+bool PrintReach(DemoClient& client, std::ostream& out) {
+  nlohmann::json request = DemoSetup();
+  request["target"] = {{"modifications",
+                        {{{"kind", "profile_crowning"}, {"amount_um", 3.0}},
+                         {{"kind", "lead_crowning"}, {"amount_um", 2.0}}}}};
+  const nlohmann::json reach =
+      client.Call("POST", "/api/v1/targets/reach", request, 200);
+  if (reach.is_null()) return false;
+  out << "  5. reach of that target on this machine (POST /api/v1/targets/"
+         "reach):\n";
+  for (const nlohmann::json& part : reach["components"]) {
+    out << "     " << part["modification"].value("kind", std::string()) << ": "
+        << Fixed(100.0 * Number(part["reachable_share"]), 1)
+        << " % can be made (target rms "
+        << Fixed(Number(part["target_rms_um"]), 2) << " um, not made "
+        << Fixed(Number(part["unreachable_rms_um"]), 2) << " um)\n";
+  }
+  const nlohmann::json& both = reach["combined"];
+  out << "     together: " << Fixed(100.0 * Number(both["reachable_share"]), 1)
+      << " %";
+  if (reach["with_highest_orders"].is_object()) {
+    out << "; with every axis free to order 6: "
+        << Fixed(
+               100.0 * Number(reach["with_highest_orders"]["reachable_share"]),
+               1)
+        << " %";
+  }
+  out << "\n";
+  return true;
+}
+
 }  // namespace
 
 bool SeedDemo(const std::string& host,
@@ -199,7 +232,8 @@ bool SeedDemo(const std::string& host,
   nlohmann::json job;
   return SeedCorrection(client, out, simulation, &request, &job) &&
          SeedReplay(client, out, job) &&
-         SeedClosedLoop(client, out, simulation, request);
+         SeedClosedLoop(client, out, simulation, request) &&
+         PrintReach(client, out);
 }
 
 }  // namespace gearloop

@@ -1,7 +1,6 @@
 // engine/core/units.h: pi and the degree/radian conversions, defined once for
 // the whole project (as COLMAP's math/math.h does). Inside the engine every
-// angle is in radians; degrees appear only at the API (the server's codecs) and
-// in the published units of the pso box.
+// angle is in radians; degrees appear only at the API (the server's codecs).
 //
 //   const double helix_rad = DegToRad(15.0);
 //   const double shown_deg = roll_rad * kDegPerRad;

@@ -1088,6 +1088,10 @@ TEST_F(GearloopServerTest, SeedsTheDemoOnceIntoAnEmptyHistory) {
       << out.str();
   EXPECT_NE(out.str().find("/api/v1/corrections/5/lineage"), std::string::npos)
       << out.str();
+  // The reach of the replay's target, per modification and together (the
+  // reach is not stored: still 5 jobs).
+  EXPECT_NE(out.str().find("lead_crowning: "), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("together: "), std::string::npos) << out.str();
   const Answer replay = Send(*client_, "GET", "/api/v1/corrections/2");
   EXPECT_EQ(replay.body["parent_job_id"], 1);
   const Answer lineage = Send(*client_, "GET", "/api/v1/corrections/5/lineage");
