@@ -238,6 +238,8 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
 
   LineariseAt(input.current_parameters, input.jacobian_um, p);
   p->commanded_parameters = input.current_parameters;
+  p->commanded_deviations_um = p->evaluation.deviations_um;
+  p->commanded_status = p->evaluation.status;
   ChooseRollRange(input, p->evaluation, n, &p->roll_min_rad, &p->roll_max_rad);
   summary->roll_min_rad = p->roll_min_rad;
   summary->roll_max_rad = p->roll_max_rad;

@@ -77,6 +77,9 @@ struct CorrectionProblem {
   // The commanded parameters (the measured part was ground with them), kept
   // when the problem is linearised again at an estimated machine state.
   Eigen::VectorXd commanded_parameters;
+  // The model's flank there (deviations, statuses), evaluated once.
+  Eigen::VectorXd commanded_deviations_um;
+  std::vector<PointStatus> commanded_status;
 
   // The linearisation at `parameters`.
   Eigen::VectorXd parameters;

@@ -41,17 +41,17 @@ bool ModelsDisagree(const CorrectionProblem& problem,
   if (problem.commanded_parameters.size() != problem.parameters.size() ||
       problem.commanded_parameters == problem.parameters)
     return false;
-  ModelEvaluation before, after;
-  problem.model->Evaluate(problem.commanded_parameters, false, &before);
+  ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   double sum = 0.0;
   int count = 0;
   for (int i : problem.used) {
-    if (before.status[i] != PointStatus::kOk ||
+    if (problem.commanded_status[i] != PointStatus::kOk ||
         after.status[i] != PointStatus::kOk)
       continue;
     const double d =
-        (after.deviations_um(i) - before.deviations_um(i)) - change(i);
+        (after.deviations_um(i) - problem.commanded_deviations_um(i)) -
+        change(i);
     sum += d * d;
     ++count;
   }
