@@ -66,6 +66,25 @@ bool ReadNamedMap(const nlohmann::json& object,
   return true;
 }
 
+// A modification of more than a millimetre is a unit mistake, and an amount
+// like 1e308 would only make the solve fail later.
+bool CheckModificationAmounts(const TargetModification& modification,
+                              const std::string& path,
+                              ApiError* error) {
+  const std::pair<const char*, double> amounts[] = {
+      {"amount_um", modification.amount_um},
+      {"second_amount_um", modification.second_amount_um},
+      {"amount_gradient_um", modification.amount_gradient_um},
+      {"second_amount_gradient_um", modification.second_amount_gradient_um}};
+  for (const auto& [key, amount] : amounts) {
+    if (std::abs(amount) <= 1000.0) continue;
+    const std::string field = JoinPath(path, key);
+    *error = InvalidValue(field, field + " must lie in [-1000, 1000] um");
+    return false;
+  }
+  return true;
+}
+
 bool ParseModification(const nlohmann::json& value,
                        const std::string& path,
                        TargetModification* modification,
@@ -139,19 +158,7 @@ bool ParseModification(const nlohmann::json& value,
                           "shape must be \"linear\" or \"parabolic\"");
     return false;
   }
-  // A modification of more than a millimetre is a unit mistake, and an
-  // amount like 1e308 would only make the solve fail later.
-  const std::pair<const char*, double> amounts[] = {
-      {"amount_um", modification->amount_um},
-      {"second_amount_um", modification->second_amount_um},
-      {"amount_gradient_um", modification->amount_gradient_um},
-      {"second_amount_gradient_um", modification->second_amount_gradient_um}};
-  for (const auto& [key, amount] : amounts) {
-    if (std::abs(amount) <= 1000.0) continue;
-    const std::string field = JoinPath(path, key);
-    *error = InvalidValue(field, field + " must lie in [-1000, 1000] um");
-    return false;
-  }
+  if (!CheckModificationAmounts(*modification, path, error)) return false;
   ValidationIssue issue;
   if (!ValidateTargetModification(*modification, &issue)) {
     *error = InvalidValue(JoinPath(path, issue.field), issue.message);
