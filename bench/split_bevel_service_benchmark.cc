@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "engine/split_bevel/trajectory.h"
@@ -78,7 +79,7 @@ BENCHMARK(BM_SplitTrajectoryService2000x10x2WithNc)
     ->Unit(benchmark::kMillisecond);
 
 // The same with the history in a SQLite file (WAL, synchronous=NORMAL), as the
-// server keeps it: each job writes its 26.6 MB to the file.
+// server keeps it.
 void BM_SplitTrajectoryService2000x10x2FileDb(benchmark::State& state) {
   const std::string path = "/tmp/split_bevel_service_benchmark.sqlite";
   for (const char* suffix : {"", "-wal", "-shm"})
@@ -91,7 +92,7 @@ BENCHMARK(BM_SplitTrajectoryService2000x10x2FileDb)
     ->Unit(benchmark::kMillisecond);
 
 // Parts of the handler: the codec and the engine (with the listing), then the
-// JSON answer alone (building and dumping the 40 000 points).
+// JSON answer alone (the 40 000 points written as text).
 void BM_SplitTrajectoryCodecAndEngine(benchmark::State& state) {
   const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
   for (auto _ : state) {
@@ -121,28 +122,90 @@ void BM_SplitTrajectoryAnswerJson(benchmark::State& state) {
 }
 BENCHMARK(BM_SplitTrajectoryAnswerJson)->Unit(benchmark::kMillisecond);
 
-// Writing the job (the answer's text and the listing, 26.6 MB) to a ":memory:"
-// history.
-void BM_SplitTrajectoryStoreJob(benchmark::State& state) {
+// Writing the job as the handler stores it (the request, the per-pass
+// summaries without points and the 2.2 MB listing) to a ":memory:" history;
+// the text of that stored result is its own part.
+gearloop::SplitBevelResult BenchResult() {
   const nlohmann::json body = nlohmann::json::parse(RequestBody(true));
   gearloop::SplitBevelRequest request;
   gearloop::ApiError error;
   gearloop::ParseSplitBevelRequest(body, &request, &error);
-  const gearloop::SplitBevelResult result =
-      gearloop::ComputeSplitTrajectory(request);
+  return gearloop::ComputeSplitTrajectory(request);
+}
+
+gearloop::SplitBevelTextOptions StoredOptions(
+    const gearloop::SplitBevelResult& result) {
+  gearloop::SplitBevelTextOptions stored;
+  stored.points = false;
+  stored.members = {{"points_stored", false}};
+  stored.nc_program = &result.nc_program;
+  return stored;
+}
+
+void BM_SplitTrajectoryStoredText(benchmark::State& state) {
+  const gearloop::SplitBevelResult result = BenchResult();
+  for (auto _ : state) {
+    const std::string text =
+        gearloop::SplitBevelResultJsonText(result, StoredOptions(result));
+    benchmark::DoNotOptimize(text.data());
+  }
+}
+BENCHMARK(BM_SplitTrajectoryStoredText)->Unit(benchmark::kMillisecond);
+
+void StoreJobBenchmark(benchmark::State& state, const std::string& database) {
+  const gearloop::SplitBevelResult result = BenchResult();
   gearloop::JobRecord job;
   job.kind = "split_trajectory";
   job.status = "computed";
   job.machine_kind = "head-head-5-axis-mill";
-  job.request_json = body.dump();
+  job.request_json = RequestBody(true);
   job.result_json =
-      gearloop::AppendJsonMembers(gearloop::SplitBevelResultJsonText(result),
-                                  {{"nc_program", result.nc_program}});
+      gearloop::SplitBevelResultJsonText(result, StoredOptions(result));
   std::unique_ptr<gearloop::JobRepository> repository =
-      gearloop::OpenJobRepository(":memory:");
+      gearloop::OpenJobRepository(database);
   for (auto _ : state) benchmark::DoNotOptimize(repository->WriteJob(job));
+  state.counters["stored_MB"] =
+      static_cast<double>(job.result_json.size()) / 1e6;
+}
+
+void BM_SplitTrajectoryStoreJob(benchmark::State& state) {
+  StoreJobBenchmark(state, ":memory:");
 }
 BENCHMARK(BM_SplitTrajectoryStoreJob)->Unit(benchmark::kMillisecond);
+
+void BM_SplitTrajectoryStoreJobFileDb(benchmark::State& state) {
+  const std::string path = "/tmp/split_bevel_store_benchmark.sqlite";
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+  StoreJobBenchmark(state, path);
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::remove((path + suffix).c_str());
+}
+BENCHMARK(BM_SplitTrajectoryStoreJobFileDb)->Unit(benchmark::kMillisecond);
+
+// GET /api/v1/corrections/{id} of the stored job: the points computed again
+// (not the target; a shop reads a job far less often than it posts).
+void BM_SplitTrajectoryShowStoredJob(benchmark::State& state) {
+  std::unique_ptr<gearloop::JobRepository> repository =
+      gearloop::OpenJobRepository(":memory:");
+  gearloop::ServiceContext context;
+  context.repository = repository.get();
+  context.server_version = "bench";
+  context.log_solves = false;
+  httplib::Request req;
+  req.body = RequestBody(false);
+  httplib::Response posted;
+  gearloop::CreateSplitTrajectory(context, req, posted);
+  const std::optional<gearloop::JobRecord> job = repository->ReadJob(1);
+  if (!job) state.SkipWithError("no stored job");
+  for (auto _ : state) {
+    httplib::Response res;
+    if (!job || !gearloop::RespondStoredSplitTrajectory(context, *job, res))
+      state.SkipWithError("not shown");
+    benchmark::DoNotOptimize(res.body.data());
+  }
+}
+BENCHMARK(BM_SplitTrajectoryShowStoredJob)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -281,107 +281,6 @@ bool ParseOutput(const nlohmann::json& body, bool* nc, ApiError* error) {
          ReadBool(*output, "output", "nc", false, nc, error);
 }
 
-nlohmann::json DerivedJson(const SplitBevelGearData& d) {
-  return {{"base_radius_mm", d.base_radius_mm},
-          {"normal_module_mm", d.normal_module_mm},
-          {"crown_teeth", d.crown_teeth},
-          {"inner_cone_distance_mm", d.inner_cone_distance_mm},
-          {"mean_cone_distance_mm", d.mean_cone_distance_mm},
-          {"outer_cone_distance_mm", d.outer_cone_distance_mm},
-          {"inner_spiral_angle_deg", RadToDeg(d.inner_spiral_angle_rad)},
-          {"mean_spiral_angle_deg", RadToDeg(d.mean_spiral_angle_rad)},
-          {"outer_spiral_angle_deg", RadToDeg(d.outer_spiral_angle_rad)},
-          {"addendum_mm", d.addendum_mm},
-          {"dedendum_mm", d.dedendum_mm},
-          {"slot_width_mm", d.slot_width_mm}};
-}
-
-// The passes are most of a large answer (40 000 points, 1 million numbers):
-// written straight to text, each number as the shortest decimal that reads
-// back to the same double (std::to_chars), instead of through a JSON tree.
-// Keys in each object in the order nlohmann-json writes them (sorted), so the
-// answer reads like the API's others.
-class PassWriter {
- public:
-  explicit PassWriter(std::string* out) : out_(*out) {}
-
-  void Key(const char* key) {
-    out_ += '"';
-    out_ += key;
-    out_ += "\":";
-  }
-  // A finite number; null otherwise (as nlohmann-json writes NaN).
-  void Number(double x) {
-    if (!std::isfinite(x)) {
-      out_ += "null";
-      return;
-    }
-    char buffer[32];
-    const std::to_chars_result r =
-        std::to_chars(buffer, buffer + sizeof(buffer), x);
-    const std::string_view text(buffer, static_cast<size_t>(r.ptr - buffer));
-    out_ += text;
-    // 35.0, not 35: a float stays a float for the readers.
-    if (text.find_first_of(".e") == std::string_view::npos) out_ += ".0";
-  }
-  void Member(const char* key, double x) {
-    Key(key);
-    Number(x);
-    out_ += ',';
-  }
-  void Member(const char* key, const Eigen::Vector3d& v) {
-    Key(key);
-    out_ += '[';
-    Number(v.x());
-    out_ += ',';
-    Number(v.y());
-    out_ += ',';
-    Number(v.z());
-    out_ += "],";
-  }
-
-  // {"A_deg",...,"tool_centre_mm"}: SPLIT_BEVEL.md §8's point.
-  void Point(const SplitBevelPoint& p) {
-    out_ += '{';
-    Member("A_deg", RadToDeg(p.axes.a_rad));
-    Member("B_deg", RadToDeg(p.axes.b_rad));
-    Member("X_mm", p.axes.x_mm);
-    Member("Y_mm", p.axes.y_mm);
-    Member("Z_mm", p.axes.z_mm);
-    Member("arc_mm", p.arc_mm);
-    Member("cone_distance_mm", p.cone_distance_mm);
-    Member("flank_normal", p.flank_normal);
-    Member("flank_point_mm", p.flank_point_mm);
-    Member("pitch_point_mm", p.pitch_point_mm);
-    Member("spiral_angle_deg", RadToDeg(p.spiral_angle_rad));
-    Member("tool_axis", p.tool_axis);
-    Member("tool_centre_mm", p.tool_centre_mm);
-    out_.back() = '}';
-  }
-
-  void Pass(const SplitBevelPass& pass) {
-    out_ += "{\"flank\":\"";
-    out_ += SplitBevelFlankName(pass.flank);
-    out_ += "\",\"level\":" + std::to_string(pass.level) + ",\"points\":[";
-    for (size_t i = 0; i < pass.points.size(); ++i) {
-      if (i > 0) out_ += ',';
-      Point(pass.points[i]);
-    }
-    out_ += "],";
-    Key("side_deviation_mm");
-    out_ += '{';
-    Member("max", pass.side_deviation_mm.max_mm);
-    Member("min", pass.side_deviation_mm.min_mm);
-    out_.back() = '}';
-    out_ += ",\"slot\":" + std::to_string(pass.slot) + ',';
-    Member("tip_height_mm", pass.tip_height_mm);
-    out_.back() = '}';
-  }
-
- private:
-  std::string& out_;
-};
-
 }  // namespace
 
 bool ParseSplitBevelRequest(const nlohmann::json& body,
@@ -406,52 +305,10 @@ ApiError SplitBevelResultError(const SplitBevelResult& result) {
   return InvalidValue(result.field, result.message);
 }
 
-std::string SplitBevelResultJsonText(const SplitBevelResult& result) {
-  nlohmann::json matrix = nlohmann::json::array();
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) matrix.push_back(result.blank_to_machine(i, j));
-  const nlohmann::json setup = {
-      {"blank_to_machine", std::move(matrix)},
-      {"segment_mid_deg", RadToDeg(result.segment_mid_rad)}};
-  size_t points = 0;
-  for (const SplitBevelPass& pass : result.passes) points += pass.points.size();
-  std::string out;
-  out.reserve(1024 + 640 * points);
-  out += "{\"derived\":";
-  out += DerivedJson(result.derived).dump();
-  out += ",\"passes\":[";
-  PassWriter writer(&out);
-  for (size_t i = 0; i < result.passes.size(); ++i) {
-    if (i > 0) out += ',';
-    writer.Pass(result.passes[i]);
-  }
-  out += "],\"setup\":";
-  out += setup.dump();
-  out += '}';
-  return out;
-}
-
 std::string SplitBevelJobFlank(const SplitBevelRequest& request) {
   if (request.cut.flanks.size() == 1)
     return SplitBevelFlankName(request.cut.flanks[0]);
   return "both";
-}
-
-std::string AppendJsonMembers(const std::string& object_text,
-                              const nlohmann::json& members) {
-  const size_t close = object_text.rfind('}');
-  std::string out = object_text.substr(0, close);
-  bool empty = out.find_first_not_of(" \t\r\n{") == std::string::npos;
-  for (const auto& item : members.items()) {
-    if (!empty) out += ',';
-    empty = false;
-    out += nlohmann::json(item.key()).dump();
-    out += ':';
-    out += item.value().dump(
-        -1, ' ', false, nlohmann::json::error_handler_t::replace);
-  }
-  out += '}';
-  return out;
 }
 
 }  // namespace gearloop

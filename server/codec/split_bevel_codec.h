@@ -13,7 +13,7 @@
 //   if (!CheckSplitBevelRequest(request, &error)) return ...;         // 422
 //   const SplitBevelResult result = ComputeSplitTrajectory(request);
 //   if (!result.ok) error = SplitBevelResultError(result);            // 422
-//   const std::string text = SplitBevelResultJsonText(result);
+//   const std::string text = SplitBevelResultJsonText(result);  // 200 body
 //
 // Request (API names; required: gear.teeth, gear.pitch_angle_deg,
 // gear.face_width_mm, gear.hand, gear.pressure_angle_deg, tool.radius_mm):
@@ -54,22 +54,32 @@ bool CheckSplitBevelRequest(const SplitBevelRequest& request, ApiError* error);
 // for the chord tolerance) as a 422 naming its field.
 ApiError SplitBevelResultError(const SplitBevelResult& result);
 
-// The 200 answer of SPLIT_BEVEL.md §8 without nc_program, as JSON text:
-// derived, setup {blank_to_machine, segment_mid_deg}, passes with their points
-// (vectors in the blank frame Si, X Y Z in mm, A B and every angle in degrees).
-// Every number is the shortest decimal that reads back to the engine's double
-// (the same value 17 significant digits would give); a non-finite one is null.
-std::string SplitBevelResultJsonText(const SplitBevelResult& result);
+// What SplitBevelResultJsonText writes besides derived, passes and setup.
+struct SplitBevelTextOptions {
+  // Each pass with its points (the answer), or with "point_count" only (the
+  // stored job: server/services/split_bevel_service.h).
+  bool points = true;
+  // Small members appended after "setup" in their (sorted) order: job_id,
+  // location, nc_location, ...
+  nlohmann::json members = nlohmann::json::object();
+  // Appended last as "nc_program" when not null.
+  const std::string* nc_program = nullptr;
+};
+
+// The 200 answer of SPLIT_BEVEL.md §8 as JSON text, written straight into one
+// string (40 000 points are a million numbers; server/codec/
+// split_bevel_answer.cc): derived, passes with their points, setup
+// {blank_to_machine, segment_mid_deg} (vectors in the blank frame Si, X Y Z in
+// mm, A B and every angle in degrees), then the options' members. Every number
+// has 17 significant digits as std::to_chars(..., general, 17) writes them
+// (server/codec/decimal17.h): it reads back to the engine's double exactly; a
+// non-finite one is null. The same result gives the same bytes.
+std::string SplitBevelResultJsonText(const SplitBevelResult& result,
+                                     const SplitBevelTextOptions& options = {});
 
 // "both" when the request cuts both flanks, else the one flank's name: the
 // job's flank column (storage/job_repository.h).
 std::string SplitBevelJobFlank(const SplitBevelRequest& request);
-
-// `object_text` (a JSON object as text, e.g. a dumped answer) with the members
-// of `members` appended before its closing brace: a large answer is dumped once
-// and then stored and answered with different additions.
-std::string AppendJsonMembers(const std::string& object_text,
-                              const nlohmann::json& members);
 
 }  // namespace gearloop
 

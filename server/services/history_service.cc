@@ -11,6 +11,7 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/correction_service.h"
+#include "server/services/split_bevel_service.h"
 #include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
@@ -276,6 +277,9 @@ void GetCorrection(const ServiceContext& context,
                    httplib::Response& res) {
   const std::optional<JobRecord> job = ReadPathJob(context, req);
   if (!job) return RespondError(res, NoStoredJob(req.matches[1].str()));
+  if (job->kind == kSplitTrajectoryJobKind &&
+      RespondStoredSplitTrajectory(context, *job, res))
+    return;
   nlohmann::json answer = JobSummaryJson(*job);
   answer["request"] = nlohmann::json::parse(job->request_json, nullptr, false);
   answer["result"] = nlohmann::json::parse(job->result_json, nullptr, false);

@@ -41,6 +41,32 @@ JobRecord SplitTrajectoryJob(const ServiceContext& context,
   return job;
 }
 
+// The answer of the stored `job` again: its request through the engine (which
+// is deterministic), the points written as the POST answered them and the
+// stored listing appended. An empty string, or why the points are not this
+// job's: the request does not compute any more, or the listing computed now
+// differs from the stored one (another engine).
+std::string RecomputeSplitTrajectory(const JobRecord& job,
+                                     const std::string& nc_program,
+                                     std::string* text) {
+  const nlohmann::json body =
+      nlohmann::json::parse(job.request_json, nullptr, false);
+  SplitBevelRequest request;
+  ApiError error;
+  if (!ParseSplitBevelRequest(body, &request, &error) ||
+      !CheckSplitBevelRequest(request, &error))
+    return "the stored request is refused now: " + error.message;
+  request.nc_program = true;
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  if (!result.ok) return "the stored request is refused now: " + result.message;
+  if (result.nc_program != nc_program)
+    return "the NC program computed now differs from the stored one";
+  SplitBevelTextOptions options;
+  options.nc_program = &nc_program;
+  *text = SplitBevelResultJsonText(result, options);
+  return "";
+}
+
 }  // namespace
 
 std::string SplitTrajectoryNcLocation(int64_t job_id) {
@@ -66,25 +92,67 @@ void CreateSplitTrajectory(const ServiceContext& context,
                                 std::chrono::steady_clock::now() - start)
                                 .count();
   if (!result.ok) return RespondError(res, SplitBevelResultError(result));
-  // The points make the answer large (40 000 points are ~25 MB): dumped once,
-  // then stored and answered with different members appended.
-  const std::string text = SplitBevelResultJsonText(result);
-  const nlohmann::json nc = {{"nc_program", result.nc_program}};
+  // The points make the answer large (40 000 points are ~25 MB): the job keeps
+  // the request, the per-pass summaries and the listing, and GET
+  // /api/v1/corrections/{id} computes the points again.
   JobRecord job = SplitTrajectoryJob(context, request, result, elapsed_ms);
   job.request_json = Dump(body);
-  job.result_json = AppendJsonMembers(text, nc);
+  SplitBevelTextOptions stored;
+  stored.points = false;
+  stored.members = {{"points_stored", false}};
+  stored.nc_program = &result.nc_program;
+  job.result_json = SplitBevelResultJsonText(result, stored);
   job.id = context.repository->WriteJob(job);
   if (context.log_solves)
     LOG(INFO) << "job " << job.id << " (" << job.kind
               << "): " << result.passes.size() << " passes in " << elapsed_ms
               << " ms";
-  nlohmann::json extra = {{"job_id", job.id},
-                          {"location", JobLocation(job.id)},
-                          {"nc_location", SplitTrajectoryNcLocation(job.id)}};
-  if (answer_nc) extra["nc_program"] = result.nc_program;
+  SplitBevelTextOptions answer;
+  answer.members = {{"job_id", job.id},
+                    {"location", JobLocation(job.id)},
+                    {"nc_location", SplitTrajectoryNcLocation(job.id)}};
+  if (answer_nc) answer.nc_program = &result.nc_program;
   res.status = 200;
   res.set_header("Location", JobLocation(job.id));
-  res.set_content(AppendJsonMembers(text, extra), "application/json");
+  // Moved, not copied as set_content would.
+  res.body = SplitBevelResultJsonText(result, answer);
+  res.set_header("Content-Type", "application/json");
+}
+
+bool RespondStoredSplitTrajectory(const ServiceContext& context,
+                                  const JobRecord& job,
+                                  httplib::Response& res) {
+  const nlohmann::json stored =
+      nlohmann::json::parse(job.result_json, nullptr, false);
+  if (!stored.is_object() || stored.value("points_stored", true) ||
+      !stored.contains("nc_program") || !stored["nc_program"].is_string())
+    return false;
+  const std::string& nc_program =
+      stored["nc_program"].get_ref<const std::string&>();
+  nlohmann::json summary = JobSummaryJson(job);
+  std::string result_text;
+  const std::string problem =
+      RecomputeSplitTrajectory(job, nc_program, &result_text);
+  nlohmann::json& note = summary["points_recomputed"];
+  note["server_version"] = context.server_version;
+  if (problem.empty()) {
+    note["nc_program_matches"] = true;
+  } else {
+    // Not the points of this job: its stored summaries and listing only.
+    note["error"] = problem;
+    result_text = job.result_json;
+  }
+  std::string text = Dump(summary);
+  text.pop_back();
+  text += ",\"request\":";
+  text += job.request_json;
+  text += ",\"result\":";
+  text += result_text;
+  text += '}';
+  res.status = 200;
+  res.body = std::move(text);
+  res.set_header("Content-Type", "application/json");
+  return true;
 }
 
 void GetSplitTrajectoryNc(const ServiceContext& context,

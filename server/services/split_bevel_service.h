@@ -22,6 +22,7 @@
 #include "server/codec/machine_kind.h"
 #include "server/respond.h"
 #include "server/services/service_context.h"
+#include "storage/job_repository.h"
 
 namespace gearloop {
 
@@ -35,6 +36,17 @@ std::string SplitTrajectoryNcLocation(int64_t job_id);
 void CreateSplitTrajectory(const ServiceContext& context,
                            const httplib::Request& req,
                            httplib::Response& res);
+// GET /api/v1/corrections/{id} of a split-trajectory job stored without its
+// points: the job's summary, "points_recomputed" {server_version,
+// nc_program_matches | error}, the request, and the result with the points
+// computed again (the same bytes the POST answered, then the stored
+// nc_program). When the request no longer computes or its listing differs
+// from the stored one, "error" says so and the result is the stored one
+// (without points). False, nothing answered, for a job stored with its points
+// (before this change), which the generic path shows.
+bool RespondStoredSplitTrajectory(const ServiceContext& context,
+                                  const JobRecord& job,
+                                  httplib::Response& res);
 // 404 when no split-trajectory job has this id.
 void GetSplitTrajectoryNc(const ServiceContext& context,
                           const httplib::Request& req,

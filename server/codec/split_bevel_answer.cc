@@ -1,0 +1,260 @@
+// The 200 answer of POST /api/v1/bevel/split-trajectory as JSON text
+// (server/codec/split_bevel_codec.h): 40 000 points are a million numbers, so
+// the text is written straight into one string, each number with 17
+// significant digits (server/codec/decimal17.h), instead of through a JSON
+// tree. Keys in each object in the order nlohmann-json writes them (sorted), so
+// the answer reads like the API's others.
+#include <algorithm>
+#include <cstring>
+#include <string>
+#include <string_view>
+
+#include "engine/core/units.h"
+#include "server/codec/decimal17.h"
+#include "server/codec/split_bevel_codec.h"
+
+namespace gearloop {
+namespace {
+
+// Room for one point: 13 keys and punctuation (< 300 characters) and 21
+// numbers of at most kDecimal17MaxChars.
+constexpr size_t kPointMaxChars = 300 + 21 * kDecimal17MaxChars;
+// The text of an average point (BENCHMARKS.md: ~610 characters), to reserve.
+constexpr size_t kPointReserveChars = 640;
+
+template <size_t N>
+char* Put(char* p, const char (&text)[N]) {
+  std::memcpy(p, text, N - 1);
+  return p + N - 1;
+}
+
+char* PutVector(char* p, const Eigen::Vector3d& v) {
+  *p++ = '[';
+  p = WriteDecimal17(v.x(), p);
+  *p++ = ',';
+  p = WriteDecimal17(v.y(), p);
+  *p++ = ',';
+  p = WriteDecimal17(v.z(), p);
+  *p++ = ']';
+  return p;
+}
+
+// {"A_deg",...,"tool_centre_mm"}: SPLIT_BEVEL.md §8's point.
+char* PutPoint(char* p, const SplitBevelPoint& point) {
+  p = WriteDecimal17(RadToDeg(point.axes.a_rad), Put(p, "{\"A_deg\":"));
+  p = WriteDecimal17(RadToDeg(point.axes.b_rad), Put(p, ",\"B_deg\":"));
+  p = WriteDecimal17(point.axes.x_mm, Put(p, ",\"X_mm\":"));
+  p = WriteDecimal17(point.axes.y_mm, Put(p, ",\"Y_mm\":"));
+  p = WriteDecimal17(point.axes.z_mm, Put(p, ",\"Z_mm\":"));
+  p = WriteDecimal17(point.arc_mm, Put(p, ",\"arc_mm\":"));
+  p = WriteDecimal17(point.cone_distance_mm, Put(p, ",\"cone_distance_mm\":"));
+  p = PutVector(Put(p, ",\"flank_normal\":"), point.flank_normal);
+  p = PutVector(Put(p, ",\"flank_point_mm\":"), point.flank_point_mm);
+  p = PutVector(Put(p, ",\"pitch_point_mm\":"), point.pitch_point_mm);
+  p = WriteDecimal17(RadToDeg(point.spiral_angle_rad),
+                     Put(p, ",\"spiral_angle_deg\":"));
+  p = PutVector(Put(p, ",\"tool_axis\":"), point.tool_axis);
+  p = PutVector(Put(p, ",\"tool_centre_mm\":"), point.tool_centre_mm);
+  *p++ = '}';
+  return p;
+}
+
+// One growing string: Room(n) makes n characters writable at the end,
+// Advance(end) keeps what was written up to `end`.
+class TextWriter {
+ public:
+  explicit TextWriter(size_t reserve) { text_.resize(reserve); }
+
+  char* Room(size_t n) {
+    if (size_ + n > text_.size())
+      text_.resize(std::max(2 * text_.size(), size_ + n));
+    return text_.data() + size_;
+  }
+  void Advance(const char* end) {
+    size_ = static_cast<size_t>(end - text_.data());
+  }
+  void Raw(std::string_view text) {
+    std::memcpy(Room(text.size()), text.data(), text.size());
+    size_ += text.size();
+  }
+  // "key": as JSON, then the number (no separator).
+  void Key(std::string_view key) {
+    Raw("\"");
+    Raw(key);
+    Raw("\":");
+  }
+  void Number(double x) {
+    Advance(WriteDecimal17(x, Room(kDecimal17MaxChars)));
+  }
+  void Member(std::string_view key, double x, bool last = false) {
+    Key(key);
+    Number(x);
+    if (!last) Raw(",");
+  }
+  void Integer(std::string_view key, long long value) {
+    Key(key);
+    Raw(std::to_string(value));
+    Raw(",");
+  }
+  void Point(const SplitBevelPoint& point) {
+    Advance(PutPoint(Room(kPointMaxChars), point));
+  }
+  std::string Finish() {
+    text_.resize(size_);
+    return std::move(text_);
+  }
+
+ private:
+  std::string text_;
+  size_t size_ = 0;
+};
+
+void WriteDerived(const SplitBevelGearData& d, TextWriter* w) {
+  w->Raw("{");
+  w->Member("addendum_mm", d.addendum_mm);
+  w->Member("base_radius_mm", d.base_radius_mm);
+  w->Member("crown_teeth", d.crown_teeth);
+  w->Member("dedendum_mm", d.dedendum_mm);
+  w->Member("inner_cone_distance_mm", d.inner_cone_distance_mm);
+  w->Member("inner_spiral_angle_deg", RadToDeg(d.inner_spiral_angle_rad));
+  w->Member("mean_cone_distance_mm", d.mean_cone_distance_mm);
+  w->Member("mean_spiral_angle_deg", RadToDeg(d.mean_spiral_angle_rad));
+  w->Member("normal_module_mm", d.normal_module_mm);
+  w->Member("outer_cone_distance_mm", d.outer_cone_distance_mm);
+  w->Member("outer_spiral_angle_deg", RadToDeg(d.outer_spiral_angle_rad));
+  w->Member("slot_width_mm", d.slot_width_mm, /*last=*/true);
+  w->Raw("}");
+}
+
+// {"flank","level","points"|"point_count","side_deviation_mm","slot",
+// "tip_height_mm"}.
+void WritePass(const SplitBevelPass& pass, bool with_points, TextWriter* w) {
+  w->Raw("{\"flank\":\"");
+  w->Raw(SplitBevelFlankName(pass.flank));
+  w->Raw("\",");
+  w->Integer("level", pass.level);
+  if (with_points) {
+    w->Raw("\"points\":[");
+    for (size_t i = 0; i < pass.points.size(); ++i) {
+      if (i > 0) w->Raw(",");
+      w->Point(pass.points[i]);
+    }
+    w->Raw("],");
+  } else {
+    w->Integer("point_count", static_cast<long long>(pass.points.size()));
+  }
+  w->Key("side_deviation_mm");
+  w->Raw("{");
+  w->Member("max", pass.side_deviation_mm.max_mm);
+  w->Member("min", pass.side_deviation_mm.min_mm, /*last=*/true);
+  w->Raw("},");
+  w->Integer("slot", pass.slot);
+  w->Member("tip_height_mm", pass.tip_height_mm, /*last=*/true);
+  w->Raw("}");
+}
+
+void WriteSetup(const SplitBevelResult& result, TextWriter* w) {
+  w->Raw("{\"blank_to_machine\":[");
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      if (i + j > 0) w->Raw(",");
+      w->Number(result.blank_to_machine(i, j));
+    }
+  }
+  w->Raw("],");
+  w->Member("segment_mid_deg", RadToDeg(result.segment_mid_rad), true);
+  w->Raw("}");
+}
+
+// `c` escaped at p as nlohmann-json writes it.
+char* PutEscaped(char* p, char c) {
+  *p++ = '\\';
+  switch (c) {
+    case '"':
+      *p++ = '"';
+      break;
+    case '\\':
+      *p++ = '\\';
+      break;
+    case '\b':
+      *p++ = 'b';
+      break;
+    case '\f':
+      *p++ = 'f';
+      break;
+    case '\n':
+      *p++ = 'n';
+      break;
+    case '\r':
+      *p++ = 'r';
+      break;
+    case '\t':
+      *p++ = 't';
+      break;
+    default: {
+      static constexpr char kHex[] = "0123456789abcdef";
+      const unsigned char u = static_cast<unsigned char>(c);
+      p = Put(p, "u00");
+      *p++ = kHex[u >> 4];
+      *p++ = kHex[u & 0xf];
+    }
+  }
+  return p;
+}
+
+// A JSON string of `text` as nlohmann-json writes it (escapes '"', '\\' and
+// the control characters; other bytes as they are), for the NC listing: in
+// pieces, so that the room asked for stays near what is written.
+void WriteString(std::string_view text, TextWriter* w) {
+  constexpr size_t kPiece = 4096;
+  w->Raw("\"");
+  for (size_t start = 0; start < text.size(); start += kPiece) {
+    const size_t end = std::min(text.size(), start + kPiece);
+    char* p = w->Room(6 * (end - start));
+    for (size_t i = start; i < end; ++i) {
+      const char c = text[i];
+      if (static_cast<unsigned char>(c) >= 0x20 && c != '"' && c != '\\')
+        *p++ = c;
+      else
+        p = PutEscaped(p, c);
+    }
+    w->Advance(p);
+  }
+  w->Raw("\"");
+}
+
+}  // namespace
+
+std::string SplitBevelResultJsonText(const SplitBevelResult& result,
+                                     const SplitBevelTextOptions& options) {
+  size_t points = 0;
+  for (const SplitBevelPass& pass : result.passes) points += pass.points.size();
+  size_t reserve = 4096 + 256 * result.passes.size();
+  if (options.points) reserve += kPointReserveChars * points;
+  if (options.nc_program != nullptr) reserve += options.nc_program->size() + 64;
+  TextWriter w(reserve);
+  w.Raw("{\"derived\":");
+  WriteDerived(result.derived, &w);
+  w.Raw(",\"passes\":[");
+  for (size_t i = 0; i < result.passes.size(); ++i) {
+    if (i > 0) w.Raw(",");
+    WritePass(result.passes[i], options.points, &w);
+  }
+  w.Raw("],\"setup\":");
+  WriteSetup(result, &w);
+  for (const auto& item : options.members.items()) {
+    w.Raw(",");
+    w.Raw(nlohmann::json(item.key()).dump());
+    w.Raw(":");
+    w.Raw(item.value().dump(
+        -1, ' ', false, nlohmann::json::error_handler_t::replace));
+  }
+  if (options.nc_program != nullptr) {
+    w.Raw(",\"nc_program\":");
+    WriteString(*options.nc_program, &w);
+  }
+  w.Raw("}");
+  return w.Finish();
+}
+
+}  // namespace gearloop
