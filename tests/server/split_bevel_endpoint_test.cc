@@ -18,6 +18,7 @@
 #include "engine/split_bevel/trajectory.h"
 #include "server/codec/split_bevel_codec.h"
 #include "server/http/gearloop_server.h"
+#include "storage/job_repository.h"
 #include "tests/server/server_test_util.h"
 
 namespace gearloop {
@@ -224,6 +225,110 @@ TEST_F(SplitBevelEndpointTest, StoresTheJobInTheHistory) {
   const Answer only = Get("/api/v1/corrections?flank=concave");
   ASSERT_EQ(only.body["total"], 1);
   EXPECT_EQ(only.body["jobs"][0]["id"], b.body["job_id"]);
+}
+
+// The job keeps the request, the per-pass summaries and the listing, not the
+// points; GET /api/v1/corrections/{id} computes them again, and its result is
+// the POST's answer byte for byte (then the stored listing).
+TEST_F(SplitBevelEndpointTest, ShowComputesThePointsAgainByteForByte) {
+  const Answer a = Post(WorkedExample());
+  ASSERT_EQ(a.status, 200) << a.text.substr(0, 300);
+  EXPECT_EQ(a.content_type, "application/json");
+  const int64_t id = a.body["job_id"].get<int64_t>();
+  {
+    std::unique_ptr<JobRepository> repository = OpenJobRepository(db_.path());
+    const std::optional<JobRecord> job = repository->ReadJob(id);
+    ASSERT_TRUE(job.has_value());
+    EXPECT_EQ(job->result_json.find("\"points\":"), std::string::npos);
+    const nlohmann::json stored = nlohmann::json::parse(job->result_json);
+    EXPECT_EQ(stored["points_stored"], false);
+    EXPECT_EQ(stored["nc_program"], a.body["nc_program"]);
+    EXPECT_EQ(stored["derived"], a.body["derived"]);
+    EXPECT_EQ(stored["setup"], a.body["setup"]);
+    ASSERT_EQ(stored["passes"].size(), a.body["passes"].size());
+    for (size_t i = 0; i < stored["passes"].size(); ++i) {
+      nlohmann::json pass = a.body["passes"][i];
+      pass["point_count"] = pass["points"].size();
+      pass.erase("points");
+      EXPECT_EQ(stored["passes"][i], pass) << i;
+    }
+  }
+  const Answer show = Get(a.body["location"].get<std::string>());
+  ASSERT_EQ(show.status, 200) << show.text.substr(0, 300);
+  EXPECT_EQ(show.body["points_recomputed"]["nc_program_matches"], true)
+      << show.body["points_recomputed"].dump();
+  EXPECT_FALSE(show.body["points_recomputed"].contains("error"));
+  EXPECT_EQ(show.body["request"], WorkedExample());
+  const std::string answered = a.text.substr(0, a.text.find(",\"job_id\":"));
+  const std::string expected =
+      answered + ",\"nc_program\":" + a.body["nc_program"].dump() + "}";
+  const size_t at = show.text.find(",\"result\":{\"derived\"");
+  ASSERT_NE(at, std::string::npos);
+  const std::string shown =
+      show.text.substr(at + 10, show.text.size() - at - 11);
+  EXPECT_EQ(shown, expected);
+}
+
+// A stored request that no longer computes, or a listing that differs from
+// the stored one (another engine), is shown without points and says why.
+TEST_F(SplitBevelEndpointTest, ShowSaysWhenThePointsCannotBeComputedAgain) {
+  const Answer a = Post(WorkedExample());
+  ASSERT_EQ(a.status, 200);
+  JobRecord job;
+  {
+    std::unique_ptr<JobRepository> repository = OpenJobRepository(db_.path());
+    job = *repository->ReadJob(a.body["job_id"].get<int64_t>());
+    JobRecord altered = job;
+    nlohmann::json stored = nlohmann::json::parse(job.result_json);
+    stored["nc_program"] = "%\nM30\n%\n";
+    altered.result_json = stored.dump();
+    altered.id = repository->WriteJob(altered);
+    JobRecord refused = job;
+    nlohmann::json request = WorkedExample();
+    request["tool"]["radius_mm"] = 400;
+    refused.request_json = request.dump();
+    refused.id = repository->WriteJob(refused);
+    for (const JobRecord& shown : {altered, refused}) {
+      const Answer show =
+          Get("/api/v1/corrections/" + std::to_string(shown.id));
+      ASSERT_EQ(show.status, 200) << show.text.substr(0, 300);
+      const nlohmann::json& note = show.body["points_recomputed"];
+      EXPECT_FALSE(note.contains("nc_program_matches")) << note.dump();
+      EXPECT_FALSE(note.value("error", "").empty()) << note.dump();
+      EXPECT_EQ(show.body["result"], nlohmann::json::parse(shown.result_json));
+      EXPECT_FALSE(show.body["result"]["passes"][0].contains("points"));
+    }
+  }
+}
+
+// A job stored with its points (before the points were computed again on
+// show) is shown as stored.
+TEST_F(SplitBevelEndpointTest, ShowsAJobStoredWithItsPointsAsStored) {
+  SplitBevelRequest request;
+  ApiError error;
+  ASSERT_TRUE(ParseSplitBevelRequest(WorkedExample(), &request, &error));
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  ASSERT_TRUE(result.ok) << result.message;
+  JobRecord job;
+  job.kind = "split_trajectory";
+  job.status = "computed";
+  job.machine_kind = "head-head-5-axis-mill";
+  job.created_utc = "2026-11-23T10:00:00Z";
+  job.request_json = WorkedExample().dump();
+  SplitBevelTextOptions options;
+  options.nc_program = &result.nc_program;
+  job.result_json = SplitBevelResultJsonText(result, options);
+  {
+    std::unique_ptr<JobRepository> repository = OpenJobRepository(db_.path());
+    job.id = repository->WriteJob(job);
+  }
+  const Answer show = Get("/api/v1/corrections/" + std::to_string(job.id));
+  ASSERT_EQ(show.status, 200) << show.text.substr(0, 300);
+  EXPECT_FALSE(show.body.contains("points_recomputed"));
+  EXPECT_EQ(show.body["result"], nlohmann::json::parse(job.result_json));
+  const Answer nc =
+      Get("/api/v1/bevel/split-trajectory/" + std::to_string(job.id) + "/nc");
+  EXPECT_EQ(nc.text, result.nc_program);
 }
 
 TEST_F(SplitBevelEndpointTest, ServesTheStoredNcProgramAsText) {
@@ -570,6 +675,106 @@ TEST(SplitBevelResultJsonText, EveryNumberReadsBackToTheEnginesDouble) {
       nlohmann::json::parse(SplitBevelResultJsonText(odd));
   EXPECT_TRUE(text["passes"][0]["points"][0]["X_mm"].is_null());
   EXPECT_TRUE(text["passes"][0]["points"][0]["Y_mm"].is_number_float());
+}
+
+// The answer as it was first built, through a nlohmann-json tree (b84310b):
+// the text written without one must parse to the same values, every number
+// exactly, with the same members.
+nlohmann::json TreeAnswer(const SplitBevelResult& result) {
+  const SplitBevelGearData& d = result.derived;
+  nlohmann::json answer;
+  answer["derived"] = {
+      {"base_radius_mm", d.base_radius_mm},
+      {"normal_module_mm", d.normal_module_mm},
+      {"crown_teeth", d.crown_teeth},
+      {"inner_cone_distance_mm", d.inner_cone_distance_mm},
+      {"mean_cone_distance_mm", d.mean_cone_distance_mm},
+      {"outer_cone_distance_mm", d.outer_cone_distance_mm},
+      {"inner_spiral_angle_deg", RadToDeg(d.inner_spiral_angle_rad)},
+      {"mean_spiral_angle_deg", RadToDeg(d.mean_spiral_angle_rad)},
+      {"outer_spiral_angle_deg", RadToDeg(d.outer_spiral_angle_rad)},
+      {"addendum_mm", d.addendum_mm},
+      {"dedendum_mm", d.dedendum_mm},
+      {"slot_width_mm", d.slot_width_mm}};
+  nlohmann::json matrix = nlohmann::json::array();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) matrix.push_back(result.blank_to_machine(i, j));
+  answer["setup"] = {{"blank_to_machine", matrix},
+                     {"segment_mid_deg", RadToDeg(result.segment_mid_rad)}};
+  const auto vec = [](const Eigen::Vector3d& v) {
+    return nlohmann::json::array({v.x(), v.y(), v.z()});
+  };
+  answer["passes"] = nlohmann::json::array();
+  for (const SplitBevelPass& pass : result.passes) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const SplitBevelPoint& p : pass.points) {
+      points.push_back({{"arc_mm", p.arc_mm},
+                        {"cone_distance_mm", p.cone_distance_mm},
+                        {"spiral_angle_deg", RadToDeg(p.spiral_angle_rad)},
+                        {"pitch_point_mm", vec(p.pitch_point_mm)},
+                        {"flank_point_mm", vec(p.flank_point_mm)},
+                        {"flank_normal", vec(p.flank_normal)},
+                        {"tool_centre_mm", vec(p.tool_centre_mm)},
+                        {"tool_axis", vec(p.tool_axis)},
+                        {"X_mm", p.axes.x_mm},
+                        {"Y_mm", p.axes.y_mm},
+                        {"Z_mm", p.axes.z_mm},
+                        {"A_deg", RadToDeg(p.axes.a_rad)},
+                        {"B_deg", RadToDeg(p.axes.b_rad)}});
+    }
+    answer["passes"].push_back({{"slot", pass.slot},
+                                {"flank", SplitBevelFlankName(pass.flank)},
+                                {"level", pass.level},
+                                {"tip_height_mm", pass.tip_height_mm},
+                                {"side_deviation_mm",
+                                 {{"min", pass.side_deviation_mm.min_mm},
+                                  {"max", pass.side_deviation_mm.max_mm}}},
+                                {"points", points}});
+  }
+  return answer;
+}
+
+TEST(SplitBevelResultJsonText, ParsesToTheValuesOfTheJsonTreeAnswer) {
+  nlohmann::json body = WorkedExample();
+  body["cut"]["steps"] = 7;
+  body["cut"]["from"] = "heel";
+  body["gear"]["hand"] = "left";
+  SplitBevelRequest request;
+  ApiError error;
+  ASSERT_TRUE(ParseSplitBevelRequest(body, &request, &error)) << error.message;
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  ASSERT_TRUE(result.ok) << result.message;
+  const nlohmann::json tree = TreeAnswer(result);
+  EXPECT_EQ(nlohmann::json::parse(SplitBevelResultJsonText(result)), tree);
+  // With the job's members and the listing, as the POST answers.
+  SplitBevelTextOptions options;
+  options.members = {{"job_id", 12}, {"location", "/api/v1/corrections/12"}};
+  options.nc_program = &result.nc_program;
+  nlohmann::json expected = tree;
+  expected["job_id"] = 12;
+  expected["location"] = "/api/v1/corrections/12";
+  expected["nc_program"] = result.nc_program;
+  const std::string text = SplitBevelResultJsonText(result, options);
+  EXPECT_EQ(nlohmann::json::parse(text), expected);
+  // The listing's escapes are nlohmann-json's own.
+  const std::string listing = result.nc_program + "\"\\\t\x01";
+  options.nc_program = &listing;
+  expected["nc_program"] = listing;
+  EXPECT_EQ(nlohmann::json::parse(SplitBevelResultJsonText(result, options)),
+            expected);
+  EXPECT_NE(SplitBevelResultJsonText(result, options)
+                .find(nlohmann::json(listing).dump()),
+            std::string::npos);
+  // Stored form: the passes' point counts instead of their points.
+  options.points = false;
+  const nlohmann::json stored =
+      nlohmann::json::parse(SplitBevelResultJsonText(result, options));
+  for (size_t i = 0; i < result.passes.size(); ++i) {
+    nlohmann::json pass = tree["passes"][i];
+    pass.erase("points");
+    pass["point_count"] = result.passes[i].points.size();
+    EXPECT_EQ(stored["passes"][i], pass);
+  }
 }
 
 }  // namespace
