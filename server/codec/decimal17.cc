@@ -6,6 +6,11 @@
 #include <cstdint>
 #include <cstring>
 
+// The digits are put together in words whose lowest byte is first in memory.
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "server/codec/decimal17.cc writes digits as little-endian words"
+#endif
+
 namespace gearloop {
 namespace {
 
@@ -35,10 +40,6 @@ constexpr uint64_t kPow5[21] = {1ull,
 constexpr double kPow10[20] = {1e-4, 1e-3, 1e-2, 1e-1, 1e0,  1e1, 1e2,
                                1e3,  1e4,  1e5,  1e6,  1e7,  1e8, 1e9,
                                1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
-constexpr char kDigitPairs[] =
-    "00010203040506070809101112131415161718192021222324252627282930313233343536"
-    "37383940414243444546474849505152535455565758596061626364656667686970717273"
-    "7475767778798081828384858687888990919293949596979899";
 constexpr uint64_t k1e8 = 100000000ull;
 constexpr uint64_t k1e16 = 10000000000000000ull;
 constexpr uint64_t k1e17 = 100000000000000000ull;
@@ -47,57 +48,91 @@ constexpr uint64_t k1e17 = 100000000000000000ull;
 constexpr int kMinExponent = -4;
 constexpr int kMaxExponent = 14;
 
-// The 8 digits of c < 10^8 at d.
-void WriteEightDigits(uint32_t c, char* d) {
-  const uint32_t high = c / 10000, low = c % 10000;
-  std::memcpy(d, kDigitPairs + 2 * (high / 100), 2);
-  std::memcpy(d + 2, kDigitPairs + 2 * (high % 100), 2);
-  std::memcpy(d + 4, kDigitPairs + 2 * (low / 100), 2);
-  std::memcpy(d + 6, kDigitPairs + 2 * (low % 100), 2);
+// The 8 decimal digits of c < 10^8 as the bytes of a word, first digit in
+// the lowest byte (the first in memory on a little-endian machine), each 0-9
+// (not yet a character): split into two 4-digit lanes, then 2-digit, then
+// 1-digit ones, by multiplications that divide exactly in these ranges
+// (x·10486 >> 20 = x / 100 for x < 10^4, y·103 >> 10 = y / 10 for y < 100).
+uint64_t EightDigitValues(uint32_t c) {
+  uint64_t v = (c / 10000) | (static_cast<uint64_t>(c % 10000) << 32);
+  uint64_t t = ((v * 10486) >> 20) & 0x0000007F0000007Full;
+  v = t | ((v - 100 * t) << 16);
+  t = ((v * 103) >> 10) & 0x000F000F000F000Full;
+  return t | ((v - 10 * t) << 8);
 }
 
-// round(m·2^e·10^k), half to even, exactly: m·5^k < 2^100 for k <= 20, and
-// 2^(k+e) shifts it.
+constexpr uint64_t kZeros = 0x3030303030303030ull;  // "00000000"
+
+// The bytes 0..k-1 of a word (k = 0..7).
+uint64_t LowBytes(int k) { return (uint64_t{1} << (8 * k)) - 1; }
+
+// The digits of `w` (8 characters) with '.' put before its byte `k` (0..7)
+// and the bytes from k on moved one up (the last falls out): 9 characters
+// become "w[0..k-1].w[k..6]".
+uint64_t WithPoint(uint64_t w, int k) {
+  return (w & LowBytes(k)) | (uint64_t{'.'} << (8 * k)) |
+         ((w << 8) & (~LowBytes(k) << 8));
+}
+
+void Store(char* p, uint64_t w) { std::memcpy(p, &w, sizeof(w)); }
+
+// round(m·2^e·10^k), half to even, exactly, for 1 <= -(k + e) <= 63 (the
+// fast path's range: 1e-4 <= x < 1e15 gives 1..47): m·5^k < 2^100 for k <= 20,
+// the bits shifted out all in its low word.
 uint64_t RoundScaled(uint64_t m, int e, int k) {
   using u128 = unsigned __int128;
   const u128 v = static_cast<u128>(m) * kPow5[k];
   const int shift = -(k + e);
-  if (shift <= 0) return static_cast<uint64_t>(v << -shift);
-  if (shift >= 128) return 0;
-  uint64_t n = static_cast<uint64_t>(v >> shift);
-  const u128 rest = v & ((static_cast<u128>(1) << shift) - 1);
-  const u128 half = static_cast<u128>(1) << (shift - 1);
-  if (rest > half || (rest == half && (n & 1) != 0)) ++n;
-  return n;
+  const uint64_t n = static_cast<uint64_t>(v >> shift);
+  const uint64_t rest = static_cast<uint64_t>(v) & ((uint64_t{1} << shift) - 1);
+  const uint64_t half = uint64_t{1} << (shift - 1);
+  return n + ((rest > half) | ((rest == half) & (n & 1)));
 }
 
 // The 17 digits n (10^16 <= n < 10^17) of a value of decimal exponent
 // `exponent` (-4..14) in fixed notation, trailing zeros dropped, ".0" kept.
-// Copies of fixed length only (a variable one is a call to memmove): `out`
-// has kDecimal17MaxChars of room.
+// The digits stay in registers and go out as whole words (a load of bytes
+// just stored one by one would wait for them): `out` has kDecimal17MaxChars
+// of room, of which up to 26 are written and fewer kept.
 char* WriteFixed(uint64_t n, int exponent, bool negative, char* out) {
-  char d[17 + 16];  // the digits, then room for the fixed-length copies
   const uint64_t high = n / k1e8;
   const uint32_t top = static_cast<uint32_t>(high / k1e8);
-  d[0] = static_cast<char>('0' + top);
-  WriteEightDigits(static_cast<uint32_t>(high - top * k1e8), d + 1);
-  WriteEightDigits(static_cast<uint32_t>(n - high * k1e8), d + 9);
-  int last = 16;
-  while (last > 0 && d[last] == '0') --last;
-  if (negative) *out++ = '-';
-  if (exponent >= 0) {
-    std::memcpy(out, d, 16);
-    out[exponent + 1] = '.';
-    if (last <= exponent) {
-      out[exponent + 2] = '0';
-      return out + exponent + 3;
-    }
-    std::memcpy(out + exponent + 2, d + exponent + 1, 16);
-    return out + last + 2;
+  const uint64_t mid =
+      EightDigitValues(static_cast<uint32_t>(high - top * k1e8));
+  const uint64_t low = EightDigitValues(static_cast<uint32_t>(n - high * k1e8));
+  // The index (0..16) of the last digit that is not 0.
+  int last = 0;
+  if (low != 0)
+    last = 16 - __builtin_clzll(low) / 8;
+  else if (mid != 0)
+    last = 8 - __builtin_clzll(mid) / 8;
+  const char first = static_cast<char>('0' + top);
+  const uint64_t a = mid + kZeros;  // digits 1..8
+  const uint64_t b = low + kZeros;  // digits 9..16
+  // Branch-free: the signs of vector components follow no pattern.
+  *out = '-';
+  out += negative ? 1 : 0;
+  if (exponent < 0) {                   // "0.", -exponent - 1 zeros, the digits
+    Store(out, 0x3030303030302e30ull);  // "0.000000"
+    char* digits = out + 1 - exponent;
+    *digits = first;
+    Store(digits + 1, a);
+    Store(digits + 9, b);
+    return digits + last + 1;
   }
-  std::memcpy(out, "0.000", 5);
-  std::memcpy(out + 1 - exponent, d, 17);
-  return out + 2 - exponent + last;
+  // exponent + 1 digits, '.', the others; at least one digit after the point.
+  const int point = exponent + 1;
+  out[0] = first;
+  if (point <= 8) {
+    Store(out + 1, WithPoint(a, point - 1));
+    out[9] = static_cast<char>(a >> 56);
+    Store(out + 10, b);
+  } else {
+    Store(out + 1, a);
+    Store(out + 9, WithPoint(b, point - 9));
+    out[17] = static_cast<char>(b >> 56);
+  }
+  return out + (last > point ? last : point) + 2;
 }
 
 // The fast path: a normal double with 1e-4 <= |x| (rounded) < 1e15; false,
@@ -111,13 +146,20 @@ bool WriteFast(double x, char** out) {
   const int e = biased - 1075;  // x = ±m·2^e, 2^52 <= m < 2^53
   // floor(log10 |x|) is floor((e + 52)·log10 2) or one more.
   int exponent = ((e + 52) * 315653) >> 20;
-  if (exponent >= kMinExponent - 1 && exponent <= kMaxExponent &&
-      std::fabs(x) >= kPow10[exponent + 1 - kMinExponent])
-    ++exponent;
+  // Branch-free: which side of a power of ten a value falls on follows no
+  // pattern either.
+  const int index = std::min(std::max(exponent + 1 - kMinExponent, 0),
+                             kMaxExponent + 1 - kMinExponent);
+  const bool in_table =
+      exponent >= kMinExponent - 1 && exponent <= kMaxExponent;
+  exponent += (in_table & (std::fabs(x) >= kPow10[index])) ? 1 : 0;
   // |x| within an ulp of a power of ten: the rounded digits decide.
   for (int attempt = 0; attempt < 3; ++attempt) {
-    if (exponent < kMinExponent || exponent > kMaxExponent) return false;
-    const uint64_t n = RoundScaled(m, e, 16 - exponent);
+    const int k = 16 - exponent;
+    if (exponent < kMinExponent || exponent > kMaxExponent || k + e > -1 ||
+        k + e < -63)
+      return false;
+    const uint64_t n = RoundScaled(m, e, k);
     if (n >= k1e17) {
       ++exponent;
     } else if (n < k1e16) {

@@ -202,25 +202,41 @@ char* PutEscaped(char* p, char c) {
   return p;
 }
 
+bool NeedsEscape(char c) {
+  return static_cast<unsigned char>(c) < 0x20 || c == '"' || c == '\\';
+}
+
 // A JSON string of `text` as nlohmann-json writes it (escapes '"', '\\' and
-// the control characters; other bytes as they are), for the NC listing: in
-// pieces, so that the room asked for stays near what is written.
+// the control characters; other bytes as they are), for the NC listing: the
+// runs between escapes (its lines) copied whole.
 void WriteString(std::string_view text, TextWriter* w) {
-  constexpr size_t kPiece = 4096;
   w->Raw("\"");
-  for (size_t start = 0; start < text.size(); start += kPiece) {
-    const size_t end = std::min(text.size(), start + kPiece);
-    char* p = w->Room(6 * (end - start));
-    for (size_t i = start; i < end; ++i) {
-      const char c = text[i];
-      if (static_cast<unsigned char>(c) >= 0x20 && c != '"' && c != '\\')
-        *p++ = c;
-      else
-        p = PutEscaped(p, c);
-    }
-    w->Advance(p);
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = start;
+    while (end < text.size() && !NeedsEscape(text[end])) ++end;
+    w->Raw(text.substr(start, end - start));
+    if (end == text.size()) break;
+    w->Advance(PutEscaped(w->Room(6), text[end]));
+    start = end + 1;
   }
   w->Raw("\"");
+}
+
+// The options' members and listing, then the closing brace.
+void WriteTail(const SplitBevelTextOptions& options, TextWriter* w) {
+  for (const auto& item : options.members.items()) {
+    w->Raw(",");
+    w->Raw(nlohmann::json(item.key()).dump());
+    w->Raw(":");
+    w->Raw(item.value().dump(
+        -1, ' ', false, nlohmann::json::error_handler_t::replace));
+  }
+  if (options.nc_program != nullptr) {
+    w->Raw(",\"nc_program\":");
+    WriteString(*options.nc_program, w);
+  }
+  w->Raw("}");
 }
 
 }  // namespace
@@ -242,18 +258,7 @@ std::string SplitBevelResultJsonText(const SplitBevelResult& result,
   }
   w.Raw("],\"setup\":");
   WriteSetup(result, &w);
-  for (const auto& item : options.members.items()) {
-    w.Raw(",");
-    w.Raw(nlohmann::json(item.key()).dump());
-    w.Raw(":");
-    w.Raw(item.value().dump(
-        -1, ' ', false, nlohmann::json::error_handler_t::replace));
-  }
-  if (options.nc_program != nullptr) {
-    w.Raw(",\"nc_program\":");
-    WriteString(*options.nc_program, &w);
-  }
-  w.Raw("}");
+  WriteTail(options, &w);
   return w.Finish();
 }
 
