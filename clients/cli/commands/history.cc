@@ -311,6 +311,12 @@ int RunShow(const ParsedArgs& args,
               << " (split_trajectory), NC program at /api/v1/bevel/"
                  "split-trajectory/"
               << Member(job, "id") << "/nc\n";
+    // The server computes a stored trajectory's points again; when it cannot,
+    // the table has no A/B ranges and this says why.
+    const json note = job.value("points_recomputed", json::object());
+    if (note.contains("error"))
+      std::cout << "points not computed again: " << Member(note, "error")
+                << "\n";
     PrintSplitTrajectory(job.value("result", json::object()));
     return kExitOk;
   }

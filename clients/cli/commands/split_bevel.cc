@@ -121,8 +121,10 @@ void PrintSplitTrajectory(const json& result) {
     const json deviation = pass.value("side_deviation_mm", json::object());
     std::cout << std::setw(5) << ++index << std::setw(9)
               << Member(pass, "flank") << std::setw(6) << Member(pass, "level")
-              << std::setw(9) << points.size() << std::setw(22)
-              << Range(points, "A_deg") << std::setw(22)
+              << std::setw(9)
+              << pass.value("point_count",
+                            static_cast<long long>(points.size()))
+              << std::setw(22) << Range(points, "A_deg") << std::setw(22)
               << Range(points, "B_deg") << std::setw(13)
               << Fixed(deviation.value("max", json()), 4) << " mm"
               << "\n";
