@@ -145,7 +145,10 @@ bool RespondStoredSplitTrajectory(const ServiceContext& context,
   std::string text = Dump(summary);
   text.pop_back();
   text += ",\"request\":";
-  text += job.request_json;
+  // As the generic show: a stored request that is not JSON shows as null.
+  const bool request_is_json =
+      !nlohmann::json::parse(job.request_json, nullptr, false).is_discarded();
+  text += request_is_json ? job.request_json : "null";
   text += ",\"result\":";
   text += result_text;
   text += '}';
