@@ -1,11 +1,9 @@
 #include "server/codec/split_bevel_codec.h"
 
-#include <charconv>
 #include <climits>
 #include <cmath>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "engine/core/units.h"
