@@ -48,6 +48,27 @@ constexpr uint64_t k1e17 = 100000000000000000ull;
 constexpr int kMinExponent = -4;
 constexpr int kMaxExponent = 14;
 
+// floor(log10 |x|) by the binary exponent b = floor(log2 |x|) for
+// -14 <= b <= 49: the guess floor(b·log10 2) and the power of ten above it.
+constexpr int kMinBinaryExponent = -14;
+constexpr int kBinaryExponents = 64;
+struct ExponentTable {
+  int guess[kBinaryExponents] = {};
+  double next_power[kBinaryExponents] = {};
+};
+constexpr ExponentTable MakeExponentTable() {
+  ExponentTable table;
+  for (int i = 0; i < kBinaryExponents; ++i) {
+    // 315653 / 2^20 is log10 2 within 3e-7: floor exact for |b| <= 64 here
+    // (and the loop below mends a guess one off).
+    const int guess = ((i + kMinBinaryExponent) * 315653) >> 20;
+    table.guess[i] = guess;
+    table.next_power[i] = kPow10[guess + 1 - kMinExponent];
+  }
+  return table;
+}
+constexpr ExponentTable kExponentTable = MakeExponentTable();
+
 // The 8 decimal digits of c < 10^8 as the bytes of a word, first digit in
 // the lowest byte (the first in memory on a little-endian machine), each 0-9
 // (not yet a character): split into two 4-digit lanes, then 2-digit, then
@@ -144,15 +165,13 @@ bool WriteFast(double x, char** out) {
   if (biased == 0 || biased == 0x7ff) return false;
   const uint64_t m = (bits & ((uint64_t{1} << 52) - 1)) | (uint64_t{1} << 52);
   const int e = biased - 1075;  // x = ±m·2^e, 2^52 <= m < 2^53
-  // floor(log10 |x|) is floor((e + 52)·log10 2) or one more.
-  int exponent = ((e + 52) * 315653) >> 20;
-  // Branch-free: which side of a power of ten a value falls on follows no
-  // pattern either.
-  const int index = std::min(std::max(exponent + 1 - kMinExponent, 0),
-                             kMaxExponent + 1 - kMinExponent);
-  const bool in_table =
-      exponent >= kMinExponent - 1 && exponent <= kMaxExponent;
-  exponent += (in_table & (std::fabs(x) >= kPow10[index])) ? 1 : 0;
+  // floor(log10 |x|) is floor((e + 52)·log10 2) or one more: both from a
+  // table by the binary exponent, for 2^-14 <= |x| < 2^50 (the rest is
+  // outside the fast path's 1e-4..1e15 anyway).
+  const int binary = e + 52 - kMinBinaryExponent;
+  if (binary < 0 || binary >= kBinaryExponents) return false;
+  int exponent = kExponentTable.guess[binary] +
+                 (std::fabs(x) >= kExponentTable.next_power[binary] ? 1 : 0);
   // |x| within an ulp of a power of ten: the rounded digits decide.
   for (int attempt = 0; attempt < 3; ++attempt) {
     const int k = 16 - exponent;
