@@ -394,13 +394,13 @@
   function modificationRow(m, onRemove) {
     const kind = P.html("select", { class: "mod-kind", "aria-label": "kind" }, MODIFICATION_KINDS.map((k) => P.html("option", { value: k, text: k.replace(/_/g, " ") })));
     kind.value = MODIFICATION_KINDS.includes(m.kind) ? m.kind : "lead_crowning";
-    const num = (cls, label, value, step) => P.html("input", { type: "number", class: cls, "aria-label": label, step, value: value === undefined ? "" : String(value) });
+    const num = (cls, label, value, step, hint) => P.html("input", { type: "number", class: cls, "aria-label": label, title: label, step, placeholder: hint || "", value: value === undefined ? "" : String(value) });
     const amount = num("mod-amount", "amount_um", m.amount_um === undefined ? 0 : m.amount_um, "0.1");
-    const length = num("mod-length", "length_fraction", m.length_fraction, "0.05");
+    const length = num("mod-length", "length_fraction", m.length_fraction, "0.05", "0.2");
     const shape = P.html("select", { class: "mod-shape", "aria-label": "shape" }, ["linear", "parabolic"].map((v) => P.html("option", { value: v, text: v })));
     shape.value = m.shape || "linear";
-    const second = num("mod-second-amount", "second_amount_um", m.second_amount_um, "0.1");
-    const secondLength = num("mod-second-length", "second_length_fraction", m.second_length_fraction, "0.05");
+    const second = num("mod-second-amount", "second_amount_um", m.second_amount_um, "0.1", "\u00b5m");
+    const secondLength = num("mod-second-length", "second_length_fraction", m.second_length_fraction, "0.05", "length");
     const remove = P.html("button", { type: "button", class: "mod-remove", title: "remove", text: "\u00d7" });
     const row = P.html("div", { class: "mod-row" }, [kind, P.html("span", { text: "amount \u00b5m" }), amount, P.html("span", { class: "relief", text: "length" }), length, shape, P.html("span", { class: "diagonal", text: "2nd \u00b5m" }), second, secondLength, remove]);
     const relief = () => {
@@ -482,8 +482,11 @@
     );
     const grid = (req.target || {}).deviations_um ? " The stored target is a user grid; a replay from here replaces it with these modifications." : "";
     return P.html("details", { class: "target-editor", id: "target-editor" }, [
-      P.html("summary", { text: "Target (MODEL.md \u00a77 modifications, \u00b5m, negative = material removed): change it and replay" }),
-      P.html("p", { class: "note", text: "Crowning and relief amounts refer to the grid's extent (\u00b10.4 b by default), not the face width." + grid }),
+      P.html("summary", { text: "Target modifications (MODEL.md \u00a77): change them, see what the machine can make, replay" }),
+      P.html("p", {
+        class: "note",
+        text: "Amounts in \u00b5m as MODEL.md \u00a77 defines them: a crowning or relief of C takes C off at its end (deviation \u2212C, material removed); slopes and twist are signed. They refer to the grid's extent (\u00b10.4 b by default), not the face width." + grid,
+      }),
       list,
       P.html("div", { class: "actions" }, [add, reach, replay, status]),
       out,
