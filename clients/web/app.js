@@ -480,7 +480,9 @@
         window.location.hash = "job=" + created.id;
       })
     );
-    const grid = (req.target || {}).deviations_um ? " The stored target is a user grid; a replay from here replaces it with these modifications." : "";
+    const t = req.target || {};
+    const kind = t.deviations_um ? "a user grid" : t.shaving || t.stock_target_um ? "a shaving-cutter target" : null;
+    const grid = kind ? " The stored target is " + kind + "; a replay from here replaces it with these modifications." : "";
     return P.html("details", { class: "target-editor", id: "target-editor" }, [
       P.html("summary", { text: "Target modifications (MODEL.md \u00a77): change them, see what the machine can make, replay" }),
       P.html("p", {

@@ -128,7 +128,7 @@
       ["measured", "measured", measured, "as the measuring machine reported it"],
       ["target", "target", target, "the designed modification"],
       ["predicted", "predicted part", predicted, target ? "target + predicted residual" : "measured + predicted change"],
-    ].filter((s) => s[2] && s[2].length);
+    ].filter((s) => s[2] && s[2].length >= 2 && s[2][0].length >= 2);
   }
 
   // An oblique view of one grid: lead to the right, profile receding up-right, the deviation
