@@ -209,13 +209,16 @@
     ctx.fillText(axes.rowTitle, 0, 0);
     ctx.restore();
     const step = niceStep(geom.maxAbs);
+    // As many decimals as the step needs (2.5 -> 1, 0.25 -> 2).
+    let digits = 0;
+    while (digits < 6 && Math.abs(step * Math.pow(10, digits) - Math.round(step * Math.pow(10, digits))) > 1e-6) digits += 1;
     const x = geom.ox - 14;
     line(ctx, [[x, geom.oy - geom.maxAbs * geom.k], [x, geom.oy + geom.maxAbs * geom.k]]);
     ctx.textAlign = "right";
     for (let t = -Math.floor(geom.maxAbs / step) * step; t <= geom.maxAbs + 1e-9; t += step) {
       const y = geom.oy - t * geom.k;
       line(ctx, [[x - 4, y], [x, y]]);
-      ctx.fillText((Math.abs(t) < step * 1e-6 ? 0 : t).toFixed(step < 1 ? 1 : 0), x - 6, y + 4);
+      ctx.fillText((Math.abs(t) < step * 1e-6 ? 0 : t).toFixed(digits), x - 6, y + 4);
     }
     ctx.textAlign = "left";
     ctx.fillText("\u00b5m", x - 22, geom.oy - geom.maxAbs * geom.k - 8);
