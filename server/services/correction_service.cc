@@ -266,8 +266,10 @@ void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
       "): the solve converged, but this machine configuration reaches at "
       "best " +
       best +
-      " um rms of the target at the allowed orders; allow higher orders "
-      "or more axes (options.max_order), or relax the tolerance";
+      " um rms of the target at the allowed orders; allow higher orders, "
+      "more axes or the wheel's profile (options.max_order: for target "
+      "modifications result.reach computes which makes the rest), or relax "
+      "the tolerance";
   run->job.status = "target_partly_reachable";
 }
 
