@@ -12,6 +12,10 @@ constexpr double kOnTargetRmsUm = 1e-6;
 // Fewer effective directions than this (the Tikhonov filter factors' sum) is
 // no direction kept.
 constexpr double kNoDirectionDof = 0.01;
+// When the best reachable rms is at least this share of the error's, almost
+// all of the error is out of reach of the free axes: the advice is to free
+// more of the machine, not to measure again.
+constexpr double kMostlyOutOfReach = 0.95;
 // A step or motion factor below this kept nothing of the change.
 constexpr double kNothingKeptFraction = 1e-9;
 
@@ -31,6 +35,17 @@ double ReachableRmsUm(const CorrectionSummary& s) {
   const double e = s.initial_rms_um, best = s.best_reachable_rms_um;
   if (!std::isfinite(e) || !std::isfinite(best)) return std::nan("");
   return std::sqrt(std::max(0.0, e * e - best * best));
+}
+
+std::string NoiseAdvice(const CorrectionSummary& s) {
+  if (s.best_reachable_rms_um >= kMostlyOutOfReach * s.initial_rms_um) {
+    return "Almost all of the error is out of reach of the free axes: free "
+           "higher orders, more axes or the wheel's profile "
+           "(options.max_order; POST /api/v1/targets/reach names which makes "
+           "most of a target), or accept the part";
+  }
+  return "Measure again (several teeth average the noise out) or state the "
+         "probe noise if it is smaller";
 }
 
 nlohmann::json NothingAboveNoise(const CorrectionSummary& s) {
@@ -53,9 +68,7 @@ nlohmann::json NothingAboveNoise(const CorrectionSummary& s) {
           ": the part of the measured error the machine can make (rms " +
           Num(ReachableRmsUm(s)) + " um of " + Num(s.initial_rms_um) +
           " um; best reachable " + Num(s.best_reachable_rms_um) +
-          " um) is no larger than " + noise +
-          ". Measure again (several teeth average the noise out) or state the "
-          "probe noise if it is smaller");
+          " um) is no larger than " + noise + ". " + NoiseAdvice(s));
 }
 
 }  // namespace

@@ -93,6 +93,32 @@ TEST_F(ZeroCorrectionTest, NoiseAloneSaysNothingAboveTheNoise) {
       << with_noise["message"];
 }
 
+// A flank error the free axes cannot make: the predicted flank of a first
+// correction towards a lead crowning, measured as the next part (nominal
+// settings, same target). GCV keeps nothing and the advice is to free more of
+// the machine, not to measure again.
+TEST_F(ZeroCorrectionTest, AnErrorOutOfReachSaysSo) {
+  nlohmann::json zero = nlohmann::json::array();
+  for (int r = 0; r < 5; ++r) zero.push_back(std::vector<double>(9, 0.0));
+  nlohmann::json request = Request(zero);
+  request["options"].erase("default_max_order");
+  request["target"] = {
+      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 4}}}}};
+  const nlohmann::json first = Correct(request);
+  nlohmann::json predicted = first["target_um"];
+  for (size_t r = 0; r < predicted.size(); ++r)
+    for (size_t c = 0; c < predicted[r].size(); ++c)
+      predicted[r][c] = predicted[r][c].get<double>() +
+                        first["predicted_residual_um"][r][c].get<double>();
+  request["measurement"] = {{"deviations_um", predicted}};
+  const nlohmann::json next = Correct(request);
+  ASSERT_LE(next["correction_size"].get<double>(), kNegligibleSize);
+  EXPECT_EQ(next["explain"]["reason"], "nothing_above_noise");
+  EXPECT_TRUE(Says(next, "out of reach of the free axes")) << next["message"];
+  // Noise alone keeps the advice to measure again.
+  EXPECT_TRUE(Says(Correct(Request(NoiseOnlyGrid())), "Measure again"));
+}
+
 // No direction above min_flank_effect_um: rank 0, the safe step keeps the
 // current settings; the reason is the rank, the engine's words follow.
 TEST_F(ZeroCorrectionTest, RankZeroNamesMinFlankEffect) {
