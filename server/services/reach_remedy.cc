@@ -50,8 +50,8 @@ int CurrentOrder(const nlohmann::json& options, const std::string& axis) {
   return std::min(order, kHighestOrder);
 }
 
-// The share of `modification` with axis block `axis` at `order`; NaN when
-// that solve is refused.
+// The share of `modification` with each block of `orders` set to its order
+// in options.max_order (the rest as sent); NaN when that solve is refused.
 double ShareWithOrders(const ServiceContext& context,
                        nlohmann::json body,
                        const nlohmann::json& modification,
