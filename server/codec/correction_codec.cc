@@ -7,6 +7,7 @@
 
 #include "engine/core/units.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/zero_correction.h"
 
 namespace gearloop {
 namespace {
@@ -449,7 +450,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
   nlohmann::json singular_values = nlohmann::json::array();
   for (int i = 0; i < s.singular_values.size(); ++i)
     singular_values.push_back(FiniteOrNull(s.singular_values(i)));
-  return {
+  nlohmann::json answer = {
       {"status", CorrectionStatusName(s.status)},
       {"message", s.message},
       {"initial_rms_um", FiniteOrNull(s.initial_rms_um)},
@@ -502,6 +503,15 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
       {"tooth_outliers", PointList(s.tooth_outlier_indices, columns)},
       {"missing", PointList(s.missing_indices, columns)},
   };
+  // A zero correction says why (server/codec/zero_correction.h).
+  const nlohmann::json explain = ZeroCorrectionExplainJson(s);
+  if (!explain.is_null()) {
+    const std::string said = s.message;
+    answer["message"] = explain["message"].get<std::string>() +
+                        (said.empty() ? std::string() : " (" + said + ")");
+    answer["explain"] = explain;
+  }
+  return answer;
 }
 
 namespace {

@@ -18,6 +18,7 @@
 #include "server/codec/tolerance_codec.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
+#include "server/services/reach_service.h"
 #include "server/services/shaving_service.h"
 #include "server/services/stored_job.h"
 
@@ -265,8 +266,10 @@ void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
       "): the solve converged, but this machine configuration reaches at "
       "best " +
       best +
-      " um rms of the target at the allowed orders; allow higher orders "
-      "or more axes (options.max_order), or relax the tolerance";
+      " um rms of the target at the allowed orders; allow higher orders, "
+      "more axes or the wheel's profile (options.max_order: for target "
+      "modifications result.reach computes which makes the rest), or relax "
+      "the tolerance";
   run->job.status = "target_partly_reachable";
 }
 
@@ -393,6 +396,13 @@ bool RunCorrection(const ServiceContext& context,
   }
   if (tolerance) {
     ApplyTolerance(*tolerance, run);
+    // What the machine can make of the target, and what would make the rest:
+    // only for a job that misses its tolerance (a reach solves again per
+    // modification and remedy).
+    if (run->job.status == "target_partly_reachable") {
+      const nlohmann::json reach = CorrectionReachJson(context, body);
+      if (!reach.is_null()) run->result_json["reach"] = reach;
+    }
     run->job.result_json = run->result_json.dump();
   }
   if (context.record_solve_seconds)
