@@ -3,6 +3,7 @@
 #include <cmath>
 #include <string>
 
+#include "server/codec/request_keys.h"
 #include "server/services/correction_service.h"
 #include "server/services/machine_family.h"
 
@@ -97,6 +98,7 @@ void ReachTarget(const ServiceContext& context,
   nlohmann::json zero_grid;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kTargetReach, body, "", &error) ||
       !ReadReachRequest(body, &zero_grid, &error))
     return RespondError(res, error);
   const nlohmann::json& modifications = body["target"]["modifications"];
