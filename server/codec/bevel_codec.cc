@@ -426,6 +426,14 @@ nlohmann::json FreeFormMotionToJson(const FreeFormMotion& motion) {
   return j;
 }
 
+// The keys of a conversion's options (roll_margin_fraction: the share of the
+// roll range added at each end, ConversionOptions).
+const std::vector<std::string> kConversionOptionKeys = {"polynomial_degree",
+                                                        "max_flank_distance_um",
+                                                        "num_samples",
+                                                        "num_check_samples",
+                                                        "roll_margin_fraction"};
+
 bool ParseConversionOptions(const nlohmann::json& body,
                             ConversionOptions* result,
                             ApiError* error) {
@@ -436,18 +444,10 @@ bool ParseConversionOptions(const nlohmann::json& body,
       *error = InvalidRequest("options", "options must be an object");
       return false;
     }
-    if (!CheckKeys(o,
-                   "options",
-                   {"polynomial_degree",
-                    "max_flank_distance_um",
-                    "num_samples",
-                    "num_check_samples"},
-                   error)) {
-      return false;
-    }
     bool degree_found = false, tolerance_found = false;
     long long degree = options.polynomial_degree;
-    if (!ReadInteger(o,
+    if (!CheckKeys(o, "options", kConversionOptionKeys, error) ||
+        !ReadInteger(o,
                      "options",
                      "polynomial_degree",
                      false,

@@ -83,7 +83,10 @@ Keys FixedKeys(RequestSchema schema) {
     case RequestSchema::kGrinderSetup:
       return GrinderSetupKeys();
     case RequestSchema::kTargetReach:
-      return Join(GrinderSetupKeys(), {"target", "options"});
+      // measurement, trace and tolerance are a correction's: the reach
+      // refuses them with the reason (reach_service.cc).
+      return Join(GrinderSetupKeys(),
+                  {"target", "options", "measurement", "trace", "tolerance"});
     case RequestSchema::kBevelConversion:
       return {"job", "options"};
     case RequestSchema::kBevelMotion:
