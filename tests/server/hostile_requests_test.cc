@@ -786,9 +786,22 @@ TEST_F(HostileRequestsTest, RefusesImplausibleTargetGridsUnlessAllowed) {
   EXPECT_EQ(status, 422);
   EXPECT_EQ(body["error"]["field"], "target.deviations_um[3][4]");
   loop["allow_large_deviations"] = true;
+  loop["store"] = true;
   std::tie(status, body) =
       PostJson(client_.get(), "/api/v1/simulations/closed-loop", loop);
-  EXPECT_EQ(status, 200) << body.dump();
+  ASSERT_EQ(status, 200) << body.dump();
+  // Its stored part carries the allowance, so it replays as it ran.
+  ASSERT_TRUE(body["iterations"][0].contains("job_id")) << body.dump();
+  const std::string part =
+      "/api/v1/corrections/" + body["iterations"][0]["job_id"].dump();
+  EXPECT_EQ(ParseBody(client_->Get(
+                part.c_str()))["request"]["allow_large_deviations"],
+            true);
+  EXPECT_EQ(
+      PostJson(
+          client_.get(), (part + "/replay").c_str(), nlohmann::json::object())
+          .first,
+      201);
 
   nlohmann::json bevel = BevelCorrectionRequest();
   bevel["target"] = {
