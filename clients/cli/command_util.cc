@@ -128,6 +128,17 @@ std::string Text(const json& value) {
   return value.dump();
 }
 
+json OnlyKeys(const json& object, const std::vector<std::string>& keys) {
+  json kept = json::object();
+  for (const std::string& key : keys) {
+    if (object.is_object() && object.contains(key)) kept[key] = object[key];
+  }
+  return kept;
+}
+
+const std::vector<std::string> kGrinderSetupKeys = {
+    "gear", "wheel", "machine", "grid", "flank", "settings"};
+
 std::string Member(const json& object, const char* key) {
   if (!object.is_object() || !object.contains(key)) return "-";
   return Text(object[key]);

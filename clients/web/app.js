@@ -288,7 +288,7 @@
       try {
         const measurement = await readMeasurement(file, job);
         const request = {};
-        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options"]) if (req[k] !== undefined) request[k] = req[k];
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options", "allow_large_deviations"]) if (req[k] !== undefined) request[k] = req[k];
         // A bevel pinion was cut with the corrected axis motions, a gear ground with the settings.
         if (bevel) request.motion = (job.result || {}).motion;
         else request.settings = (job.result || {}).settings;
@@ -594,7 +594,7 @@
   async function runClosedLoop(job, box, button) {
     const req = job.request || {};
     const scenario = {};
-    for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options"]) if (req[k] !== undefined) scenario[k] = req[k];
+    for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options", "allow_large_deviations"]) if (req[k] !== undefined) scenario[k] = req[k];
     scenario.random_hidden_errors = { seed: 7 };
     scenario.noise_um = 0.2;
     scenario.seed = 11;

@@ -218,10 +218,6 @@ nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
 }
 
-// A deviation larger than this is taken for a unit mistake (a grid in nm
-// where the API speaks um) unless the request says allow_large_deviations.
-constexpr double kMaxPlausibleDeviationUm = 500.0;
-
 // 422 naming the first entry of a rows x columns grid (row-major, NaN =
 // absent) larger than kMaxPlausibleDeviationUm in size, unless allowed.
 bool CheckDeviationSizes(const Eigen::VectorXd& grid,
@@ -367,6 +363,17 @@ bool ParseShavingTarget(const nlohmann::json& body,
                          &present,
                          error))
       return false;
+    // The resolved target as a client may send it: the 500 um rule (null
+    // points are absent).
+    Eigen::VectorXd sized = values;
+    for (int i = 0; i < sized.size(); ++i) {
+      if (!present[i]) sized(i) = std::numeric_limits<double>::quiet_NaN();
+    }
+    bool allow_large = false;
+    if (!ReadAllowLargeDeviations(body, &allow_large, error) ||
+        !CheckDeviationSizes(
+            sized, "target.stock_target_um", columns, allow_large, error))
+      return false;
     request->target_shaving_resolved_um = values;
     request->target_shaving_generated = present;
   }
@@ -407,7 +414,9 @@ bool ParseCorrectionTarget(
     return false;
   }
   if (target.contains("deviations_um")) {
+    // A user target grid in um: the measurement's 500 um rule.
     std::vector<bool> present;
+    bool allow_large = false;
     return ParseGridValues(target.at("deviations_um"),
                            "target.deviations_um",
                            rows,
@@ -415,7 +424,10 @@ bool ParseCorrectionTarget(
                            /*allow_null=*/false,
                            target_um,
                            &present,
-                           error);
+                           error) &&
+           ReadAllowLargeDeviations(body, &allow_large, error) &&
+           CheckDeviationSizes(
+               *target_um, "target.deviations_um", columns, allow_large, error);
   }
   if (target.contains("modifications")) {
     const nlohmann::json& list = target.at("modifications");

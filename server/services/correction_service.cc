@@ -14,6 +14,7 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/shaving_codec.h"
 #include "server/codec/tolerance_codec.h"
 #include "server/codec/trace_codec.h"
@@ -416,7 +417,10 @@ void CreateCorrection(const ServiceContext& context,
   nlohmann::json body;
   ApiError error;
   CorrectionRun run;
+  // Strict input where the client's body enters; a replay re-runs a stored
+  // request as it was stored (request_keys.h).
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kCorrection, body, "", &error) ||
       !RunCorrection(context, body, &run, &error)) {
     return RespondError(res, error);
   }
@@ -444,18 +448,12 @@ void ReplayCorrection(const ServiceContext& context,
   }
   nlohmann::json changes = nlohmann::json::object();
   ApiError error;
-  if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))
+  // The changes are the client's body: strict. The stored request they
+  // change is not checked again (request_keys.h).
+  if (!req.body.empty() &&
+      (!ParseJsonBody(req.body, &changes, &error) ||
+       !CheckRequestKeys(RequestSchema::kReplay, changes, "", &error)))
     return RespondError(res, error);
-  for (const auto& item : changes.items()) {
-    if (item.key() != "options" && item.key() != "target" &&
-        item.key() != "tolerance") {
-      return RespondError(
-          res,
-          InvalidRequest(item.key(),
-                         "a replay may change only \"options\", \"target\" "
-                         "and \"tolerance\""));
-    }
-  }
   nlohmann::json request =
       nlohmann::json::parse(parent->request_json, nullptr, false);
   if (!request.is_object())

@@ -13,6 +13,7 @@
 #include "server/codec/grinder_codec.h"
 #include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
@@ -225,6 +226,10 @@ bool ResolveMeasurementFile(const nlohmann::json& body,
   MeasurementFileRequest file;
   if (!RequireObject(
           measurement, "measurement", "file", true, &file_object, error) ||
+      !CheckKeys(*file_object,
+                 "measurement.file",
+                 {"format", "content", "tooth", "datum_face", "sign_factors"},
+                 error) ||
       !ParseGearGridAndFlank(body, &gear, &grid, &flank, error) ||
       !ParseMeasurementFileRequest(
           *file_object, "measurement.file", &file, error)) {
@@ -260,6 +265,7 @@ void ImportMeasurement(const httplib::Request& req, httplib::Response& res) {
   MeasurementImportRequest request;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kMeasurementImport, body, "", &error) ||
       !ParseMeasurementImportRequest(body, &request, &error))
     return RespondError(res, error);
   MeasurementImportResult imported;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <string>
 
+#include "server/codec/request_keys.h"
 #include "server/services/correction_service.h"
 #include "server/services/machine_family.h"
 #include "server/services/reach_remedy.h"
@@ -114,6 +115,7 @@ void ReachTarget(const ServiceContext& context,
   nlohmann::json zero_grid;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kTargetReach, body, "", &error) ||
       !ReadReachRequest(body, &zero_grid, &error))
     return RespondError(res, error);
   nlohmann::json answer;
