@@ -192,6 +192,10 @@ bool PrintReach(DemoClient& client, std::ostream& out) {
         << " % can be made (target rms "
         << Fixed(Number(part["target_rms_um"]), 2) << " um, not made "
         << Fixed(Number(part["unreachable_rms_um"]), 2) << " um)\n";
+    // What would make the rest, as the server computed it.
+    if (part["remedy"].is_object())
+      out << "       -> " << part["remedy"].value("message", std::string())
+          << "\n";
   }
   const nlohmann::json& both = reach["combined"];
   out << "     together: " << Fixed(100.0 * Number(both["reachable_share"]), 1)

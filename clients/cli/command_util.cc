@@ -128,6 +128,17 @@ std::string Text(const json& value) {
   return value.dump();
 }
 
+json OnlyKeys(const json& object, const std::vector<std::string>& keys) {
+  json kept = json::object();
+  for (const std::string& key : keys) {
+    if (object.is_object() && object.contains(key)) kept[key] = object[key];
+  }
+  return kept;
+}
+
+const std::vector<std::string> kGrinderSetupKeys = {
+    "gear", "wheel", "machine", "grid", "flank", "settings"};
+
 std::string Member(const json& object, const char* key) {
   if (!object.is_object() || !object.contains(key)) return "-";
   return Text(object[key]);
@@ -289,6 +300,25 @@ void PrintVerdict(const json& result) {
   }
 }
 
+// The reach block of a job that missed its tolerance: per target
+// modification the share the machine makes and what would make the rest.
+void PrintReach(const json& result) {
+  const json reach = result.value("reach", json());
+  if (!reach.is_object()) return;
+  for (const json& c : reach.value("components", json::array())) {
+    const json modification = c.value("modification", json::object());
+    const json share = c.value("reachable_share", json());
+    std::cout << "  reach " << Member(modification, "kind") << " "
+              << (share.is_number()
+                      ? Fixed(json(100.0 * share.get<double>()), 1)
+                      : std::string("-"))
+              << " % made\n";
+    const json remedy = c.value("remedy", json());
+    if (remedy.is_object())
+      std::cout << "    -> " << Member(remedy, "message") << "\n";
+  }
+}
+
 void PrintCorrectionSummary(const json& answer) {
   const json& result =
       answer.contains("result") ? answer["result"] : json::object();
@@ -329,6 +359,7 @@ void PrintCorrectionSummary(const json& answer) {
               << " measured, " << overall("predicted") << " predicted\n";
   }
   PrintVerdict(result);
+  PrintReach(result);
   std::cout << "  solver " << Member(result, "solver") << ", mode "
             << Member(result, "mode") << ", rank " << Member(result, "rank")
             << ", condition "

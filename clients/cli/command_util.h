@@ -100,6 +100,16 @@ int PrintOrWriteText(const ParsedArgs& args, const std::string& text);
 // motion.
 void PrintCorrectionSummary(const nlohmann::json& answer);
 
+// The members of `object` named in `keys`, the others left out: the server
+// refuses keys its operation does not take (strict input), so a command that
+// reads the setup of a correction request file (nominal, evaluate) or a
+// closed-loop scenario (simulate) sends only what its operation takes.
+nlohmann::json OnlyKeys(const nlohmann::json& object,
+                        const std::vector<std::string>& keys);
+
+// The setup keys of the grinder's own operations (nominal, evaluate).
+extern const std::vector<std::string> kGrinderSetupKeys;
+
 // "FAIL/PASS": the verdicts of the measured and the predicted part of a
 // result with a tolerance; "-" without one.
 std::string VerdictCell(const nlohmann::json& result);

@@ -6,6 +6,7 @@
 
 (function () {
   const P = GearloopPlots;
+  const S = GearloopShopFloor;
   const PAGE = 25;
   const state = { offset: 0, total: 0, selected: null };
   const $ = (id) => document.getElementById(id);
@@ -32,6 +33,23 @@
       throw err;
     }
     return data;
+  }
+
+  // GET of a text answer (a CSV listing); the API's JSON error body turned into an Error.
+  async function apiText(path) {
+    const headers = token() ? { Authorization: "Bearer " + token() } : {};
+    const res = await fetch(path, { headers });
+    const text = await res.text();
+    if (!res.ok) {
+      let e = {};
+      try {
+        e = JSON.parse(text).error || {};
+      } catch (ignored) {
+        e = { message: text };
+      }
+      throw new Error(res.status + " " + (e.code || "error") + (e.field ? " at " + e.field : "") + ": " + (e.message || res.statusText));
+    }
+    return text;
   }
 
   function message(text, cls) {
@@ -98,6 +116,7 @@
     // Only the latest request draws: a slower earlier one must not overwrite it.
     const ticket = (state.ticket = (state.ticket || 0) + 1);
     document.body.removeAttribute("data-job-shown");
+    document.body.removeAttribute("data-motion-shown");
     for (const tr of $("jobs").querySelectorAll("tbody tr")) {
       tr.classList.toggle("selected", Number(tr.getAttribute("data-job-id")) === id);
     }
@@ -125,7 +144,11 @@
       actions.appendChild(replayControl(job));
       detail.appendChild(actions);
       detail.appendChild(nextPartPanel(job));
+      detail.appendChild(newCorrectionPanel(job));
+      if (!P.isBevel(job)) detail.appendChild(targetEditor(job));
       detail.appendChild(P.renderJob(job, chain.length ? chain : [job]));
+      detail.appendChild(flank3dSection(job));
+      detail.appendChild(motionSection(job, ticket));
       detail.appendChild(downloads(job));
       const sim = P.html("section", { class: "simulation" });
       detail.appendChild(sim);
@@ -222,15 +245,35 @@
     return { format, content };
   }
 
+  // A measured part's file as the request's "measurement", on the grid of the job: a CSV grid
+  // (rows x columns of the job's grid), a JSON measurement file ({"deviations_um"} or {"teeth"}),
+  // or, for a ground gear, a measuring machine's .mka / GDE file the server reads itself.
+  async function readMeasurement(file, job) {
+    const req = job.request || {};
+    const bevel = P.isBevel(job);
+    const grid = (bevel ? (req.job || {}).grid : req.grid) || {};
+    const rows = grid.profile_points || 5;
+    const columns = (bevel ? grid.lengthwise_points : grid.lead_points) || 9;
+    const fromMachine = bevel ? null : await machineFile(file);
+    // The server reads it onto this job's grid (POST /api/v1/corrections, measurement.file).
+    if (fromMachine) return { file: fromMachine };
+    const text = await file.text();
+    if (/\.json$/i.test(file.name)) {
+      let data = JSON.parse(text);
+      if (data && data.measurement) data = data.measurement;
+      if (Array.isArray(data)) data = { deviations_um: data };
+      if (!data || (!data.deviations_um && !data.teeth)) throw new Error('the file holds no "deviations_um" or "teeth"');
+      return data.deviations_um ? { deviations_um: data.deviations_um } : { teeth: data.teeth };
+    }
+    return { deviations_um: parseCsvGrid(text, rows, columns) };
+  }
+
   // The closed loop by hand: the part ground with this job's corrected settings was measured;
   // its file (CSV grid, JSON measurement file, or a measuring machine's .mka / GDE file, chosen
   // or dropped on the panel) becomes a new correction linked to this job.
   function nextPartPanel(job) {
     const req = job.request || {};
-    const grid = req.grid || {};
     const bevel = P.isBevel(job);
-    const rows = (bevel ? (req.job || {}).grid || {} : grid).profile_points || 5;
-    const columns = (bevel ? ((req.job || {}).grid || {}).lengthwise_points : grid.lead_points) || 9;
     const input = P.html("input", { type: "file", accept: ".csv,.json,.mka,.xml,.gde,text/csv,application/json", id: "next-part-file" });
     const status = P.html("span", { class: "note", id: "next-part-status" });
     const panel = P.html("div", { class: "actions next-part" }, [
@@ -243,23 +286,9 @@
       status.className = "note";
       status.textContent = "reading " + file.name + "\u2026";
       try {
-        const fromMachine = bevel ? null : await machineFile(file);
-        const text = fromMachine ? "" : await file.text();
-        let measurement;
-        if (fromMachine) {
-          // The server reads it onto this job's grid (POST /api/v1/corrections, measurement.file).
-          measurement = { file: fromMachine };
-        } else if (/\.json$/i.test(file.name)) {
-          let data = JSON.parse(text);
-          if (data && data.measurement) data = data.measurement;
-          if (Array.isArray(data)) data = { deviations_um: data };
-          if (!data || (!data.deviations_um && !data.teeth)) throw new Error('the file holds no "deviations_um" or "teeth"');
-          measurement = data.deviations_um ? { deviations_um: data.deviations_um } : { teeth: data.teeth };
-        } else {
-          measurement = { deviations_um: parseCsvGrid(text, rows, columns) };
-        }
+        const measurement = await readMeasurement(file, job);
         const request = {};
-        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options"]) if (req[k] !== undefined) request[k] = req[k];
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options", "allow_large_deviations"]) if (req[k] !== undefined) request[k] = req[k];
         // A bevel pinion was cut with the corrected axis motions, a gear ground with the settings.
         if (bevel) request.motion = (job.result || {}).motion;
         else request.settings = (job.result || {}).settings;
@@ -288,6 +317,232 @@
       submit(e.dataTransfer && e.dataTransfer.files && e.dataTransfer.files[0]);
     });
     return panel;
+  }
+
+  // What a new job's answer says at a glance: status (and why), the predicted residual, the best
+  // reachable and, with a tolerance, the verdicts of the measured and the predicted part.
+  function answerSummary(created) {
+    const r = created.result || {};
+    const v = r.verdict || null;
+    const part = (p) => (p ? p.verdict + (p.failed && p.failed.length ? " (misses " + p.failed.join(", ") + ")" : "") : "\u2013");
+    const rows = [
+      ["job", String(created.id) + " (" + created.kind + ")"],
+      ["status", (created.status || r.status || "\u2013") + (r.message ? " \u2014 " + r.message : "")],
+      ["measured rms / max", P.fmt(r.initial_rms_um, 3) + " / " + P.fmt(r.initial_max_um, 3) + " \u00b5m"],
+      ["predicted residual rms / max", P.fmt(r.residual_rms_um, 3) + " / " + P.fmt(r.residual_max_um, 3) + " \u00b5m"],
+      ["best reachable rms", P.fmt(r.best_reachable_rms_um, 3) + " \u00b5m"],
+    ];
+    if (v) rows.push(["verdict measured", part(v.measured)], ["verdict predicted", part(v.predicted)]);
+    const table = P.html("table", { class: "summary answer", "data-job-id": created.id });
+    for (const [k, val] of rows) table.appendChild(P.html("tr", {}, [P.html("th", { text: k }), P.html("td", { text: val })]));
+    const open = P.html("a", { href: "#job=" + created.id, class: "button", text: "Open job " + created.id });
+    return P.html("div", { class: "answer-box" }, [table, open]);
+  }
+
+  // A new correction of the same gear and machine (job N's gear, wheel, machine, grid, flank,
+  // target, options, tolerance and the settings its part was ground with) from another measured
+  // part's file; the answer is shown here and the job joins the history.
+  function newCorrectionPanel(job) {
+    const req = job.request || {};
+    const bevel = P.isBevel(job);
+    const input = P.html("input", { type: "file", accept: ".csv,.json,.mka,.xml,.gde,text/csv,application/json", id: "new-correction-file" });
+    const status = P.html("span", { class: "note", id: "new-correction-status" });
+    const answer = P.html("div", { id: "new-correction-result" });
+    input.addEventListener("change", async () => {
+      const file = input.files && input.files[0];
+      if (!file) return;
+      status.className = "note";
+      status.textContent = "reading " + file.name + "\u2026";
+      answer.textContent = "";
+      try {
+        const request = { measurement: await readMeasurement(file, job) };
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "job", "target", "options", "tolerance", "settings", "motion"]) if (req[k] !== undefined) request[k] = req[k];
+        // The same part number and machine as job N's; this file's name (serial, time: another part).
+        if (!bevel) {
+          const was = job.trace || {};
+          request.trace = { file_name: file.name.slice(0, 200) };
+          for (const k of ["part_number", "machine_id"]) if (was[k]) request.trace[k] = was[k];
+        }
+        status.textContent = "correcting\u2026";
+        const created = await api("POST", "/api/v1/corrections", request);
+        status.textContent = "job " + created.id + " stored from " + file.name;
+        answer.appendChild(answerSummary(created));
+        state.offset = 0;
+        await loadJobs();
+        document.body.setAttribute("data-new-correction", String(created.id));
+      } catch (e) {
+        status.className = "error";
+        status.textContent = file.name + ": " + e.message;
+      } finally {
+        input.value = "";
+      }
+    });
+    return P.html("div", { class: "actions new-correction" }, [
+      P.html("label", { for: "new-correction-file", text: "Correct again from job " + job.id + " (same gear, machine, target and settings) with a new measurement (CSV, JSON, .mka, GDE):" }),
+      input,
+      status,
+      answer,
+    ]);
+  }
+
+  const MODIFICATION_KINDS = ["profile_crowning", "lead_crowning", "profile_slope", "helix_slope", "tip_relief", "root_relief", "end_relief", "flank_twist", "diagonal_end_relief"];
+  const RELIEFS = ["tip_relief", "root_relief", "end_relief", "diagonal_end_relief"];
+
+  // One modification of the target being edited (MODEL.md section 7): kind, amount [um] and, for
+  // a relief, its length fraction and shape (diagonal end relief: the second end too). Fields the
+  // form does not show (amount gradients) are kept from the stored modification.
+  function modificationRow(m, onRemove) {
+    const kind = P.html("select", { class: "mod-kind", "aria-label": "kind" }, MODIFICATION_KINDS.map((k) => P.html("option", { value: k, text: k.replace(/_/g, " ") })));
+    kind.value = MODIFICATION_KINDS.includes(m.kind) ? m.kind : "lead_crowning";
+    const num = (cls, label, value, step, hint) => P.html("input", { type: "number", class: cls, "aria-label": label, title: label, step, placeholder: hint || "", value: value === undefined ? "" : String(value) });
+    const amount = num("mod-amount", "amount_um", m.amount_um === undefined ? 0 : m.amount_um, "0.1");
+    const length = num("mod-length", "length_fraction", m.length_fraction, "0.05", "0.2");
+    const shape = P.html("select", { class: "mod-shape", "aria-label": "shape" }, ["linear", "parabolic"].map((v) => P.html("option", { value: v, text: v })));
+    shape.value = m.shape || "linear";
+    const second = num("mod-second-amount", "second_amount_um", m.second_amount_um, "0.1", "\u00b5m");
+    const secondLength = num("mod-second-length", "second_length_fraction", m.second_length_fraction, "0.05", "length");
+    const remove = P.html("button", { type: "button", class: "mod-remove", title: "remove", text: "\u00d7" });
+    const row = P.html("div", { class: "mod-row" }, [kind, P.html("span", { text: "amount \u00b5m" }), amount, P.html("span", { class: "relief", text: "length" }), length, shape, P.html("span", { class: "diagonal", text: "2nd \u00b5m" }), second, secondLength, remove]);
+    const relief = () => {
+      const isRelief = RELIEFS.includes(kind.value);
+      const diagonal = kind.value === "diagonal_end_relief";
+      for (const el of row.querySelectorAll(".relief, .mod-length, .mod-shape")) el.hidden = !isRelief;
+      for (const el of row.querySelectorAll(".diagonal, .mod-second-amount, .mod-second-length")) el.hidden = !diagonal;
+    };
+    kind.addEventListener("change", relief);
+    relief();
+    remove.addEventListener("click", () => onRemove(row));
+    // The modification as the request schema has it; an Error names the field that is not a number.
+    row.read = (index) => {
+      const out = Object.assign({}, m, { kind: kind.value });
+      const value = (input, name, required) => {
+        if (input.hidden || (input.value.trim() === "" && !required)) return undefined;
+        const v = Number(input.value);
+        if (input.value.trim() === "" || !Number.isFinite(v)) throw new Error("target.modifications[" + index + "]." + name + ": not a number");
+        return v;
+      };
+      const fields = [["amount_um", amount, true], ["length_fraction", length], ["second_amount_um", second], ["second_length_fraction", secondLength]];
+      for (const [name, input, required] of fields) {
+        const v = value(input, name, required);
+        if (v === undefined) delete out[name];
+        else out[name] = v;
+      }
+      if (RELIEFS.includes(kind.value)) out.shape = shape.value;
+      else delete out.shape;
+      return out;
+    };
+    return row;
+  }
+
+  // The job's target as modifications to edit, then either what the machine can make of it
+  // (POST /api/v1/targets/reach, nothing stored) or a replay of the stored measurement with it
+  // (POST .../replay {"target"}), which opens the new linked job.
+  function targetEditor(job) {
+    const req = job.request || {};
+    const stored = (req.target || {}).modifications || [];
+    const list = P.html("div", { class: "mod-list", id: "target-mods" });
+    const removeRow = (row) => row.remove();
+    for (const m of stored) list.appendChild(modificationRow(m, removeRow));
+    const add = P.html("button", { type: "button", id: "target-add", text: "+ modification" });
+    add.addEventListener("click", () => list.appendChild(modificationRow({ kind: "lead_crowning", amount_um: 0 }, removeRow)));
+    const reach = P.html("button", { type: "button", class: "button", id: "reach-target", text: "What can the machine make of it?" });
+    const replay = P.html("button", { type: "button", class: "button", id: "replay-target", text: "Replay with this target" });
+    const status = P.html("span", { class: "note", id: "target-status" });
+    const out = P.html("div", { id: "reach-result" });
+    const target = () => ({ modifications: Array.from(list.querySelectorAll(".mod-row")).map((row, i) => row.read(i)) });
+    const run = async (button, work) => {
+      button.disabled = true;
+      status.className = "note";
+      status.textContent = "solving\u2026";
+      try {
+        await work(target());
+        status.textContent = "";
+      } catch (e) {
+        status.className = "error";
+        status.textContent = e.message;
+      } finally {
+        button.disabled = false;
+      }
+    };
+    reach.addEventListener("click", () =>
+      run(reach, async (t) => {
+        const body = { target: t };
+        for (const k of ["gear", "wheel", "machine", "grid", "flank", "settings", "options"]) if (req[k] !== undefined) body[k] = req[k];
+        out.textContent = "";
+        out.appendChild(reachTable(await api("POST", "/api/v1/targets/reach", body)));
+      })
+    );
+    replay.addEventListener("click", () =>
+      run(replay, async (t) => {
+        const created = await api("POST", "/api/v1/corrections/" + job.id + "/replay", { target: t });
+        state.offset = 0;
+        await loadJobs();
+        window.location.hash = "job=" + created.id;
+      })
+    );
+    const t = req.target || {};
+    const kind = t.deviations_um ? "a user grid" : t.shaving || t.stock_target_um ? "a shaving-cutter target" : null;
+    const grid = kind ? " The stored target is " + kind + "; a replay from here replaces it with these modifications." : "";
+    return P.html("details", { class: "target-editor", id: "target-editor" }, [
+      P.html("summary", { text: "Target modifications (MODEL.md \u00a77): change them, see what the machine can make, replay" }),
+      P.html("p", {
+        class: "note",
+        text: "Amounts in \u00b5m as MODEL.md \u00a77 defines them: a crowning or relief of C takes C off at its end (deviation \u2212C, material removed); slopes and twist are signed. They refer to the grid's extent (\u00b10.4 b by default), not the face width." + grid,
+      }),
+      list,
+      P.html("div", { class: "actions" }, [add, reach, replay, status]),
+      out,
+    ]);
+  }
+
+  // The reach answer: per modification and together, the target rms, the part no correction at
+  // the allowed orders can make and the share the machine can make.
+  function reachTable(answer) {
+    const table = P.html("table", { class: "delta reach" });
+    table.appendChild(P.html("tr", {}, ["target", "target rms \u00b5m", "unreachable rms \u00b5m", "reachable share", "predicted residual rms \u00b5m"].map((h) => P.html("th", { text: h }))));
+    const row = (name, r, cls) =>
+      P.html("tr", { class: cls || "" }, [
+        P.html("th", { text: name }),
+        P.html("td", { text: P.fmt(r.target_rms_um, 3) }),
+        P.html("td", { text: P.fmt(r.unreachable_rms_um, 3) }),
+        P.html("td", { text: typeof r.reachable_share === "number" ? (100 * r.reachable_share).toFixed(1) + " %" : "\u2013" }),
+        P.html("td", { text: P.fmt(r.predicted_residual_rms_um, 3) }),
+      ]);
+    for (const c of answer.components || []) table.appendChild(row(((c.modification || {}).kind || "?").replace(/_/g, " ") + " " + P.fmt((c.modification || {}).amount_um, 1), c));
+    table.appendChild(row("together (" + (answer.status || "?") + ")", answer.combined || {}, "reach-combined"));
+    if (answer.with_highest_orders) table.appendChild(row("together, every axis to order " + (answer.with_highest_orders.default_max_order || 6), answer.with_highest_orders));
+    return table;
+  }
+
+  // The flank's measured, target and predicted topography as oblique 3-D views.
+  function flank3dSection(job) {
+    const section = P.html("section", { class: "flank-3d" }, [P.html("h3", { text: "Flank topography in 3-D (\u00b5m, + = material left on; one vertical scale)" })]);
+    section.appendChild(S.topography3d(job));
+    return section;
+  }
+
+  // Commanded vs corrected axis motion over the roll range, from the job's settings listing
+  // (GET .../settings?format=csv, sampled finely); drawn when it arrives.
+  function motionSection(job, ticket) {
+    const section = P.html("section", { class: "axis-motion-section" }, [P.html("h3", { text: "Axis motion over the roll range: commanded vs corrected" })]);
+    const box = P.html("div", {}, [message("Loading the settings listing\u2026", "loading")]);
+    section.appendChild(box);
+    apiText("/api/v1/corrections/" + job.id + "/settings?format=csv&samples=41")
+      .then((text) => {
+        if (ticket !== state.ticket) return;
+        const listing = S.parseSettingsCsv(text);
+        box.textContent = "";
+        if (!listing.names.length) box.appendChild(message("The listing holds no axis motion.", "note"));
+        else box.appendChild(S.axisMotionCurves(listing, P.isBevel(job)));
+        document.body.setAttribute("data-motion-shown", String(job.id));
+      })
+      .catch((e) => {
+        if (ticket !== state.ticket) return;
+        box.textContent = "";
+        box.appendChild(message("No axis motion: " + e.message, "note"));
+        document.body.setAttribute("data-motion-shown", String(job.id));
+      });
+    return section;
   }
 
   // A grid as CSV in the clients' format (clients/FORMATS.md): header L1..Ln, row 1 (root) first,
@@ -339,7 +594,7 @@
   async function runClosedLoop(job, box, button) {
     const req = job.request || {};
     const scenario = {};
-    for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options"]) if (req[k] !== undefined) scenario[k] = req[k];
+    for (const k of ["gear", "wheel", "machine", "grid", "flank", "target", "options", "allow_large_deviations"]) if (req[k] !== undefined) scenario[k] = req[k];
     scenario.random_hidden_errors = { seed: 7 };
     scenario.noise_um = 0.2;
     scenario.seed = 11;

@@ -192,7 +192,8 @@
   const PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b"];
 
   // A line chart. series: [{name, x: [...], y: [...], colour?, dashed?, markers?}]
-  //   opts.title, opts.xLabel, opts.yLabel, opts.width, opts.height, opts.xTicks (integers only)
+  //   opts.title, opts.xLabel, opts.yLabel, opts.width, opts.height, opts.xTicks (integers only),
+  //   opts.yZero (false: do not stretch the y range to 0)
   function lineChart(series, opts) {
     opts = opts || {};
     const width = opts.width || 460;
@@ -213,7 +214,8 @@
       return root;
     }
     const xr = niceTicks(Math.min(...xs), Math.max(...xs), 5);
-    const yr = niceTicks(Math.min(0, ...ys), Math.max(0, ...ys), 5);
+    // opts.yZero false: the y range is the data's own (absolute axis positions), else it holds 0.
+    const yr = opts.yZero === false ? niceTicks(Math.min(...ys), Math.max(...ys), 5) : niceTicks(Math.min(0, ...ys), Math.max(0, ...ys), 5);
     if (opts.xTicks === "integer") {
       xr.ticks = xr.ticks.filter((t) => Math.abs(t - Math.round(t)) < 1e-9);
       xr.step = Math.max(1, xr.step);

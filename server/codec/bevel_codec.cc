@@ -35,11 +35,14 @@ struct JobField {
   bool required_without_published;
 };
 
+// Strict input: the group's keys are its fields and `other_keys` (read by the
+// caller).
 bool ReadJobFields(const nlohmann::json& job,
                    const char* group,
                    bool published,
                    std::vector<JobField> fields,
-                   ApiError* error) {
+                   ApiError* error,
+                   const std::vector<std::string>& other_keys = {}) {
   const std::string path = std::string("job.") + group;
   const bool present = job.contains(group);
   if (present && !job.at(group).is_object()) {
@@ -48,6 +51,9 @@ bool ReadJobFields(const nlohmann::json& job,
   }
   const nlohmann::json empty = nlohmann::json::object();
   const nlohmann::json& object = present ? job.at(group) : empty;
+  std::vector<std::string> keys = other_keys;
+  for (const JobField& f : fields) keys.push_back(f.key);
+  if (!CheckKeys(object, path, keys, error)) return false;
   for (const JobField& f : fields) {
     double v = 0.0;
     bool found = false;
@@ -238,7 +244,8 @@ bool ReadBlankAndGrid(const nlohmann::json& j,
                        &job->grid.lengthwise_max_fraction,
                        false,
                        false}},
-                     error)) {
+                     error,
+                     {"profile_points", "lengthwise_points"})) {
     return false;
   }
   if (j.contains("grid")) {
@@ -276,7 +283,11 @@ bool ParseBevelJob(const nlohmann::json& body,
   }
   BevelPinionJob job;
   bool published = false;
-  if (!ReadJobSide(j, &job, &published, error) ||
+  if (!CheckKeys(j,
+                 "job",
+                 {"side", "published", "cutter", "machine", "blank", "grid"},
+                 error) ||
+      !ReadJobSide(j, &job, &published, error) ||
       !ReadCutterAndMachine(j, published, &job, error) ||
       !ReadBlankAndGrid(j, published, &job, error))
     return false;
@@ -343,6 +354,12 @@ bool ParseFreeFormMotion(const nlohmann::json& value,
   std::vector<std::vector<double>> axes(kNumFreeFormAxes + 1);
   const char* keys[kNumFreeFormAxes + 1] = {
       "A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm", "C_rad"};
+  // "degree" is in answers; an answer's motion may be sent back as it is.
+  if (!CheckKeys(value,
+                 path,
+                 {"degree", "A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm", "C_rad"},
+                 error))
+    return false;
   for (int i = 0; i <= kNumFreeFormAxes; ++i) {
     const std::string field = JoinPath(path, keys[i]);
     if (!value.contains(keys[i])) {
@@ -409,6 +426,14 @@ nlohmann::json FreeFormMotionToJson(const FreeFormMotion& motion) {
   return j;
 }
 
+// The keys of a conversion's options (roll_margin_fraction: the share of the
+// roll range added at each end, ConversionOptions).
+const std::vector<std::string> kConversionOptionKeys = {"polynomial_degree",
+                                                        "max_flank_distance_um",
+                                                        "num_samples",
+                                                        "num_check_samples",
+                                                        "roll_margin_fraction"};
+
 bool ParseConversionOptions(const nlohmann::json& body,
                             ConversionOptions* result,
                             ApiError* error) {
@@ -421,7 +446,8 @@ bool ParseConversionOptions(const nlohmann::json& body,
     }
     bool degree_found = false, tolerance_found = false;
     long long degree = options.polynomial_degree;
-    if (!ReadInteger(o,
+    if (!CheckKeys(o, "options", kConversionOptionKeys, error) ||
+        !ReadInteger(o,
                      "options",
                      "polynomial_degree",
                      false,
@@ -561,7 +587,11 @@ bool ParseAxisSensitivityOptions(const nlohmann::json& body,
       return false;
     }
     double angular_deg = options.angular_error_rad * kDegPerRad;
-    if (!ReadNumber(e,
+    if (!CheckKeys(e,
+                   "errors",
+                   {"linear_error_mm", "angular_error_deg", "exact"},
+                   error) ||
+        !ReadNumber(e,
                     "errors",
                     "linear_error_mm",
                     false,
@@ -639,17 +669,18 @@ bool ParseBevelHiddenErrors(const nlohmann::json& body,
                               "[...], ..., \"Z_mm\": [...]}");
       return false;
     }
+    if (!CheckKeys(
+            h,
+            "hidden_errors",
+            std::vector<std::string>(kAxisKeys, kAxisKeys + kNumFreeFormAxes),
+            error))
+      return false;
     for (const auto& item : h.items()) {
-      int axis = -1;
+      int axis = 0;
       for (int i = 0; i < kNumFreeFormAxes; ++i) {
         if (item.key() == kAxisKeys[i]) axis = i;
       }
       const std::string field = JoinPath("hidden_errors", item.key());
-      if (axis < 0) {
-        *error = InvalidRequest(
-            field, "hidden_errors takes A_rad, B_rad, X_mm, Y_mm, Z_mm");
-        return false;
-      }
       if (!item.value().is_array() ||
           item.value().size() > static_cast<size_t>(degree + 1)) {
         *error = InvalidRequest(field,

@@ -7,6 +7,7 @@
 
 #include "engine/core/units.h"
 #include "server/codec/shaving_codec.h"
+#include "server/codec/zero_correction.h"
 
 namespace gearloop {
 namespace {
@@ -217,10 +218,6 @@ nlohmann::json AxisMotionToJson(const AxisMotion& motion) {
   return {{"roll_rad", roll}, {"axes", axes}, {"wheel", wheel}};
 }
 
-// A deviation larger than this is taken for a unit mistake (a grid in nm
-// where the API speaks um) unless the request says allow_large_deviations.
-constexpr double kMaxPlausibleDeviationUm = 500.0;
-
 // 422 naming the first entry of a rows x columns grid (row-major, NaN =
 // absent) larger than kMaxPlausibleDeviationUm in size, unless allowed.
 bool CheckDeviationSizes(const Eigen::VectorXd& grid,
@@ -366,6 +363,17 @@ bool ParseShavingTarget(const nlohmann::json& body,
                          &present,
                          error))
       return false;
+    // The resolved target as a client may send it: the 500 um rule (null
+    // points are absent).
+    Eigen::VectorXd sized = values;
+    for (int i = 0; i < sized.size(); ++i) {
+      if (!present[i]) sized(i) = std::numeric_limits<double>::quiet_NaN();
+    }
+    bool allow_large = false;
+    if (!ReadAllowLargeDeviations(body, &allow_large, error) ||
+        !CheckDeviationSizes(
+            sized, "target.stock_target_um", columns, allow_large, error))
+      return false;
     request->target_shaving_resolved_um = values;
     request->target_shaving_generated = present;
   }
@@ -406,7 +414,9 @@ bool ParseCorrectionTarget(
     return false;
   }
   if (target.contains("deviations_um")) {
+    // A user target grid in um: the measurement's 500 um rule.
     std::vector<bool> present;
+    bool allow_large = false;
     return ParseGridValues(target.at("deviations_um"),
                            "target.deviations_um",
                            rows,
@@ -414,7 +424,10 @@ bool ParseCorrectionTarget(
                            /*allow_null=*/false,
                            target_um,
                            &present,
-                           error);
+                           error) &&
+           ReadAllowLargeDeviations(body, &allow_large, error) &&
+           CheckDeviationSizes(
+               *target_um, "target.deviations_um", columns, allow_large, error);
   }
   if (target.contains("modifications")) {
     const nlohmann::json& list = target.at("modifications");
@@ -449,7 +462,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
   nlohmann::json singular_values = nlohmann::json::array();
   for (int i = 0; i < s.singular_values.size(); ++i)
     singular_values.push_back(FiniteOrNull(s.singular_values(i)));
-  return {
+  nlohmann::json answer = {
       {"status", CorrectionStatusName(s.status)},
       {"message", s.message},
       {"initial_rms_um", FiniteOrNull(s.initial_rms_um)},
@@ -502,6 +515,15 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
       {"tooth_outliers", PointList(s.tooth_outlier_indices, columns)},
       {"missing", PointList(s.missing_indices, columns)},
   };
+  // A zero correction says why (server/codec/zero_correction.h).
+  const nlohmann::json explain = ZeroCorrectionExplainJson(s);
+  if (!explain.is_null()) {
+    const std::string said = s.message;
+    answer["message"] = explain["message"].get<std::string>() +
+                        (said.empty() ? std::string() : " (" + said + ")");
+    answer["explain"] = explain;
+  }
+  return answer;
 }
 
 namespace {

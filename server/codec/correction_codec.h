@@ -69,6 +69,11 @@ struct CorrectionRequest {
   std::optional<int64_t> settings_source_job_id;
 };
 
+// A measured or target deviation larger than this is taken for a unit mistake
+// (a grid in nm where the API speaks um): 422 naming the entry, unless the
+// request says "allow_large_deviations": true.
+constexpr double kMaxPlausibleDeviationUm = 500.0;
+
 // Reads measurement, target, options and settings_source_job_id on a rows x
 // columns grid: 400 for shapes, 422 for values (with the field path), including
 // options.IsValid. Without `target_modifications_allowed` (a family without

@@ -43,6 +43,11 @@ bool ReadSignFactors(const nlohmann::json& object,
     return false;
   if (factors == nullptr) return true;
   const std::string factors_path = JoinPath(path, "sign_factors");
+  if (!CheckKeys(*factors,
+                 factors_path,
+                 {"profile_right", "profile_left", "helix_right", "helix_left"},
+                 error))
+    return false;
   const std::pair<const char*, double*> keys[] = {
       {"profile_right", &sign->profile_right},
       {"profile_left", &sign->profile_left},

@@ -114,6 +114,40 @@ nlohmann::json ContactsToJson(const ShavingResult& result) {
   return rows;
 }
 
+// Strict input: the keys of a shaving request (at `path`: "" or
+// "target.shaving") and of its diagonal modification and wheel check, named
+// in full. The gears and the grid check their own.
+bool CheckShavingKeys(const nlohmann::json& body,
+                      const std::string& path,
+                      ApiError* error) {
+  const auto nested = [&](const char* key) {
+    return body.contains(key) ? body.at(key) : nlohmann::json();
+  };
+  return CheckKeys(body,
+                   path,
+                   {"work_gear",
+                    "cutter",
+                    "centre_distance_mm",
+                    "diagonal_modification",
+                    "grid",
+                    "wheel_check"},
+                   error) &&
+         CheckKeys(nested("diagonal_modification"),
+                   JoinPath(path, "diagonal_modification"),
+                   {"root_um",
+                    "tip_um",
+                    "root_band",
+                    "tip_band",
+                    "exponent",
+                    "root_slope",
+                    "tip_slope"},
+                   error) &&
+         CheckKeys(nested("wheel_check"),
+                   JoinPath(path, "wheel_check"),
+                   {"h_s_mm", "traverse_mm_per_rad"},
+                   error);
+}
+
 }  // namespace
 
 bool ReadShavingInput(const nlohmann::json& body,
@@ -130,6 +164,7 @@ bool ReadShavingInput(const nlohmann::json& body,
   ShavingInput in = *input;
   double centre_distance_mm = 0.0;
   bool centre_distance_given = false;
+  if (!CheckShavingKeys(body, path, error)) return false;
   if (!ReadShavingGear(body, "work_gear", &in.work_gear, error) ||
       !ReadShavingGear(body, "cutter", &in.cutter, error) ||
       !ReadNumber(body,

@@ -66,7 +66,13 @@ bool ReadHiddenWheelErrors(const nlohmann::json& wheel,
     return false;
   }
   double cone_deg = 0.0, parabola = 0.0, vertex = 0.0;
-  if (!ReadNumber(wheel,
+  if (!CheckKeys(wheel,
+                 "hidden_errors.wheel",
+                 {"cone_angle_deg",
+                  "parabola_coefficient_per_mm",
+                  "parabola_vertex_mm"},
+                 error) ||
+      !ReadNumber(wheel,
                   "hidden_errors.wheel",
                   "cone_angle_deg",
                   false,
@@ -112,6 +118,7 @@ bool ParseGrinderHiddenErrors(const nlohmann::json& value,
         "hidden_errors must be an object {\"axes\": {...}, \"wheel\": {...}}");
     return false;
   }
+  if (!CheckKeys(value, path, {"axes", "wheel"}, error)) return false;
   if (value.contains("axes") &&
       !ReadHiddenAxisErrors(value.at("axes"), errors, error))
     return false;
@@ -133,7 +140,12 @@ bool ParseRandomHiddenErrors(const nlohmann::json& value,
   }
   double block_size = 1.0, wheel_size = 0.0;
   long long max_order = 2, seed = 1;
-  if (!ReadNumber(value, path, "block_size", false, &block_size, error) ||
+  if (!CheckKeys(
+          value,
+          path,
+          {"block_size", "max_order", "wheel_size", "seed", "fixed_blocks"},
+          error) ||
+      !ReadNumber(value, path, "block_size", false, &block_size, error) ||
       !ReadInteger(value, path, "max_order", false, &max_order, error) ||
       !ReadNumber(value, path, "wheel_size", false, &wheel_size, error) ||
       !ReadInteger(value, path, "seed", false, &seed, error)) {

@@ -116,7 +116,22 @@ bool ParseGear(const nlohmann::json& body,
   double pitch_deg = 0.0, pressure_deg = 0.0;
   std::string hand;
   bool found = false;
-  if (!ReadInt(*gear, "gear", "teeth", true, &out->teeth, error) ||
+  if (!CheckKeys(*gear,
+                 "gear",
+                 {"teeth",
+                  "pitch_angle_deg",
+                  "outer_cone_distance_mm",
+                  "outer_transverse_module_mm",
+                  "face_width_mm",
+                  "mean_spiral_angle_deg",
+                  "outer_spiral_angle_deg",
+                  "hand",
+                  "pressure_angle_deg",
+                  "addendum_mm",
+                  "dedendum_mm",
+                  "slot_width_mm"},
+                 error) ||
+      !ReadInt(*gear, "gear", "teeth", true, &out->teeth, error) ||
       !ReadNumber(*gear, "gear", "pitch_angle_deg", true, &pitch_deg, error) ||
       !ParseGearSize(*gear, out, error) ||
       !ReadWord(*gear,
@@ -144,6 +159,7 @@ bool ParseTool(const nlohmann::json& body,
                ApiError* error) {
   const nlohmann::json* tool = nullptr;
   return RequireObject(body, "", "tool", true, &tool, error) &&
+         CheckKeys(*tool, "tool", {"radius_mm", "stock_mm"}, error) &&
          ReadNumber(*tool, "tool", "radius_mm", true, &out->radius_mm, error) &&
          ReadNumber(*tool, "tool", "stock_mm", false, &out->stock_mm, error);
 }
@@ -187,7 +203,17 @@ bool ParseCut(const nlohmann::json& body, SplitBevelCut* out, ApiError* error) {
   int steps = 0;
   bool has_steps = false, has_from = false;
   std::string from;
-  if (!ReadInt(*cut, "cut", "slot_index", false, &out->slot_index, error) ||
+  if (!CheckKeys(*cut,
+                 "cut",
+                 {"slot_index",
+                  "flanks",
+                  "depth_levels",
+                  "steps",
+                  "chord_tolerance_mm",
+                  "from",
+                  "feed_mm_per_min"},
+                 error) ||
+      !ReadInt(*cut, "cut", "slot_index", false, &out->slot_index, error) ||
       !ParseFlanks(*cut, &out->flanks, error) ||
       !ReadInt(*cut, "cut", "depth_levels", false, &out->depth_levels, error) ||
       !ReadInt(*cut, "cut", "steps", false, &steps, error, &has_steps) ||
@@ -218,7 +244,11 @@ bool ParseMachine(const nlohmann::json& body,
   HeadLimits& limits = out->limits;
   double a_min = RadToDeg(limits.a_min_rad), a_max = RadToDeg(limits.a_max_rad);
   double b_min = RadToDeg(limits.b_min_rad), b_max = RadToDeg(limits.b_max_rad);
-  if (!ReadNumber(*machine,
+  if (!CheckKeys(*machine,
+                 "machine",
+                 {"pivot_length_mm", "a_limits_deg", "b_limits_deg"},
+                 error) ||
+      !ReadNumber(*machine,
                   "machine",
                   "pivot_length_mm",
                   false,
@@ -244,6 +274,11 @@ bool ParseSetup(const nlohmann::json& body,
   const nlohmann::json* setup = nullptr;
   if (!RequireObject(body, "", "setup", false, &setup, error)) return false;
   if (setup == nullptr) return true;
+  if (!CheckKeys(*setup,
+                 "setup",
+                 {"apex_mm", "segment_mid_deg", "segment_angle_deg"},
+                 error))
+    return false;
   if (setup->contains("apex_mm")) {
     const nlohmann::json& apex = setup->at("apex_mm");
     if (!apex.is_array() || apex.size() != 3) {
@@ -276,7 +311,8 @@ bool ParseOutput(const nlohmann::json& body, bool* nc, ApiError* error) {
   const nlohmann::json* output = nullptr;
   if (!RequireObject(body, "", "output", false, &output, error)) return false;
   return output == nullptr ||
-         ReadBool(*output, "output", "nc", false, nc, error);
+         (CheckKeys(*output, "output", {"nc"}, error) &&
+          ReadBool(*output, "output", "nc", false, nc, error));
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include "engine/bevel/conversion.h"
 #include "engine/bevel/freeform_generator.h"
 #include "server/codec/bevel_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/services/machine_family.h"
 
 // Last: see server/respond.h.
@@ -16,6 +17,7 @@ void BevelConversion(const httplib::Request& req, httplib::Response& res) {
   BevelPinionJob job;
   ConversionOptions options;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kBevelConversion, body, "", &error) ||
       !ParseBevelJob(body, &job, &error) ||
       !ParseConversionOptions(body, &options, &error)) {
     return RespondError(res, error);
@@ -36,6 +38,7 @@ void BevelEvaluate(const httplib::Request& req, httplib::Response& res) {
   ApiError error;
   BevelSetup setup;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kBevelMotion, body, "", &error) ||
       !PrepareBevel(body, &setup, &error))
     return RespondError(res, error);
   const BevelFreeFormGenerator generator(setup.job, setup.grid, setup.nominal);
@@ -54,6 +57,8 @@ void BevelAxisSensitivity(const httplib::Request& req, httplib::Response& res) {
   BevelSetup setup;
   AxisSensitivityOptions options;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(
+          RequestSchema::kBevelAxisSensitivity, body, "", &error) ||
       !PrepareBevel(body, &setup, &error) ||
       !ParseAxisSensitivityOptions(body, &options, &error)) {
     return RespondError(res, error);

@@ -14,10 +14,12 @@
 #include "server/codec/job_codec.h"
 #include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/shaving_codec.h"
 #include "server/codec/tolerance_codec.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/measurement_service.h"
+#include "server/services/reach_service.h"
 #include "server/services/shaving_service.h"
 #include "server/services/stored_job.h"
 
@@ -265,8 +267,10 @@ void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
       "): the solve converged, but this machine configuration reaches at "
       "best " +
       best +
-      " um rms of the target at the allowed orders; allow higher orders "
-      "or more axes (options.max_order), or relax the tolerance";
+      " um rms of the target at the allowed orders; allow higher orders, "
+      "more axes or the wheel's profile (options.max_order: for target "
+      "modifications result.reach computes which makes the rest), or relax "
+      "the tolerance";
   run->job.status = "target_partly_reachable";
 }
 
@@ -393,6 +397,13 @@ bool RunCorrection(const ServiceContext& context,
   }
   if (tolerance) {
     ApplyTolerance(*tolerance, run);
+    // What the machine can make of the target, and what would make the rest:
+    // only for a job that misses its tolerance (a reach solves again per
+    // modification and remedy).
+    if (run->job.status == "target_partly_reachable") {
+      const nlohmann::json reach = CorrectionReachJson(context, body);
+      if (!reach.is_null()) run->result_json["reach"] = reach;
+    }
     run->job.result_json = run->result_json.dump();
   }
   if (context.record_solve_seconds)
@@ -406,7 +417,10 @@ void CreateCorrection(const ServiceContext& context,
   nlohmann::json body;
   ApiError error;
   CorrectionRun run;
+  // Strict input where the client's body enters; a replay re-runs a stored
+  // request as it was stored (request_keys.h).
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kCorrection, body, "", &error) ||
       !RunCorrection(context, body, &run, &error)) {
     return RespondError(res, error);
   }
@@ -434,18 +448,12 @@ void ReplayCorrection(const ServiceContext& context,
   }
   nlohmann::json changes = nlohmann::json::object();
   ApiError error;
-  if (!req.body.empty() && !ParseJsonBody(req.body, &changes, &error))
+  // The changes are the client's body: strict. The stored request they
+  // change is not checked again (request_keys.h).
+  if (!req.body.empty() &&
+      (!ParseJsonBody(req.body, &changes, &error) ||
+       !CheckRequestKeys(RequestSchema::kReplay, changes, "", &error)))
     return RespondError(res, error);
-  for (const auto& item : changes.items()) {
-    if (item.key() != "options" && item.key() != "target" &&
-        item.key() != "tolerance") {
-      return RespondError(
-          res,
-          InvalidRequest(item.key(),
-                         "a replay may change only \"options\", \"target\" "
-                         "and \"tolerance\""));
-    }
-  }
   nlohmann::json request =
       nlohmann::json::parse(parent->request_json, nullptr, false);
   if (!request.is_object())

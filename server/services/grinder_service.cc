@@ -7,6 +7,7 @@
 #include "engine/grinder/flat_wheel_grinder.h"
 #include "engine/grinder/grinder_settings.h"
 #include "server/codec/grinder_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/services/measurement_service.h"
 
 // Last: see server/respond.h.
@@ -23,6 +24,7 @@ bool ParseSetupAndSettings(const httplib::Request& req,
                            ApiError* error) {
   nlohmann::json body;
   if (!ParseJsonBody(req.body, &body, error) ||
+      !CheckRequestKeys(RequestSchema::kGrinderSetup, body, "", error) ||
       !ParseGrindingSetup(body, setup, error))
     return false;
   if (body.contains("settings") && !body.at("settings").is_null()) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "server/codec/job_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/trace_codec.h"
 #include "server/services/correction_service.h"
 #include "server/services/split_bevel_service.h"
@@ -305,7 +306,9 @@ void CreateBatch(const ServiceContext& context,
                  httplib::Response& res) {
   nlohmann::json body;
   ApiError error;
-  if (!ParseJsonBody(req.body, &body, &error)) return RespondError(res, error);
+  if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kBatch, body, "", &error))
+    return RespondError(res, error);
   if (!body.contains("items"))
     return RespondError(
         res, InvalidRequest("items", "missing required field items"));
@@ -332,6 +335,10 @@ void CreateBatch(const ServiceContext& context,
           res,
           InvalidRequest(field,
                          field + " must be a correction request object"));
+    // Items are run later from their stored text: strict here, where they
+    // enter.
+    if (!CheckRequestKeys(RequestSchema::kCorrection, items[i], field, &error))
+      return RespondError(res, error);
     texts.push_back(Dump(items[i]));
   }
   const size_t queued =

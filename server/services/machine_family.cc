@@ -276,13 +276,21 @@ void FillBevelProblem(const nlohmann::json& body,
   };
 }
 
+// The machine of a bevel correction or simulation names its kind alone.
+bool CheckBevelMachineKeys(const nlohmann::json& body, ApiError* error) {
+  return !body.contains("machine") ||
+         CheckKeys(body.at("machine"), "machine", {"kind"}, error);
+}
+
 class FreeFormBevelGeneratorFamily : public MachineFamily {
  public:
   bool Correction(const nlohmann::json& body,
                   CorrectionProblem* problem,
                   ApiError* error) const override {
     BevelSetup setup;
-    if (!PrepareBevel(body, &setup, error)) return false;
+    if (!CheckBevelMachineKeys(body, error) ||
+        !PrepareBevel(body, &setup, error))
+      return false;
     FillBevelProblem(body, setup, problem);
     return true;
   }
@@ -291,7 +299,9 @@ class FreeFormBevelGeneratorFamily : public MachineFamily {
                   SimulationProblem* simulation,
                   ApiError* error) const override {
     BevelSetup setup;
-    if (!PrepareBevel(body, &setup, error)) return false;
+    if (!CheckBevelMachineKeys(body, error) ||
+        !PrepareBevel(body, &setup, error))
+      return false;
     FreeFormMotion hidden;
     if (!ParseBevelHiddenErrors(body, setup.motion.degree, &hidden, error))
       return false;

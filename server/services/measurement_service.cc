@@ -13,6 +13,7 @@
 #include "server/codec/grinder_codec.h"
 #include "server/codec/machine_kind.h"
 #include "server/codec/measurement_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/services/stored_job.h"
 
 // Last: see server/respond.h.
@@ -21,7 +22,45 @@
 namespace gearloop {
 namespace {
 
-// Reads `file` onto the gear, grid and flank; the refusal names `path`.content.
+const char* FlankWord(Flank flank) {
+  return flank == Flank::kRight ? "right" : "left";
+}
+
+// When the file holds traces of one flank only and it is not the one that
+// lands on the request's `flank` (through the datum face: the request's, else
+// the file's own, else x_negative, as the import takes it), what to say:
+// "the file measures the left flank, the request corrects the right flank".
+// "" when the file has the flank (or no traces at all: the reader said why).
+std::string FileFlankMismatch(Flank flank,
+                              const MeasurementFileRequest& file,
+                              const MeasurementImportResult& result) {
+  const MeasurementFile& read = result.file;
+  if (read.traces.empty()) return "";
+  const DatumFace datum = file.datum_face.value_or(
+      read.header.datum_face.value_or(DatumFace::kXNegative));
+  Flank wanted = flank;
+  if (datum == DatumFace::kXPositive)
+    wanted = flank == Flank::kRight ? Flank::kLeft : Flank::kRight;
+  for (const MeasuredTrace& trace : read.traces)
+    if (trace.flank == wanted) return "";
+  // Every trace is of the other flank (the file's own naming).
+  const Flank file_flank = read.traces.front().flank;
+  std::string said =
+      std::string("the file measures the ") + FlankWord(file_flank) + " flank";
+  if (datum == DatumFace::kXPositive)
+    said += " (seen from the x_positive datum face, the request's " +
+            std::string(FlankWord(flank == Flank::kRight ? Flank::kLeft
+                                                         : Flank::kRight)) +
+            " flank)";
+  return said + ", the request corrects the " + FlankWord(flank) +
+         " flank: send the file of the " + FlankWord(flank) +
+         " flank, or set \"flank\": \"" +
+         FlankWord(flank == Flank::kRight ? Flank::kLeft : Flank::kRight) +
+         "\" if the part was ground on that flank";
+}
+
+// Reads `file` onto the gear, grid and flank; the refusal names `path`.content
+// (a file of the other flank only: `path`, or "flank" for the import body).
 bool ReadMeasurementFile(const GearData& gear,
                          const GridOptions& grid,
                          Flank flank,
@@ -49,6 +88,11 @@ bool ReadMeasurementFile(const GearData& gear,
                           std::to_string(kMaxMeasurementFileBytes) +
                           " bytes a measuring-machine file may have",
                       field};
+  } else if (const std::string mismatch =
+                 FileFlankMismatch(flank, file, *result);
+             !mismatch.empty()) {
+    *error =
+        ApiError{422, "invalid_file", mismatch, path.empty() ? "flank" : path};
   } else {
     *error = ApiError{422, "invalid_file", result->error.ToString(), field};
   }
@@ -182,6 +226,10 @@ bool ResolveMeasurementFile(const nlohmann::json& body,
   MeasurementFileRequest file;
   if (!RequireObject(
           measurement, "measurement", "file", true, &file_object, error) ||
+      !CheckKeys(*file_object,
+                 "measurement.file",
+                 {"format", "content", "tooth", "datum_face", "sign_factors"},
+                 error) ||
       !ParseGearGridAndFlank(body, &gear, &grid, &flank, error) ||
       !ParseMeasurementFileRequest(
           *file_object, "measurement.file", &file, error)) {
@@ -217,6 +265,7 @@ void ImportMeasurement(const httplib::Request& req, httplib::Response& res) {
   MeasurementImportRequest request;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kMeasurementImport, body, "", &error) ||
       !ParseMeasurementImportRequest(body, &request, &error))
     return RespondError(res, error);
   MeasurementImportResult imported;

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <string>
 
+#include "server/codec/request_keys.h"
 #include "server/services/correction_service.h"
 #include "server/services/machine_family.h"
+#include "server/services/reach_remedy.h"
 
 // Last: see server/respond.h.
 #include <httplib.h>
@@ -14,43 +16,6 @@ namespace {
 
 // The highest order any axis polynomial has (correction options).
 constexpr int kHighestOrder = 6;
-
-nlohmann::json FiniteOrNullJson(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
-// The reach of one target from a perfect flank: target rms, the rms the model
-// cannot make, the share of the target's square it can make, and the
-// predicted residual of the solve.
-nlohmann::json ReachJson(const CorrectionSummary& s) {
-  const double target = s.initial_rms_um;
-  const double left = s.best_reachable_rms_um;
-  double share = std::nan("");
-  if (target > 0.0 && std::isfinite(left))
-    share = std::max(0.0, 1.0 - (left * left) / (target * target));
-  return {{"target_rms_um", FiniteOrNullJson(target)},
-          {"target_max_um", FiniteOrNullJson(s.initial_max_um)},
-          {"unreachable_rms_um", FiniteOrNullJson(left)},
-          {"reachable_share", FiniteOrNullJson(share)},
-          {"predicted_residual_rms_um", FiniteOrNullJson(s.residual_rms_um)},
-          {"predicted_residual_max_um", FiniteOrNullJson(s.residual_max_um)},
-          {"rank", s.rank}};
-}
-
-// Solves `body` with `target` from a perfect flank; false with the error.
-bool SolveReach(const ServiceContext& context,
-                nlohmann::json body,
-                const nlohmann::json& target,
-                const nlohmann::json& zero_grid,
-                CorrectionSummary* summary,
-                ApiError* error) {
-  body["target"] = target;
-  body["measurement"] = {{"deviations_um", zero_grid}};
-  CorrectionRun run;
-  if (!RunCorrection(context, body, &run, error)) return false;
-  *summary = run.result.summary;
-  return true;
-}
 
 // The request without what a reach does not take, checked: a grinder setup
 // with target.modifications. False with the refusal.
@@ -88,6 +53,59 @@ bool ReadReachRequest(const nlohmann::json& body,
   return true;
 }
 
+// The reach answer of a checked request: all together, each modification
+// with its remedy, and all together with every axis free to order 6. False
+// with the error of a modification the solve refuses.
+bool ComputeReach(const ServiceContext& context,
+                  const nlohmann::json& body,
+                  const nlohmann::json& zero_grid,
+                  nlohmann::json* answer,
+                  ApiError* error) {
+  const nlohmann::json& modifications = body["target"]["modifications"];
+  // All together first: it validates every modification with its own index.
+  CorrectionSummary combined;
+  if (!SolveReach(context, body, body["target"], zero_grid, &combined, error))
+    return false;
+  nlohmann::json components = nlohmann::json::array();
+  for (size_t i = 0; i < modifications.size(); ++i) {
+    CorrectionSummary one;
+    if (!SolveReach(context,
+                    body,
+                    {{"modifications", {modifications[i]}}},
+                    zero_grid,
+                    &one,
+                    error))
+      return false;
+    nlohmann::json reach = ReachJson(one);
+    reach["index"] = i;
+    reach["modification"] = modifications[i];
+    const nlohmann::json& share = reach["reachable_share"];
+    reach["remedy"] =
+        ReachRemedyJson(context,
+                        body,
+                        modifications[i],
+                        zero_grid,
+                        share.is_number() ? share.get<double>() : std::nan(""));
+    components.push_back(reach);
+  }
+  // What higher orders would make: every axis polynomial free to order 6.
+  nlohmann::json all_orders = body;
+  all_orders["options"]["default_max_order"] = kHighestOrder;
+  CorrectionSummary highest;
+  nlohmann::json with_highest_orders;
+  ApiError ignored;
+  if (SolveReach(
+          context, all_orders, body["target"], zero_grid, &highest, &ignored)) {
+    with_highest_orders = ReachJson(highest);
+    with_highest_orders["default_max_order"] = kHighestOrder;
+  }
+  *answer = {{"combined", ReachJson(combined)},
+             {"components", components},
+             {"with_highest_orders", with_highest_orders},
+             {"status", CorrectionStatusName(combined.status)}};
+  return true;
+}
+
 }  // namespace
 
 void ReachTarget(const ServiceContext& context,
@@ -97,44 +115,28 @@ void ReachTarget(const ServiceContext& context,
   nlohmann::json zero_grid;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kTargetReach, body, "", &error) ||
       !ReadReachRequest(body, &zero_grid, &error))
     return RespondError(res, error);
-  const nlohmann::json& modifications = body["target"]["modifications"];
-  // All together first: it validates every modification with its own index.
-  CorrectionSummary combined;
-  if (!SolveReach(context, body, body["target"], zero_grid, &combined, &error))
+  nlohmann::json answer;
+  if (!ComputeReach(context, body, zero_grid, &answer, &error))
     return RespondError(res, error);
-  nlohmann::json components = nlohmann::json::array();
-  for (size_t i = 0; i < modifications.size(); ++i) {
-    CorrectionSummary one;
-    if (!SolveReach(context,
-                    body,
-                    {{"modifications", {modifications[i]}}},
-                    zero_grid,
-                    &one,
-                    &error))
-      return RespondError(res, error);
-    nlohmann::json reach = ReachJson(one);
-    reach["index"] = i;
-    reach["modification"] = modifications[i];
-    components.push_back(reach);
-  }
-  // What higher orders would make: every axis polynomial free to order 6.
-  nlohmann::json all_orders = body;
-  all_orders["options"]["default_max_order"] = kHighestOrder;
-  CorrectionSummary highest;
-  nlohmann::json with_highest_orders;
-  if (SolveReach(
-          context, all_orders, body["target"], zero_grid, &highest, &error)) {
-    with_highest_orders = ReachJson(highest);
-    with_highest_orders["default_max_order"] = kHighestOrder;
-  }
-  RespondJson(res,
-              200,
-              {{"combined", ReachJson(combined)},
-               {"components", components},
-               {"with_highest_orders", with_highest_orders},
-               {"status", CorrectionStatusName(combined.status)}});
+  RespondJson(res, 200, answer);
+}
+
+nlohmann::json CorrectionReachJson(const ServiceContext& context,
+                                   const nlohmann::json& body) {
+  nlohmann::json reach = body;
+  for (const char* key :
+       {"measurement", "trace", "tolerance", "settings_source_job_id"})
+    reach.erase(key);
+  nlohmann::json zero_grid;
+  nlohmann::json answer;
+  ApiError ignored;
+  if (!ReadReachRequest(reach, &zero_grid, &ignored) ||
+      !ComputeReach(context, reach, zero_grid, &answer, &ignored))
+    return nullptr;
+  return answer;
 }
 
 }  // namespace gearloop

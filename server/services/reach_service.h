@@ -8,6 +8,10 @@
 // free to order 6 says whether higher orders would make the rest. Nothing is
 // stored.
 //
+// Each component that is not made whole carries a remedy
+// (server/services/reach_remedy.h): a higher order on a named axis, the
+// wheel's profile, or the wheel traverse along the lead, computed.
+//
 //   ReachTarget(context, req, res);   // 200 {components, combined, ...}
 #ifndef GEARLOOP_SERVER_SERVICES_REACH_SERVICE_H_
 #define GEARLOOP_SERVER_SERVICES_REACH_SERVICE_H_
@@ -20,6 +24,14 @@ namespace gearloop {
 void ReachTarget(const ServiceContext& context,
                  const httplib::Request& req,
                  httplib::Response& res);
+
+// The reach block of a correction request `body` (a job that is
+// target_partly_reachable): the same answer as POST /api/v1/targets/reach for
+// its machine configuration, settings, options and target.modifications
+// (measurement, trace, tolerance and lineage left out); null when the job's
+// target is a grid or its machine is not the flat-wheel grinder.
+nlohmann::json CorrectionReachJson(const ServiceContext& context,
+                                   const nlohmann::json& body);
 
 }  // namespace gearloop
 

@@ -4,6 +4,7 @@
 
 #include "engine/grinder/flank_grid.h"
 #include "engine/shaving/diagonal_modification.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/shaving_codec.h"
 
 // Last: see server/respond.h.
@@ -41,6 +42,8 @@ void ShavingCutterTarget(const httplib::Request& req, httplib::Response& res) {
   ShavingInput input;
   ApiError error;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(
+          RequestSchema::kShavingCutterTarget, body, "", &error) ||
       !ParseShavingInput(body, "", &input, &error))
     return RespondError(res, error);
   const auto start = std::chrono::steady_clock::now();

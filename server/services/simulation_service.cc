@@ -6,6 +6,7 @@
 
 #include "engine/simulation/measurement_simulator.h"
 #include "server/codec/correction_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/simulation_codec.h"
 #include "server/services/correction_service.h"
 #include "server/services/machine_family.h"
@@ -23,6 +24,7 @@ struct ClosedLoopRequest {
   ClosedLoopOptions loop;
   nlohmann::json options_body;  // the options as used, stored with each job
   bool store = false;
+  bool allow_large_deviations = false;
 };
 
 bool ParseClosedLoopRequest(const nlohmann::json& body,
@@ -51,7 +53,13 @@ bool ParseClosedLoopRequest(const nlohmann::json& body,
                        &request->loop,
                        &request->options_body,
                        error) ||
-      !ReadBool(body, "", "store", false, &request->store, error)) {
+      !ReadBool(body, "", "store", false, &request->store, error) ||
+      !ReadBool(body,
+                "",
+                "allow_large_deviations",
+                false,
+                &request->allow_large_deviations,
+                error)) {
     return false;
   }
   if (modifications)
@@ -76,6 +84,17 @@ JobRecord ClosedLoopJob(const ClosedLoopRequest& request,
   part_request["target"] = {
       {"deviations_um", GridToJson(request.target_um, {}, rows, columns)}};
   part_request["options"] = request.options_body;
+  // A stored part replays as it ran: its grids beyond the 500 um rule (a
+  // large target the client allowed, a large simulated error) are allowed.
+  const auto beyond = [](const Eigen::VectorXd& grid) {
+    for (int i = 0; i < grid.size(); ++i) {
+      if (std::abs(grid(i)) > kMaxPlausibleDeviationUm) return true;
+    }
+    return false;
+  };
+  if (request.allow_large_deviations || beyond(it.measured_um) ||
+      beyond(request.target_um))
+    part_request["allow_large_deviations"] = true;
   // The step to the next part's parameters (none after the last part).
   std::optional<CorrectionStep> step;
   if (k + 1 < result.iterations.size()) {
@@ -114,6 +133,8 @@ void SimulateMeasurement(const ServiceContext&,
   ApiError error;
   SimulationProblem simulation;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(
+          RequestSchema::kMeasurementSimulation, body, "", &error) ||
       !SimulationProblemFor(body, &simulation, &error)) {
     return RespondError(res, error);
   }
@@ -140,6 +161,7 @@ void SimulateClosedLoop(const ServiceContext& context,
   ApiError error;
   ClosedLoopRequest request;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kClosedLoop, body, "", &error) ||
       !ParseClosedLoopRequest(body, &request, &error)) {
     return RespondError(res, error);
   }

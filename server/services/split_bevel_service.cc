@@ -9,6 +9,7 @@
 #include "engine/core/units.h"
 #include "engine/split_bevel/trajectory.h"
 #include "server/codec/job_codec.h"
+#include "server/codec/request_keys.h"
 #include "server/codec/split_bevel_codec.h"
 #include "server/services/stored_job.h"
 
@@ -80,6 +81,7 @@ void CreateSplitTrajectory(const ServiceContext& context,
   ApiError error;
   SplitBevelRequest request;
   if (!ParseJsonBody(req.body, &body, &error) ||
+      !CheckRequestKeys(RequestSchema::kSplitTrajectory, body, "", &error) ||
       !ParseSplitBevelRequest(body, &request, &error) ||
       !CheckSplitBevelRequest(request, &error))
     return RespondError(res, error);

@@ -581,6 +581,19 @@ class CliTest(unittest.TestCase):
         self.assertEqual(row.split()[-2], "%.1f" % (100 * share))
         self.assertAlmostEqual(float(row.split()[3]), answer["components"][0]["target_rms_um"], delta=0.001)
         self.assertIn("all together, every axis to order 6", done.stdout)
+        # Under the row, the remedy the server computed and what else it tried.
+        remedy = answer["components"][0]["remedy"]
+        lines = done.stdout.splitlines()
+        under = lines[lines.index(row) + 1]
+        if remedy is None:
+            self.assertFalse(under.startswith("  -> "), under)
+        else:
+            self.assertTrue(under.startswith("  -> "), under)
+            if remedy["kind"] == "wheel_profile":
+                self.assertIn("%.1f %%" % (100 * remedy["wheel_profile"]["reachable_share"]), under)
+            if remedy["higher_order"] is not None:
+                self.assertIn("%s to order %d" % (remedy["higher_order"]["axis"], remedy["higher_order"]["order"]),
+                              under)
         self.assert_server_refused("target.modifications", "reach", str(self.sample_setup()))
 
     def test_trace_stored_shown_and_filtered(self) -> None:

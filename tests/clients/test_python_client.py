@@ -158,7 +158,9 @@ class PythonClientTest(unittest.TestCase):
 
     def test_simulations(self) -> None:
         scenario = example_json("scenario.json")
-        simulated = self.client.simulate_measurement(scenario)
+        # The measurement takes no closed-loop keys (strict input, issue 17).
+        measurement_scenario = {k: v for k, v in scenario.items() if k != "corrections"}
+        simulated = self.client.simulate_measurement(measurement_scenario)
         grid = simulated["measurement"]["deviations_um"]
         self.assertEqual((len(grid), len(grid[0])), (5, 9))
         loop = self.client.simulate_closed_loop(dict(scenario, corrections=2))

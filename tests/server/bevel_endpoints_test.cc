@@ -381,7 +381,10 @@ TEST_F(BevelEndpointsTest, SimulatedMeasurementWithProbeNoiseIsCorrected) {
 
   nlohmann::json bad = scenario;
   bad["hidden_errors"] = {{"W_mm", {1}}};
-  EXPECT_EQ(Post("/api/v1/simulations/measurement", bad).status, 400);
+  // An unknown axis is an unknown key (strict input, issue 17).
+  const Answer unknown = Post("/api/v1/simulations/measurement", bad);
+  EXPECT_EQ(unknown.status, 422);
+  EXPECT_EQ(unknown.body["error"]["field"], "hidden_errors.W_mm");
   // Plausibility limits as for the grinder (issue 17): 1e308 is a 422 naming
   // the coefficient, not a 200 with empty grids.
   bad = scenario;

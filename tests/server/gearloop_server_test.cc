@@ -553,6 +553,12 @@ TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
     edit(&j);
     return j.dump();
   };
+  // The grinder's own endpoints take the setup alone (strict input).
+  auto setup_edited = [](const std::function<void(nlohmann::json*)>& edit) {
+    nlohmann::json j = DefaultSetup();
+    edit(&j);
+    return j.dump();
+  };
   const std::string corrections = "/api/v1/corrections";
   const std::vector<ErrorCase> cases = {
       {"not json", corrections, "{\"gear\": ", 400, "invalid_json", ""},
@@ -677,7 +683,7 @@ TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
        ""},
       {"sql-looking flank",
        "/api/v1/evaluate",
-       edited([](nlohmann::json* j) {
+       setup_edited([](nlohmann::json* j) {
          (*j)["flank"] = "right'; DROP TABLE jobs; --";
        }),
        422,
@@ -685,7 +691,7 @@ TEST_F(GearloopServerTest, RefusesBadRequestsWithTheErrorBodyAndStoresNothing) {
        "flank"},
       {"settings axis missing",
        "/api/v1/evaluate",
-       edited([](nlohmann::json* j) {
+       setup_edited([](nlohmann::json* j) {
          (*j)["settings"] = {{"axes", {{"X", {1.0}}}}};
        }),
        400,
@@ -845,7 +851,8 @@ TEST_F(GearloopServerTest, ReplayStoresALinkedJobWithChangedOptions) {
       Post(*client_,
            "/api/v1/corrections/" + std::to_string(parent_id) + "/replay",
            {{"measurement", nlohmann::json::object()}});
-  EXPECT_EQ(wrong.status, 400);
+  // Strict input: an unknown key of the changes (issue 17).
+  EXPECT_EQ(wrong.status, 422);
   EXPECT_EQ(wrong.body["error"]["field"], "measurement");
   const Answer bad_option =
       Post(*client_,

@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "storage/job_repository.h"
 #include "tests/server/raw_connection.h"
 #include "tests/server/server_test_util.h"
 
@@ -348,13 +349,14 @@ TEST_F(HostileRequestsTest, RefusesUnknownKeysNamingTheNearestKnownOne) {
             std::string::npos)
       << body.dump();
 
-  typo = valid;
+  // The grinder's own endpoints take the setup alone (strict top level).
+  typo = testing_util::DefaultSetup();
   typo["gear"]["modul"] = 6;
   std::tie(status, body) = PostJson(client_.get(), "/api/v1/nominal", typo);
   EXPECT_EQ(status, 422);
   EXPECT_EQ(body["error"]["field"], "gear.modul");
 
-  typo = valid;
+  typo = testing_util::DefaultSetup();
   typo["machine"]["traverse_mm_per_deg"] = 0;
   std::tie(status, body) = PostJson(client_.get(), "/api/v1/evaluate", typo);
   EXPECT_EQ(status, 422);
@@ -457,6 +459,418 @@ TEST_F(HostileRequestsTest, RefusesBadJobListQueriesNamingTheParameter) {
     ASSERT_TRUE(result);
     EXPECT_EQ(result->status, 200) << query;
   }
+}
+
+// A valid body of each endpoint that takes one (issue 17: strict input at the
+// top level of every body).
+nlohmann::json PublishedBevelJob() {
+  return {{"side", "convex"},
+          {"published", true},
+          {"grid", {{"profile_points", 3}, {"lengthwise_points", 3}}}};
+}
+
+nlohmann::json BevelCorrectionRequest() {
+  nlohmann::json grid = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) grid.push_back({0.5, -0.25 * i, 0.1});
+  return {{"machine", {{"kind", "free-form-bevel-generator"}}},
+          {"job", PublishedBevelJob()},
+          {"measurement", {{"deviations_um", grid}}}};
+}
+
+nlohmann::json SplitBevelRequest() {
+  return nlohmann::json::parse(R"({
+    "gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40,
+             "face_width_mm": 240, "mean_spiral_angle_deg": 35, "hand": "right",
+             "pressure_angle_deg": 20},
+    "tool": {"radius_mm": 8, "stock_mm": 0.2},
+    "cut": {"slot_index": 3, "flanks": ["convex"], "steps": 5},
+    "machine": {"pivot_length_mm": 300}, "setup": {"apex_mm": [0, 0, 0]},
+    "output": {"nc": false}})");
+}
+
+nlohmann::json ShavingRequest() {
+  return nlohmann::json::parse(R"({
+    "work_gear": {"teeth": 19, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+                  "helix_angle_deg": 9.91, "hand": "right", "face_width_mm": 75},
+    "cutter": {"teeth": 37, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+               "helix_angle_deg": 15, "hand": "left", "face_width_mm": 78,
+               "tip_radius_mm": 120.9157, "root_radius_mm": 107.1569},
+    "diagonal_modification": {"root_um": 20, "tip_um": 20},
+    "wheel_check": {"h_s_mm": 2},
+    "grid": {"profile_points": 3, "lead_points": 3}})");
+}
+
+nlohmann::json ImportRequest() {
+  return {{"gear", testing_util::DefaultSetup()["gear"]},
+          {"format", "mka"},
+          {"content", "HEADER KS.MK.FILE\r\n"}};
+}
+
+// One strict-input case: `body` posted to `path` is refused with 422 naming
+// `field`, and the message offers `nearest` ("" = none near).
+struct KeyCase {
+  std::string path;
+  nlohmann::json body;
+  std::string field;
+  std::string nearest;
+};
+
+void ExpectUnknownKey(httplib::Client* client, const KeyCase& c) {
+  auto [status, body] = PostJson(client, c.path.c_str(), c.body);
+  EXPECT_EQ(status, 422) << c.path << " " << c.field << ": " << body.dump();
+  EXPECT_EQ(body["error"]["code"], "invalid_value") << c.field;
+  EXPECT_EQ(body["error"]["field"], c.field) << c.path << ": " << body.dump();
+  const std::string message = body["error"].value("message", "");
+  std::string expected = "unknown key " + c.field;
+  if (!c.nearest.empty()) expected += "; did you mean " + c.nearest + "?";
+  EXPECT_EQ(message, expected) << c.path;
+}
+
+// `body` with `key` set to `value` at the path of object keys `at`.
+nlohmann::json With(nlohmann::json body,
+                    const std::vector<std::string>& at,
+                    const std::string& key,
+                    const nlohmann::json& value) {
+  nlohmann::json* node = &body;
+  for (const std::string& k : at) node = &(*node)[k];
+  (*node)[key] = value;
+  return body;
+}
+
+TEST_F(HostileRequestsTest, RefusesUnknownTopLevelKeysOfEveryBody) {
+  const nlohmann::json correction = StrictCorrectionRequest();
+  const nlohmann::json setup = testing_util::DefaultSetup();
+  const nlohmann::json bevel_job = {{"job", PublishedBevelJob()}};
+  nlohmann::json bevel_simulation = BevelCorrectionRequest();
+  bevel_simulation.erase("measurement");
+  nlohmann::json reach = setup;
+  reach["target"] = {
+      {"modifications", {{{"kind", "profile_crowning"}, {"amount_um", 5}}}}};
+  // Each body is valid without its typo.
+  for (const auto& [path, body] :
+       std::vector<std::pair<std::string, nlohmann::json>>{
+           {"/api/v1/corrections", correction},
+           {"/api/v1/corrections", BevelCorrectionRequest()},
+           {"/api/v1/nominal", setup},
+           {"/api/v1/bevel/evaluate", bevel_job},
+           {"/api/v1/bevel/split-trajectory", SplitBevelRequest()},
+           {"/api/v1/shaving/cutter-target", ShavingRequest()},
+           {"/api/v1/targets/reach", reach}}) {
+    const int status = PostJson(client_.get(), path.c_str(), body).first;
+    EXPECT_TRUE(status == 200 || status == 201) << path << ": " << status;
+  }
+  const int64_t stored_before =
+      ParseBody(client_->Get("/api/v1/corrections"))["total"];
+  const std::vector<KeyCase> cases = {
+      {"/api/v1/nominal", With(setup, {}, "flanc", "left"), "flanc", "flank"},
+      {"/api/v1/evaluate",
+       With(setup, {}, "setings", nullptr),
+       "setings",
+       "settings"},
+      {"/api/v1/sensitivity", With(setup, {}, "grids", {}), "grids", "grid"},
+      {"/api/v1/corrections",
+       With(correction, {}, "measurment", correction["measurement"]),
+       "measurment",
+       "measurement"},
+      {"/api/v1/corrections",
+       With(correction, {}, "allow_large_deviation", true),
+       "allow_large_deviation",
+       "allow_large_deviations"},
+      {"/api/v1/corrections",
+       With(correction, {}, "job", PublishedBevelJob()),
+       "job",
+       ""},
+      {"/api/v1/corrections",
+       With(BevelCorrectionRequest(), {}, "motions", {}),
+       "motions",
+       "motion"},
+      {"/api/v1/corrections",
+       With(BevelCorrectionRequest(), {}, "gear", setup["gear"]),
+       "gear",
+       ""},
+      {"/api/v1/batches",
+       {{"items", {With(correction, {}, "tolerence", {{"rms_um", 2}})}}},
+       "items[0].tolerence",
+       "tolerance"},
+      {"/api/v1/batches", {{"item", {correction}}}, "item", "items"},
+      {"/api/v1/corrections/1/replay",
+       {{"option", {{"default_max_order", 1}}}},
+       "option",
+       "options"},
+      {"/api/v1/simulations/measurement",
+       With(setup, {}, "noise_mm", 0.1),
+       "noise_mm",
+       "noise_um"},
+      {"/api/v1/simulations/measurement",
+       With(bevel_simulation, {}, "hidden_error", {{"X_mm", {0.001}}}),
+       "hidden_error",
+       "hidden_errors"},
+      {"/api/v1/simulations/measurement",
+       With(bevel_simulation, {}, "missing_points", {{0, 0}}),
+       "missing_points",
+       ""},
+      {"/api/v1/simulations/closed-loop",
+       With(setup, {}, "correction", 2),
+       "correction",
+       "corrections"},
+      {"/api/v1/targets/reach",
+       With(reach, {}, "option", {{"default_max_order", 2}}),
+       "option",
+       "options"},
+      {"/api/v1/bevel/conversions",
+       With(bevel_job, {}, "option", {{"polynomial_degree", 3}}),
+       "option",
+       "options"},
+      {"/api/v1/bevel/evaluate",
+       With(bevel_job, {}, "motions", {}),
+       "motions",
+       "motion"},
+      {"/api/v1/bevel/axis-sensitivity",
+       With(bevel_job, {}, "error", {{"exact", false}}),
+       "error",
+       "errors"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {}, "tools", {}),
+       "tools",
+       "tool"},
+      {"/api/v1/shaving/cutter-target",
+       With(ShavingRequest(), {}, "centre_distance", 150),
+       "centre_distance",
+       "centre_distance_mm"},
+      {"/api/v1/measurements/import",
+       With(ImportRequest(), {}, "toth", 1),
+       "toth",
+       "tooth"},
+  };
+  for (const KeyCase& c : cases) ExpectUnknownKey(client_.get(), c);
+  EXPECT_EQ(ParseBody(client_->Get("/api/v1/corrections"))["total"],
+            stored_before)
+      << "a refused request stored a job";
+}
+
+TEST_F(HostileRequestsTest, RefusesUnknownKeysInBevelJobsAndSimulations) {
+  const nlohmann::json job = {{"job", PublishedBevelJob()}};
+  const nlohmann::json setup = testing_util::DefaultSetup();
+  nlohmann::json bevel_simulation = BevelCorrectionRequest();
+  bevel_simulation.erase("measurement");
+  const nlohmann::json motion = {{"A_rad", {0.0}},
+                                 {"B_rad", {0.0}},
+                                 {"X_mm", {0.0}},
+                                 {"Y_mm", {0.0}},
+                                 {"Z_mm", {0.0}}};
+  const std::vector<KeyCase> cases = {
+      {"/api/v1/bevel/evaluate",
+       With(job, {"job"}, "publishd", true),
+       "job.publishd",
+       "published"},
+      {"/api/v1/bevel/evaluate",
+       With(job, {"job", "cutter"}, "point_radius", 75),
+       "job.cutter.point_radius",
+       "point_radius_mm"},
+      {"/api/v1/bevel/conversions",
+       With(job, {"job", "machine"}, "ratio_of_rol", 3),
+       "job.machine.ratio_of_rol",
+       "ratio_of_roll"},
+      {"/api/v1/bevel/axis-sensitivity",
+       With(job, {"job", "blank"}, "face_angle_dg", 30),
+       "job.blank.face_angle_dg",
+       "face_angle_deg"},
+      {"/api/v1/corrections",
+       With(BevelCorrectionRequest(), {"job", "grid"}, "profile_point", 3),
+       "job.grid.profile_point",
+       "profile_points"},
+      {"/api/v1/corrections",
+       With(BevelCorrectionRequest(), {"machine"}, "knd", "x"),
+       "machine.knd",
+       "kind"},
+      {"/api/v1/bevel/evaluate",
+       With(With(job, {}, "motion", motion), {"motion"}, "Z_mn", {0.0}),
+       "motion.Z_mn",
+       "Z_mm"},
+      {"/api/v1/bevel/conversions",
+       With(job, {"options"}, "polynomial_degre", 3),
+       "options.polynomial_degre",
+       "polynomial_degree"},
+      {"/api/v1/bevel/axis-sensitivity",
+       With(job, {"errors"}, "exakt", false),
+       "errors.exakt",
+       "exact"},
+      {"/api/v1/simulations/measurement",
+       With(bevel_simulation, {"hidden_errors"}, "X_m", {0.001}),
+       "hidden_errors.X_m",
+       "X_mm"},
+      {"/api/v1/simulations/closed-loop",
+       With(bevel_simulation, {"hidden_errors"}, "Y_m", {0.001}),
+       "hidden_errors.Y_m",
+       "Y_mm"},
+      {"/api/v1/simulations/measurement",
+       With(setup, {"hidden_errors"}, "axis", {{"X", {0.001}}}),
+       "hidden_errors.axis",
+       "axes"},
+      {"/api/v1/simulations/closed-loop",
+       With(setup, {"hidden_errors", "wheel"}, "cone_angle_dg", 0.01),
+       "hidden_errors.wheel.cone_angle_dg",
+       "cone_angle_deg"},
+      {"/api/v1/simulations/measurement",
+       With(setup, {"random_hidden_errors"}, "block_sise", 1),
+       "random_hidden_errors.block_sise",
+       "block_size"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"gear"}, "hnd", "left"),
+       "gear.hnd",
+       "hand"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"tool"}, "stock_m", 0.1),
+       "tool.stock_m",
+       "stock_mm"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"cut"}, "step", 5),
+       "cut.step",
+       "steps"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"machine"}, "pivot_length", 300),
+       "machine.pivot_length",
+       "pivot_length_mm"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"setup"}, "apex_m", {0, 0, 0}),
+       "setup.apex_m",
+       "apex_mm"},
+      {"/api/v1/bevel/split-trajectory",
+       With(SplitBevelRequest(), {"output"}, "nc_program", true),
+       "output.nc_program",
+       ""},
+      {"/api/v1/shaving/cutter-target",
+       With(ShavingRequest(), {"diagonal_modification"}, "tip_bands", 0.3),
+       "diagonal_modification.tip_bands",
+       "tip_band"},
+      {"/api/v1/shaving/cutter-target",
+       With(ShavingRequest(), {"wheel_check"}, "hs_mm", 2),
+       "wheel_check.hs_mm",
+       "h_s_mm"},
+      {"/api/v1/corrections",
+       With(StrictCorrectionRequest(),
+            {},
+            "target",
+            {{"shaving", With(ShavingRequest(), {"wheel_check"}, "hs_mm", 2)}}),
+       "target.shaving.wheel_check.hs_mm",
+       "h_s_mm"},
+      {"/api/v1/corrections",
+       With(StrictCorrectionRequest(),
+            {},
+            "target",
+            {{"shaving", With(ShavingRequest(), {}, "centre_distanse_mm", 1)}}),
+       "target.shaving.centre_distanse_mm",
+       "centre_distance_mm"},
+      {"/api/v1/measurements/import",
+       With(ImportRequest(), {"sign_factors"}, "helix_rigt", -1),
+       "sign_factors.helix_rigt",
+       "helix_right"},
+      {"/api/v1/corrections",
+       With(StrictCorrectionRequest(),
+            {},
+            "measurement",
+            {{"file", {{"format", "mka"}, {"content", "x"}, {"toth", 1}}}}),
+       "measurement.file.toth",
+       "tooth"},
+  };
+  for (const KeyCase& c : cases) ExpectUnknownKey(client_.get(), c);
+  EXPECT_EQ(ParseBody(client_->Get("/api/v1/corrections"))["total"], 0)
+      << "a refused request stored a job";
+}
+
+TEST_F(HostileRequestsTest, RefusesImplausibleTargetGridsUnlessAllowed) {
+  nlohmann::json request = StrictCorrectionRequest();
+  nlohmann::json target = nlohmann::json::array();
+  for (int i = 0; i < 5; ++i)
+    target.push_back(std::vector<double>(9, 1.0 * (i - 2)));
+  target[3][4] = -700.0;  // a target of -0.7 um written in nm
+  request["target"] = {{"deviations_um", target}};
+  auto [status, body] = PostJson(client_.get(), "/api/v1/corrections", request);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.deviations_um[3][4]");
+  request["allow_large_deviations"] = true;
+  EXPECT_EQ(PostJson(client_.get(), "/api/v1/corrections", request).first, 201);
+
+  // A closed loop's target, and a bevel correction's.
+  nlohmann::json loop = testing_util::DefaultSetup();
+  loop["corrections"] = 1;
+  loop["target"] = {{"deviations_um", target}};
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/simulations/closed-loop", loop);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.deviations_um[3][4]");
+  loop["allow_large_deviations"] = true;
+  loop["store"] = true;
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/simulations/closed-loop", loop);
+  ASSERT_EQ(status, 200) << body.dump();
+  // Its stored part carries the allowance, so it replays as it ran.
+  ASSERT_TRUE(body["iterations"][0].contains("job_id")) << body.dump();
+  const std::string part =
+      "/api/v1/corrections/" + body["iterations"][0]["job_id"].dump();
+  EXPECT_EQ(ParseBody(client_->Get(
+                part.c_str()))["request"]["allow_large_deviations"],
+            true);
+  EXPECT_EQ(
+      PostJson(
+          client_.get(), (part + "/replay").c_str(), nlohmann::json::object())
+          .first,
+      201);
+
+  nlohmann::json bevel = BevelCorrectionRequest();
+  bevel["target"] = {
+      {"deviations_um", {{0.0, 0.0, 0.0}, {0.0, 0.0, 501.0}, {0.0, 0.0, 0.0}}}};
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/corrections", bevel);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "target.deviations_um[1][2]");
+}
+
+// Strictness is where a client's body enters, not where a stored request is
+// read back: a job stored by an older version with a key the check now
+// refuses replays, and shows, as it was stored.
+TEST_F(HostileRequestsTest, ReplaysAStoredRequestWithAKeyTheCheckRefuses) {
+  ASSERT_EQ(
+      PostJson(client_.get(), "/api/v1/corrections", StrictCorrectionRequest())
+          .first,
+      201);
+  client_.reset();
+  running_.reset();
+  int64_t old_id = 0;
+  {
+    std::unique_ptr<JobRepository> repository = OpenJobRepository(db_.path());
+    std::optional<JobRecord> job = repository->ReadJob(1);
+    ASSERT_TRUE(job.has_value());
+    nlohmann::json stored = nlohmann::json::parse(job->request_json);
+    stored["operator_note"] = "stored by gearloop 0.9, before strict input";
+    job->request_json = stored.dump();
+    job->id = 0;
+    old_id = repository->WriteJob(*job);
+  }
+  ServerOptions options;
+  options.database_path = db_.path();
+  running_ = std::make_unique<RunningServer>(options);
+  ASSERT_GT(running_->port(), 0);
+  client_ = running_->Client();
+
+  const std::string job_path = "/api/v1/corrections/" + std::to_string(old_id);
+  auto shown = client_->Get(job_path.c_str());
+  ASSERT_TRUE(shown);
+  EXPECT_EQ(shown->status, 200);
+  const nlohmann::json stored = ParseBody(shown)["request"];
+  EXPECT_TRUE(stored.contains("operator_note")) << stored.dump();
+  auto [status, body] = PostJson(
+      client_.get(), (job_path + "/replay").c_str(), nlohmann::json::object());
+  EXPECT_EQ(status, 201) << body.dump();
+  EXPECT_EQ(body["parent_job_id"], old_id);
+  auto lineage = client_->Get((job_path + "/lineage").c_str());
+  ASSERT_TRUE(lineage);
+  EXPECT_EQ(lineage->status, 200);
+  // The same request sent by a client is refused.
+  std::tie(status, body) =
+      PostJson(client_.get(), "/api/v1/corrections", stored);
+  EXPECT_EQ(status, 422);
+  EXPECT_EQ(body["error"]["field"], "operator_note");
 }
 
 }  // namespace

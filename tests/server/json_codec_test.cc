@@ -10,6 +10,7 @@
 #include "engine/core/units.h"
 #include "engine/grinder/grinder_settings.h"
 #include "server/codec/grinder_codec.h"
+#include "server/codec/request_keys.h"
 
 namespace gearloop {
 namespace {
@@ -293,6 +294,51 @@ TEST(CheckKeys, NamesTheUnknownKeyAndTheNearestKnownOne) {
   EXPECT_EQ(error.message.find("did you mean"), std::string::npos);
   EXPECT_EQ(NearestName("modul", {"normal_module_mm", "teeth"}), "");
   EXPECT_EQ(NearestName("teth", {"normal_module_mm", "teeth"}), "teeth");
+}
+
+// The top-level keys of a correction are its machine family's: a bevel job
+// is unknown to the grinder and a gear to the bevel generator; a machine kind
+// that cannot be read is left to the parser, which names it.
+TEST(CheckRequestKeys, KnowsTheKeysOfTheMachineFamily) {
+  ApiError error;
+  const nlohmann::json grinder = {{"gear", nlohmann::json::object()},
+                                  {"measurement", nlohmann::json::object()},
+                                  {"allow_large_deviations", true}};
+  EXPECT_TRUE(
+      CheckRequestKeys(RequestSchema::kCorrection, grinder, "", &error));
+  nlohmann::json with_job = grinder;
+  with_job["job"] = nlohmann::json::object();
+  EXPECT_FALSE(
+      CheckRequestKeys(RequestSchema::kCorrection, with_job, "", &error));
+  EXPECT_EQ(error.field, "job");
+
+  const nlohmann::json bevel = {
+      {"machine", {{"kind", "free-form-bevel-generator"}}},
+      {"job", nlohmann::json::object()},
+      {"motion", nlohmann::json::object()}};
+  EXPECT_TRUE(CheckRequestKeys(RequestSchema::kCorrection, bevel, "", &error));
+  nlohmann::json with_gear = bevel;
+  with_gear["gear"] = nlohmann::json::object();
+  EXPECT_FALSE(CheckRequestKeys(
+      RequestSchema::kCorrection, with_gear, "items[2]", &error));
+  EXPECT_EQ(error.field, "items[2].gear");
+  EXPECT_EQ(error.message, "unknown key items[2].gear");
+  // Bevel simulations take no point lists; closed loops take a target.
+  nlohmann::json lists = bevel;
+  lists["outlier_points"] = nlohmann::json::array();
+  EXPECT_FALSE(CheckRequestKeys(
+      RequestSchema::kMeasurementSimulation, lists, "", &error));
+  nlohmann::json loop = bevel;
+  loop["corrections"] = 2;
+  EXPECT_TRUE(CheckRequestKeys(RequestSchema::kClosedLoop, loop, "", &error));
+  EXPECT_FALSE(CheckRequestKeys(
+      RequestSchema::kMeasurementSimulation, loop, "", &error));
+  EXPECT_EQ(error.field, "corrections");
+
+  nlohmann::json unknown_kind = with_job;
+  unknown_kind["machine"] = {{"kind", "hob"}};
+  EXPECT_TRUE(
+      CheckRequestKeys(RequestSchema::kCorrection, unknown_kind, "", &error));
 }
 
 }  // namespace

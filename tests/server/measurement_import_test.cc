@@ -394,6 +394,63 @@ TEST_F(MeasurementEndpointsTest, ACorrectionWithABadFileIsRefused) {
   EXPECT_EQ(Get("/api/v1/corrections").body["total"], 0);
 }
 
+// The file's flank against the request's (issue 16): the GDE sample holds the
+// right flank only, the mka sample cut to one flank either; a correction of
+// the other flank is refused with 422 on measurement.file naming both flanks,
+// the import on "flank", and nothing is stored. The x_positive datum face
+// swaps which flank of the file lands on the request's.
+TEST_F(MeasurementEndpointsTest, AFileOfTheOtherFlankIsRefused) {
+  const size_t left_start =
+      mka_.find("TOPOGRAFIE: Zahn-Nr.: 1 /Profil:1 links");
+  const size_t first_trace = mka_.find("TOPOGRAFIE:");
+  ASSERT_NE(left_start, std::string::npos);
+  const std::string right_only = mka_.substr(0, left_start);
+  const std::string left_only =
+      mka_.substr(0, first_trace) + mka_.substr(left_start);
+  struct Case {
+    std::string format, content, flank, file_flank;
+  };
+  const Case cases[] = {{"gde", gde_, "left", "right"},
+                        {"mka", right_only, "left", "right"},
+                        {"mka", left_only, "right", "left"}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.format + " of the " + c.file_flank + " flank");
+    nlohmann::json body = CorrectionWithFile(c.format, c.content);
+    body["flank"] = c.flank;
+    const Answer a = Post("/api/v1/corrections", body);
+    EXPECT_EQ(a.status, 422) << a.text.substr(0, 300);
+    EXPECT_EQ(a.body["error"]["code"], "invalid_file");
+    EXPECT_EQ(a.body["error"]["field"], "measurement.file");
+    const std::string message = a.body["error"]["message"];
+    EXPECT_NE(
+        message.find("the file measures the " + c.file_flank +
+                     " flank, the request corrects the " + c.flank + " flank"),
+        std::string::npos)
+        << message;
+    const Answer i = Post("/api/v1/measurements/import",
+                          ImportBody(c.format, c.content, c.flank));
+    EXPECT_EQ(i.status, 422);
+    EXPECT_EQ(i.body["error"]["field"], "flank");
+  }
+  // The same files on their own flank are taken.
+  nlohmann::json body = CorrectionWithFile("mka", left_only);
+  body["flank"] = "left";
+  EXPECT_EQ(Post("/api/v1/corrections", body).status, 201);
+  EXPECT_EQ(Post("/api/v1/measurements/import",
+                 ImportBody("mka", right_only, "right"))
+                .status,
+            200);
+  // Seen from the x_positive face the file's right flank is the request's left.
+  body = CorrectionWithFile("mka", right_only);
+  body["measurement"]["file"]["datum_face"] = "x_positive";
+  const Answer swapped = Post("/api/v1/corrections", body);
+  EXPECT_EQ(swapped.status, 422);
+  EXPECT_NE(
+      swapped.body["error"]["message"].get<std::string>().find("x_positive"),
+      std::string::npos);
+  EXPECT_EQ(Get("/api/v1/corrections").body["total"], 1);
+}
+
 // METROLOGY.md §3: the export holds the measured, target and predicted nets;
 // importing it back gives the stored measured grid within 0.001 um.
 TEST_F(MeasurementEndpointsTest, ExportRoundTripsThroughTheImport) {

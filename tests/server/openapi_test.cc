@@ -366,9 +366,11 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
   const std::string split_id =
       std::to_string(ParseBody(split_job)["job_id"].get<int64_t>());
 
-  nlohmann::json closed_loop = DefaultSetup();
-  closed_loop["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
-  closed_loop["noise_um"] = 0.2;
+  nlohmann::json simulation = DefaultSetup();
+  simulation["random_hidden_errors"] = {{"block_size", 2.0}, {"seed", 3}};
+  simulation["noise_um"] = 0.2;
+  // A closed loop's own keys are unknown to a measurement (strict input).
+  nlohmann::json closed_loop = simulation;
   closed_loop["corrections"] = 1;
   nlohmann::json impossible = DefaultSetup();
   impossible["gear"]["teeth"] = 3;
@@ -436,7 +438,7 @@ TEST_F(OpenApiTest, EveryOperationAnswersAsDocumented) {
       {"GET /api/v1/batches/{id}", {"/api/v1/batches/" + batch_id, "", "", ""}},
       {"POST /api/v1/simulations/measurement",
        {"/api/v1/simulations/measurement",
-        closed_loop.dump(),
+        simulation.dump(),
         impossible.dump(),
         "{\"gear\": 1}"}},
       {"POST /api/v1/simulations/closed-loop",

@@ -283,7 +283,13 @@ TEST_F(ServicesTest, StubSolverNoSafeImprovementIsStoredWithItsStatus) {
   ASSERT_EQ(created.status, 201) << created.body.dump();
   EXPECT_EQ(created.body["status"], "no_safe_improvement");
   EXPECT_EQ(created.body["result"]["status"], "no_safe_improvement");
-  EXPECT_EQ(created.body["result"]["message"], "the current settings are kept");
+  // A zero correction says why first (server/codec/zero_correction.h), the
+  // engine's own words kept after it.
+  const std::string message = created.body["result"]["message"];
+  EXPECT_EQ(message.rfind("zero correction: ", 0), 0u) << message;
+  EXPECT_NE(message.find("(the current settings are kept)"), std::string::npos)
+      << message;
+  EXPECT_TRUE(created.body["result"]["explain"].is_object());
   const std::optional<JobRecord> job =
       repository_->ReadJob(created.body["id"].get<int64_t>());
   ASSERT_TRUE(job.has_value());

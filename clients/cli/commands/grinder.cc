@@ -60,7 +60,9 @@ const CommandSpec kNominal{
     "Prints the nominal machine settings of the setup in REQUEST.json (gear, "
     "wheel,\n"
     "machine, flank; POST /api/v1/nominal): the settings that grind the exact\n"
-    "involute helicoid, and the roll range.\n\n"
+    "involute helicoid, and the roll range. Other keys of the file (a "
+    "correction's\n"
+    "measurement, target, options) are left out.\n\n"
     "options:\n"
     "  --settings-out FILE   write the settings as JSON (input of `evaluate "
     "--settings`)\n",
@@ -79,7 +81,8 @@ int RunNominal(const ParsedArgs& args,
   if (!request.is_object())
     return InputError(args.positional[0] +
                       ": the request must be a JSON object");
-  const ApiResponse answer = client->Post("/api/v1/nominal", request);
+  const ApiResponse answer =
+      client->Post("/api/v1/nominal", OnlyKeys(request, kGrinderSetupKeys));
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   if (args.Has("--settings-out") &&
@@ -112,7 +115,8 @@ const CommandSpec kEvaluate{
     "settings and prints its\n"
     "deviations from the involute on the grid (POST /api/v1/evaluate); points "
     "the wheel does not\n"
-    "reach are shown as '-'.\n\n"
+    "reach are shown as '-'. Only the setup (gear, wheel, machine, grid, "
+    "flank, settings) is sent.\n\n"
     "options:\n"
     "  --settings FILE   machine settings JSON ({axes, wheel}, e.g. from "
     "`submit --settings-out`);\n"
@@ -141,7 +145,8 @@ int RunEvaluate(const ParsedArgs& args,
       settings = settings["settings"];
     request["settings"] = settings;
   }
-  const ApiResponse answer = client->Post("/api/v1/evaluate", request);
+  const ApiResponse answer =
+      client->Post("/api/v1/evaluate", OnlyKeys(request, kGrinderSetupKeys));
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   const json grid = answer.body.value("deviations_um", json());

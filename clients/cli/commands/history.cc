@@ -223,7 +223,7 @@ int RunList(const ParsedArgs& args,
   }
   const json jobs = answer.body.value("jobs", json::array());
   std::cout << std::left << std::setw(6) << "id" << std::setw(26)
-            << "created (UTC)" << std::setw(17) << "kind" << std::setw(15)
+            << "created (UTC)" << std::setw(17) << "kind" << std::setw(25)
             << "status" << std::setw(14) << "gear" << std::setw(7) << "flank"
             << std::right << std::setw(10) << "rms um" << std::setw(8)
             << "parent"
@@ -251,7 +251,7 @@ int RunList(const ParsedArgs& args,
     }
     std::cout << std::left << std::setw(6) << Member(job, "id") << std::setw(26)
               << Member(job, "created_utc") << std::setw(17)
-              << Member(job, "kind") << std::setw(15) << Member(job, "status")
+              << Member(job, "kind") << std::setw(25) << Member(job, "status")
               << std::setw(14) << gear << std::setw(7) << Member(job, "flank")
               << std::right << std::setw(10)
               << Fixed(job.value("residual_rms_um", json())) << std::setw(8)

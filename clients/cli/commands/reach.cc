@@ -31,6 +31,51 @@ void PrintReachRow(const std::string& name, const json& reach) {
             << Percent(reach.value("reachable_share", json())) << "\n";
 }
 
+// "X to order 6 74.5 %" of remedy.higher_order.
+std::string OrderText(const json& higher) {
+  if (!higher.is_object()) return "";
+  return Member(higher, "axis") + " to order " +
+         Text(higher.value("order", json())) + " " +
+         Percent(higher.value("reachable_share", json()));
+}
+
+std::string ShareOf(const json& remedy, const char* key) {
+  const json block = remedy.value(key, json());
+  return block.is_object() ? Percent(block.value("reachable_share", json()))
+                           : std::string();
+}
+
+// The line under a component that is not made whole: the remedy the server
+// computed, then what else it tried.
+void PrintRemedy(const json& remedy) {
+  if (!remedy.is_object()) return;
+  const std::string kind = Member(remedy, "kind");
+  const json higher = remedy.value("higher_order", json());
+  std::string line = "  -> ";
+  if (kind == "higher_order") {
+    line += "open axis " + OrderText(higher);
+  } else if (kind == "wheel_profile") {
+    line +=
+        "free the wheel profile (parabola) " + ShareOf(remedy, "wheel_profile");
+  } else if (kind == "wheel_traverse") {
+    line += "wheel traverse along the lead (outside the model)";
+  } else {
+    line += "no remedy in the model";
+  }
+  std::string tried;
+  if (kind != "higher_order" && higher.is_object())
+    tried += "best axis " + OrderText(higher);
+  if (kind != "wheel_profile" &&
+      remedy.value("wheel_profile", json()).is_object())
+    tried += (tried.empty() ? "" : ", ") + std::string("wheel profile ") +
+             ShareOf(remedy, "wheel_profile");
+  if (remedy.value("wheel_traverse", json()).is_object())
+    tried += (tried.empty() ? "" : ", ") + std::string("traverse C_s ") +
+             ShareOf(remedy, "wheel_traverse");
+  if (!tried.empty()) line += "; tried: " + tried;
+  std::cout << line << "\n";
+}
+
 // "lead_crowning 10 um" for a modification.
 std::string ModificationName(const json& modification) {
   std::string name = Member(modification, "kind");
@@ -51,7 +96,12 @@ const CommandSpec kReach{
     "together, the target's rms, the rms no correction at the allowed orders "
     "can make, and the\n"
     "share of the target made; then the same with every axis free to order "
-    "6.\n\n"
+    "6.\n"
+    "Under each modification not made whole, the remedy the server computed "
+    "(a higher order\n"
+    "on a named axis, the wheel profile freed, or the wheel traverse along "
+    "the lead) and the\n"
+    "share each would reach.\n\n"
     "options:\n"
     "  --target FILE    JSON {modifications:[...]} replacing REQUEST.json's "
     "target\n"
@@ -88,17 +138,21 @@ int RunReach(const ParsedArgs& args,
             << std::setw(11) << "rms um" << std::setw(15) << "not made um"
             << std::setw(10) << "made"
             << "\n";
-  for (const json& c : answer.body.value("components", json::array()))
+  for (const json& c : answer.body.value("components", json::array())) {
     PrintReachRow(ModificationName(c.value("modification", json())), c);
+    PrintRemedy(c.value("remedy", json()));
+  }
   PrintReachRow("all together", answer.body.value("combined", json()));
   const json highest = answer.body.value("with_highest_orders", json());
   if (highest.is_object())
     PrintReachRow("all together, every axis to order 6", highest);
   if (!whole) {
     std::cout << "part of the target is out of reach of this machine "
-                 "configuration; where order 6 does\n"
-                 "not help, it needs another motion (a traversing or coned "
-                 "wheel)\n";
+                 "configuration; the -> lines say\n"
+                 "what would make the rest (computed by the server: each axis "
+                 "one order higher up to 6,\n"
+                 "the wheel profile freed, the traverse C_s); --json gives "
+                 "the remedies in full\n";
   }
   return whole ? kExitOk : kExitNotConverged;
 }

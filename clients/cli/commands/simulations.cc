@@ -28,7 +28,9 @@ const CommandSpec kSimulate{
     "it. SCENARIO.json\n"
     "holds the setup (gear, wheel, machine, grid, flank), settings, "
     "hidden_errors or\n"
-    "random_hidden_errors, noise_um, seed, missing_probability, ...\n\n"
+    "random_hidden_errors, noise_um, seed, missing_probability, ...; a "
+    "closed-loop\n"
+    "scenario's corrections, target, options and store are left out.\n\n"
     "options:\n"
     "  --csv FILE     write the simulated measurement as a CSV grid (input for "
     "`submit`)\n"
@@ -51,8 +53,26 @@ int RunSimulate(const ParsedArgs& args,
                       ": the scenario must be a JSON object");
   const int bad = ApplySeedAndNoise(kSimulate, args, &scenario);
   if (bad >= 0) return bad;
+  // A closed-loop scenario's own keys (corrections, target, options, store)
+  // are not the measurement's: left out.
+  const std::vector<std::string> keys = {"gear",
+                                         "wheel",
+                                         "machine",
+                                         "grid",
+                                         "flank",
+                                         "settings",
+                                         "hidden_errors",
+                                         "random_hidden_errors",
+                                         "noise_um",
+                                         "seed",
+                                         "outlier_probability",
+                                         "outlier_size_um",
+                                         "missing_probability",
+                                         "teeth",
+                                         "outlier_points",
+                                         "missing_points"};
   const ApiResponse answer =
-      client->Post("/api/v1/simulations/measurement", scenario);
+      client->Post("/api/v1/simulations/measurement", OnlyKeys(scenario, keys));
   const int failure = CheckAnswer(answer);
   if (failure >= 0) return failure;
   json grid;

@@ -176,6 +176,44 @@ async function main() {
     check("measured grid downloads as CSV", csvLines.length === 6 && csvLines[1] === root.join(",") && csvLines[5].endsWith(","), JSON.stringify(csvLines.slice(0, 2)));
     await page.screenshot({ path: path.join(outDir, "dashboard.png"), fullPage: true });
 
+    // 1b. The axis motion of the job, commanded vs corrected, from its settings listing, and the
+    //     flank's three topographies as 3-D surfaces.
+    await page.waitForSelector("body[data-motion-shown='" + job.id + "']", { timeout: 30000 });
+    const motionBoxes = await page.$$eval(".axis-motion-curve", (boxes) =>
+      boxes.map((b) => ({
+        axis: b.getAttribute("data-axis"),
+        unit: b.getAttribute("data-unit"),
+        series: Array.from(b.querySelectorAll("polyline.series")).map((l) => l.getAttribute("data-name") + ":" + l.getAttribute("points").split(" ").length),
+        title: b.querySelector("svg.axis-change .plot-title").textContent,
+      }))
+    );
+    check(
+      "axis motion: one box per axis, commanded and corrected at 41 roll angles",
+      motionBoxes.map((b) => b.axis).join() === "X,Y,Z,A,B,C" && motionBoxes.every((b) => b.series.join() === "commanded:41,corrected:41,corrected \u2212 commanded:41"),
+      JSON.stringify(motionBoxes.map((b) => [b.axis, b.series]))
+    );
+    check("axis motion: units on the axes", motionBoxes.every((b) => (["X", "Y", "Z"].includes(b.axis) ? ["mm", "\u00b5m"] : ["rad", "\u00b5rad"]).includes(b.unit)), JSON.stringify(motionBoxes.map((b) => b.axis + " " + b.unit)));
+    // The largest change the page states is the listing's own (CSV of the same samples).
+    const listing = (await (await fetch(base + "/api/v1/corrections/" + job.id + "/settings?format=csv&samples=41")).text()).trim().split("\n");
+    const zChange = listing.filter((l) => l.startsWith("motion,Z,")).map((l) => Math.abs(Number(l.split(",")[6])));
+    const zBox = motionBoxes.find((b) => b.axis === "Z");
+    check("axis motion: the change of Z as listed", zChange.length === 41 && zBox !== undefined && zBox.title === "change, max |\u0394| " + Math.max(...zChange).toFixed(2) + " \u00b5m", zBox && zBox.title);
+    const surfaces = await page.$$eval("canvas.topo3d", (cs) =>
+      cs.map((c) => {
+        const data = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+        let coloured = 0;
+        for (let i = 0; i < data.length; i += 4) if (Math.abs(data[i] - data[i + 2]) > 40) coloured += 1;
+        return { surface: c.getAttribute("data-surface"), quads: Number(c.getAttribute("data-quads")), coloured };
+      })
+    );
+    // 4 x 8 cells of the 5 x 9 grid; the measured tip corner at x > 0 is missing, so is the cell
+    // touching it in the measured and the predicted part.
+    check("3-D view: measured, target, predicted part", surfaces.map((s) => s.surface).join() === "measured,target,predicted", JSON.stringify(surfaces));
+    check("3-D view: cells drawn, none with a missing corner", surfaces.map((s) => s.quads).join() === "31,32,31", JSON.stringify(surfaces.map((s) => s.quads)));
+    check("3-D view: surfaces coloured by deviation", surfaces.every((s) => s.coloured > 500), JSON.stringify(surfaces.map((s) => s.coloured)));
+    await (await page.$("section.flank-3d")).screenshot({ path: path.join(outDir, "dashboard-3d.png") });
+    await (await page.$("section.axis-motion-section")).screenshot({ path: path.join(outDir, "dashboard-axis-motion.png") });
+
     // 2. A job of the closed-loop chain: the convergence plot has one point per correction.
     const last = chainIds[chainIds.length - 1];
     await page.click("#jobs tbody tr[data-job-id='" + last + "']");
@@ -210,6 +248,68 @@ async function main() {
     const replayId = Number(await page.getAttribute("body", "data-job-shown"));
     const replayed = await api(base, "GET", "/api/v1/corrections/" + replayId);
     check("replay from the page", replayed.kind === "replay" && replayed.parent_job_id === nextId && replayed.result.solver === "lsq-plain", JSON.stringify({ kind: replayed.kind, parent: replayed.parent_job_id }));
+
+    // 3c. A new correction from job N's setup with another measured part's grid: the answer is
+    //     shown beside the panel, the job joins the history, the page stays on job N.
+    await page.evaluate((n) => {
+      window.location.hash = "job=" + n;
+    }, job.id);
+    await page.waitForSelector("body[data-job-shown='" + job.id + "']", { timeout: 30000 });
+    await page.setInputFiles("#new-correction-file", path.join(EXAMPLES, "measurement.csv"));
+    await page.waitForSelector("body[data-new-correction]", { timeout: 60000 });
+    const againId = Number(await page.getAttribute("body", "data-new-correction"));
+    const again = await api(base, "GET", "/api/v1/corrections/" + againId);
+    const stored = await api(base, "GET", "/api/v1/corrections/" + job.id);
+    const answerRows = Object.fromEntries(await page.$$eval("#new-correction-result table.answer tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent])));
+    check(
+      "new correction from job N's setup",
+      again.kind === "correction" && !again.settings_source_job_id && JSON.stringify(again.request.target) === JSON.stringify(stored.request.target) && JSON.stringify(again.request.gear) === JSON.stringify(stored.request.gear) && again.trace.file_name === "measurement.csv" && JSON.stringify(again.result.measured_um[0]) === JSON.stringify(root),
+      JSON.stringify({ id: againId, kind: again.kind, trace: again.trace })
+    );
+    check(
+      "new correction: its answer shown",
+      answerRows["status"] === again.status + (again.result.message ? " \u2014 " + again.result.message : "") && answerRows["predicted residual rms / max"] === again.result.residual_rms_um.toFixed(3) + " / " + again.result.residual_max_um.toFixed(3) + " \u00b5m",
+      JSON.stringify(answerRows)
+    );
+    check("new correction in the history", (await page.$$("#jobs tbody tr[data-job-id='" + againId + "']")).length === 1 && (await page.getAttribute("body", "data-job-shown")) === String(job.id));
+    await page.screenshot({ path: path.join(outDir, "dashboard-new-correction.png"), fullPage: true });
+
+    // 3d. The target changed and replayed: lead crowning 4 -> 8 um and a profile crowning of
+    //     3 um added; what the machine can make of it first, then the replay.
+    await page.click("#target-editor summary");
+    const modRows = await page.$$("#target-mods .mod-row");
+    check("target editor holds the stored modification", modRows.length === 1 && (await page.inputValue("#target-mods .mod-row .mod-amount")) === "4", String(modRows.length));
+    await page.fill("#target-mods .mod-row .mod-amount", "8");
+    await page.click("#target-add");
+    await page.selectOption("#target-mods .mod-row:nth-child(2) .mod-kind", "profile_crowning");
+    await page.fill("#target-mods .mod-row:nth-child(2) .mod-amount", "3");
+    const newTarget = { modifications: [{ kind: "lead_crowning", amount_um: 8 }, { kind: "profile_crowning", amount_um: 3 }] };
+    await page.click("#reach-target");
+    await page.waitForSelector("#reach-result table.reach, #target-status.error", { timeout: 60000 });
+    const reachBody = { target: newTarget };
+    for (const k of ["gear", "wheel", "machine", "grid", "flank", "settings", "options"]) if (stored.request[k] !== undefined) reachBody[k] = stored.request[k];
+    const reachAnswer = await api(base, "POST", "/api/v1/targets/reach", reachBody);
+    const reachRows = await page.$$eval("#reach-result table.reach tr", (trs) => trs.slice(1).map((tr) => Array.from(tr.children).map((c) => c.textContent)));
+    check(
+      "reach of the changed target",
+      reachRows.length >= 3 && reachRows[0][0] === "lead crowning 8.0" && reachRows[1][0] === "profile crowning 3.0" && reachRows[2][3] === (100 * reachAnswer.combined.reachable_share).toFixed(1) + " %",
+      JSON.stringify(reachRows)
+    );
+    await page.click("#replay-target");
+    await page.waitForFunction((old) => Number(document.body.getAttribute("data-job-shown")) > old, againId, { timeout: 60000 });
+    const retargetId = Number(await page.getAttribute("body", "data-job-shown"));
+    const retarget = await api(base, "GET", "/api/v1/corrections/" + retargetId);
+    // At the grid's root row, x < 0 end: -8 (lead, eta = -1) - 3 (profile, xi = 0). The server
+    // stores the request with its keys sorted: the modifications are compared field by field.
+    check(
+      "replay with the changed target",
+      retarget.kind === "replay" && retarget.parent_job_id === job.id && retarget.request.target.modifications.map((m) => m.kind + " " + m.amount_um).join() === "lead_crowning 8,profile_crowning 3" && Math.abs(retarget.result.target_um[0][0] + 11) < 1e-9,
+      JSON.stringify({ kind: retarget.kind, parent: retarget.parent_job_id, target: retarget.request.target })
+    );
+    const targetMap = await page.$$eval("svg.heatmap", (svgs) => Array.from(svgs[1].querySelectorAll(".cell-value")).map((t) => t.textContent));
+    // Tip row first: -11 at both ends of tip and root, -3 at mid-face (the profile crowning alone).
+    check("the replay's target drawn", targetMap[0] === "-11.00" && targetMap[36] === "-11.00" && targetMap[40] === "-3.00", JSON.stringify(targetMap.slice(36)));
+    await page.screenshot({ path: path.join(outDir, "dashboard-replay-target.png"), fullPage: true });
 
     // 4. A simulated closed loop run from the page.
     await page.click("text=Simulate a closed loop on this setup");
@@ -251,6 +351,18 @@ async function main() {
       JSON.stringify(traceShown)
     );
     await page.screenshot({ path: path.join(outDir, "dashboard-iso1328.png"), fullPage: true });
+    // The GDE file of the same flank as a new correction of this setup: the answer carries the
+    // job's tolerance and its verdicts.
+    await page.setInputFiles("#new-correction-file", path.join(samples, "sample_topography.gde.xml"));
+    await page.waitForFunction((old) => Number(document.body.getAttribute("data-new-correction")) > old, againId, { timeout: 60000 });
+    const fromGde = await api(base, "GET", "/api/v1/corrections/" + (await page.getAttribute("body", "data-new-correction")));
+    const gdeAnswer = Object.fromEntries(await page.$$eval("#new-correction-result table.answer tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent])));
+    const verdictText = (v) => v.verdict + (v.failed.length ? " (misses " + v.failed.join(", ") + ")" : "");
+    check(
+      "new correction from a GDE file: tolerance verdicts shown",
+      fromGde.request.measurement.file.format === "gde" && fromGde.trace.part_number === "4711-A" && fromGde.trace.file_name === "sample_topography.gde.xml" && gdeAnswer["verdict measured"] === verdictText(fromGde.result.verdict.measured) && gdeAnswer["verdict predicted"] === verdictText(fromGde.result.verdict.predicted),
+      JSON.stringify(gdeAnswer)
+    );
     await page.click("#export-gde");
     await page.waitForSelector("a[download='job" + fromFile.id + ".gde.xml']", { timeout: 30000 });
     const gdeText = await page.evaluate(async (name) => (await fetch(document.querySelector("a[download='" + name + "']").href)).text(), "job" + fromFile.id + ".gde.xml");
@@ -330,6 +442,10 @@ async function main() {
     check("bevel grids drawn", bevelMaps.length === 3 && bevelMaps.every((n) => n === 45), JSON.stringify(bevelMaps));
     const bevelCurves = await page.$$eval("section.job-view svg.chart polyline.series", (ls) => ls.map((l) => l.getAttribute("data-name")));
     check("bevel axis curves", ["X", "Y", "Z", "A", "B"].every((a) => bevelCurves.includes(a)) && !bevelCurves.includes("C"), JSON.stringify(bevelCurves));
+    await page.waitForSelector("body[data-motion-shown='" + bevel.id + "']", { timeout: 30000 });
+    const bevelMotion = await page.$$eval(".axis-motion-curve", (boxes) => boxes.map((b) => b.getAttribute("data-axis") + ":" + b.querySelectorAll("polyline.series").length));
+    check("bevel axis motion, commanded vs corrected", bevelMotion.join() === "A:3,B:3,X:3,Y:3,Z:3", JSON.stringify(bevelMotion));
+    check("bevel 3-D view", (await page.$$("canvas.topo3d")).length === 3);
     await page.screenshot({ path: path.join(outDir, "dashboard-bevel.png"), fullPage: true });
 
     // 6b. The shaving view: the published pinion's diagonal modification and the cutter target it

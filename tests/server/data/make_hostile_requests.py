@@ -132,6 +132,72 @@ add("target modification amount 1e308",
 add("options max_order unknown block", dict(copy.deepcopy(BASE), options={"max_order": {"Q": 2}}), 422)
 add("target modification unknown kind", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "wobble", "amount_um": 1}]}), 422)
 add("target modification without amount", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "lead_crowning"}]}), 400)
+# Strict input at the top level of every body, and in the bevel job and simulation scenario
+# objects (issue 17): 422 naming the key. The corpus test sees that nothing is stored.
+SETUP = {k: BASE[k] for k in ("gear", "wheel", "machine", "grid", "flank")}
+BEVEL_JOB = {"side": "convex", "published": True, "grid": {"profile_points": 3, "lengthwise_points": 3}}
+BEVEL = {"machine": {"kind": "free-form-bevel-generator"}, "job": BEVEL_JOB,
+         "measurement": {"deviations_um": [[0.5, 0.0, 0.1]] * 3}}
+SPLIT = {"gear": {"teeth": 75, "pitch_angle_deg": 70, "outer_transverse_module_mm": 40, "face_width_mm": 240,
+                  "mean_spiral_angle_deg": 35, "hand": "right", "pressure_angle_deg": 20},
+         "tool": {"radius_mm": 8}, "cut": {"steps": 5}}
+SHAVING = {"work_gear": {"teeth": 19, "normal_module_mm": 6, "normal_pressure_angle_deg": 20,
+                         "helix_angle_deg": 9.91, "hand": "right", "face_width_mm": 75},
+           "cutter": dict(GEAR), "grid": {"profile_points": 3, "lead_points": 3}}
+for path, body, key in [
+        (CORRECTIONS, BASE, "measurment"), (CORRECTIONS, BASE, "allow_large_deviation"),
+        (CORRECTIONS, BASE, "job"), (CORRECTIONS, BEVEL, "motions"), (CORRECTIONS, BEVEL, "gear"),
+        ("/api/v1/nominal", SETUP, "flnak"), ("/api/v1/evaluate", SETUP, "setings"),
+        ("/api/v1/sensitivity", SETUP, "grids"), ("/api/v1/simulations/measurement", SETUP, "noise_mm"),
+        ("/api/v1/simulations/measurement", {k: BEVEL[k] for k in ("machine", "job")}, "missing_points"),
+        ("/api/v1/simulations/closed-loop", SETUP, "correction"),
+        ("/api/v1/targets/reach", dict(SETUP, target={"modifications": [{"kind": "tip_relief", "amount_um": 5}]}),
+         "option"),
+        ("/api/v1/bevel/conversions", {"job": BEVEL_JOB}, "option"),
+        ("/api/v1/bevel/evaluate", {"job": BEVEL_JOB}, "motions"),
+        ("/api/v1/bevel/axis-sensitivity", {"job": BEVEL_JOB}, "error"),
+        ("/api/v1/bevel/split-trajectory", SPLIT, "tools"),
+        ("/api/v1/shaving/cutter-target", SHAVING, "centre_distance"),
+        ("/api/v1/measurements/import", {"gear": GEAR, "format": "mka", "content": "HEADER KS.MK.FILE\r\n"}, "toth")]:
+    add(f"{path}: unknown top-level key {key}", dict(copy.deepcopy(body), **{key: 1}), 422, path=path)
+add("batch: item with an unknown key", {"items": [dict(copy.deepcopy(BASE), tolerence={"rms_um": 2})]}, 422,
+    path="/api/v1/batches")
+add("batch: unknown key item", {"item": [BASE]}, 422, path="/api/v1/batches")
+
+
+def with_key(body, where, key):
+    request = copy.deepcopy(body)
+    node = request
+    for k in where:
+        node = node.setdefault(k, {})
+    node[key] = 1
+    return request
+
+
+for where, key in [(["job"], "publishd"), (["job", "cutter"], "point_radius"), (["job", "machine"], "ratio_of_rol"),
+                   (["job", "blank"], "face_angle_dg"), (["job", "grid"], "profile_point"), (["machine"], "knd")]:
+    add(f"bevel correction: unknown key {'.'.join(where)}.{key}", with_key(BEVEL, where, key), 422)
+ZERO_MOTION = {a: [0.0] for a in ("A_rad", "B_rad", "X_mm", "Y_mm", "Z_mm")}
+for path, body, where, key in [
+        ("/api/v1/bevel/conversions", {"job": BEVEL_JOB}, ["options"], "polynomial_degre"),
+        ("/api/v1/bevel/axis-sensitivity", {"job": BEVEL_JOB}, ["errors"], "exakt"),
+        ("/api/v1/bevel/evaluate", {"job": BEVEL_JOB, "motion": ZERO_MOTION}, ["motion"], "Z_mn"),
+        ("/api/v1/simulations/measurement", {k: BEVEL[k] for k in ("machine", "job")}, ["hidden_errors"], "X_m"),
+        ("/api/v1/simulations/measurement", SETUP, ["hidden_errors"], "axis"),
+        ("/api/v1/simulations/closed-loop", SETUP, ["hidden_errors", "wheel"], "cone_angle_dg"),
+        ("/api/v1/simulations/measurement", SETUP, ["random_hidden_errors"], "block_sise"),
+        ("/api/v1/bevel/split-trajectory", SPLIT, ["cut"], "step"),
+        ("/api/v1/bevel/split-trajectory", SPLIT, ["output"], "nc_program"),
+        ("/api/v1/shaving/cutter-target", SHAVING, ["diagonal_modification"], "tip_bands"),
+        ("/api/v1/shaving/cutter-target", SHAVING, ["wheel_check"], "hs_mm")]:
+    add(f"{path}: unknown key {'.'.join(where)}.{key}", with_key(body, where, key), 422, path=path)
+# The 500 um rule on target grids (issue 17), as on measured grids.
+NM_TARGET = [[0.0] * 9] * 4 + [[0.0] * 8 + [700.0]]
+add("target grid in nm", dict(copy.deepcopy(BASE), target={"deviations_um": NM_TARGET}), 422)
+add("closed loop: target grid in nm", dict(copy.deepcopy(SETUP), corrections=1, target={"deviations_um": NM_TARGET}),
+    422, path="/api/v1/simulations/closed-loop")
+add("bevel correction: target grid in nm",
+    dict(copy.deepcopy(BEVEL), target={"deviations_um": [[0.0] * 3, [0.0, 0.0, 501.0], [0.0] * 3]}), 422)
 add("target modification fraction 0", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "tip_relief", "amount_um": 5, "length_fraction": 0}]}), 422)
 add("target modification bad shape", dict(copy.deepcopy(BASE), target={"modifications": [{"kind": "tip_relief", "amount_um": 5, "shape": "cubic"}]}), 422)
 add("weights with negative entries", dict(copy.deepcopy(BASE), options={"point_weights": [[-1.0] * 9] * 5}), 422)
@@ -201,9 +267,9 @@ add("simulation: noise negative", dict(copy.deepcopy(BASE), noise_um=-1), 422, p
 add("simulation: teeth 1000", dict(copy.deepcopy(BASE), teeth=1000), 422, path="/api/v1/simulations/measurement")
 add("simulation: missing point outside", dict(copy.deepcopy(BASE), missing_points=[[5, 0]]), 422,
     path="/api/v1/simulations/measurement")
-add("simulation: both error kinds", dict(copy.deepcopy(BASE), hidden_errors={}, random_hidden_errors={}), 400,
+add("simulation: both error kinds", dict(copy.deepcopy(SETUP), hidden_errors={}, random_hidden_errors={}), 400,
     path="/api/v1/simulations/measurement")
-add("simulation: hidden axis unknown", dict(copy.deepcopy(BASE), hidden_errors={"axes": {"W": [1]}}), 400,
+add("simulation: hidden axis unknown", dict(copy.deepcopy(SETUP), hidden_errors={"axes": {"W": [1]}}), 400,
     path="/api/v1/simulations/measurement")
 add("closed loop: 1000 corrections", dict(copy.deepcopy(BASE), corrections=1000), 422,
     path="/api/v1/simulations/closed-loop")

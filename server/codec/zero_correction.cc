@@ -1,0 +1,123 @@
+#include "server/codec/zero_correction.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace gearloop {
+namespace {
+
+// An error below this rms [um] is already the target.
+constexpr double kOnTargetRmsUm = 1e-6;
+// Fewer effective directions than this (the Tikhonov filter factors' sum) is
+// no direction kept.
+constexpr double kNoDirectionDof = 0.01;
+// When the best reachable rms is at least this share of the error's, almost
+// all of the error is out of reach of the free axes: the advice is to free
+// more of the machine, not to measure again.
+constexpr double kMostlyOutOfReach = 0.95;
+// A step or motion factor below this kept nothing of the change.
+constexpr double kNothingKeptFraction = 1e-9;
+
+std::string Num(double value, const char* format = "%.3g") {
+  if (!std::isfinite(value)) return "-";
+  char text[64];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
+}
+
+nlohmann::json Explain(const char* reason, const std::string& message) {
+  return {{"reason", reason}, {"message", message}};
+}
+
+// The part of the error the linearised machine could make: sqrt(e^2 - best^2).
+double ReachableRmsUm(const CorrectionSummary& s) {
+  const double e = s.initial_rms_um, best = s.best_reachable_rms_um;
+  if (!std::isfinite(e) || !std::isfinite(best)) return std::nan("");
+  return std::sqrt(std::max(0.0, e * e - best * best));
+}
+
+std::string NoiseAdvice(const CorrectionSummary& s) {
+  if (s.best_reachable_rms_um >= kMostlyOutOfReach * s.initial_rms_um) {
+    return "Almost all of the error is out of reach of the free axes: free "
+           "higher orders, more axes or the wheel's profile "
+           "(options.max_order; POST /api/v1/targets/reach names which makes "
+           "most of a target), or accept the part";
+  }
+  return "Measure again (several teeth average the noise out) or state the "
+         "probe noise if it is smaller";
+}
+
+nlohmann::json NothingAboveNoise(const CorrectionSummary& s) {
+  const char* rule = RegularisationRuleName(s.rule);
+  std::string noise;
+  if (s.prediction_band.noise_stated) {
+    noise = "the stated probe noise (options.probe_noise_um = " +
+            Num(s.prediction_band.noise_sigma_um) + " um)";
+  } else {
+    noise = std::string("what ") + rule +
+            " takes for noise (no options.probe_noise_um stated)";
+  }
+  return Explain(
+      "nothing_above_noise",
+      "zero correction: nothing above the noise. The regularisation rule " +
+          std::string(rule) + " put the level at " +
+          Num(s.regularisation_level) + ", keeping " +
+          Num(s.effective_dof, "%.2g") + " effective directions of " +
+          std::to_string(s.truncation_rank) +
+          ": the part of the measured error the machine can make (rms " +
+          Num(ReachableRmsUm(s)) + " um of " + Num(s.initial_rms_um) +
+          " um; best reachable " + Num(s.best_reachable_rms_um) +
+          " um) is no larger than " + noise + ". " + NoiseAdvice(s));
+}
+
+}  // namespace
+
+nlohmann::json ZeroCorrectionExplainJson(const CorrectionSummary& s) {
+  if (!s.IsSolutionUsable() || !std::isfinite(s.correction_size) ||
+      s.correction_size > kNegligibleCorrectionSize)
+    return nullptr;
+  if (s.initial_rms_um <= kOnTargetRmsUm) {
+    return Explain("already_on_target",
+                   "zero correction: the measured flank already is the target "
+                   "(error rms " +
+                       Num(s.initial_rms_um) + " um)");
+  }
+  if (s.rank == 0 || s.truncation_rank == 0) {
+    return Explain(
+        "below_min_flank_effect",
+        "zero correction: no direction the free axes can move the flank in "
+        "changes it by more than options.min_flank_effect_um (rank " +
+            std::to_string(s.rank) + " of " +
+            std::to_string(s.num_free_parameters) +
+            " free parameters): lower min_flank_effect_um, or free more axes "
+            "or orders (options.default_max_order, options.max_order)");
+  }
+  if (s.status == CorrectionStatus::kNoSafeImprovement ||
+      (s.safe_step_checked && s.step_fraction < kNothingKeptFraction)) {
+    return Explain(
+        "no_safe_improvement",
+        "zero correction: no safe improvement. The solve's change (rank " +
+            std::to_string(s.rank) + ", " + Num(s.effective_dof, "%.3g") +
+            " effective directions) is predicted by the exact model to make "
+            "no better part than the current settings (rms " +
+            Num(s.safe_step_current_rms_um) +
+            " um) at any fraction tried; the current settings are kept");
+  }
+  if (s.motion_scale < kNothingKeptFraction) {
+    return Explain("motion_bound",
+                   "zero correction: the axis motion bound scaled the change "
+                   "to nothing (motion_scale " +
+                       Num(s.motion_scale) + ")");
+  }
+  if (s.effective_dof < kNoDirectionDof) return NothingAboveNoise(s);
+  return Explain(
+      "negligible_change",
+      "zero correction: the change the solve keeps (size " +
+          Num(s.correction_size) + ", " + Num(s.effective_dof, "%.3g") +
+          " effective directions of rank " + std::to_string(s.rank) +
+          ", step fraction " + Num(s.step_fraction) +
+          ") moves the flank by less than a thousandth of a micrometre");
+}
+
+}  // namespace gearloop
