@@ -32,6 +32,11 @@ LinearSolve RobustLinearFit(const CorrectionOptions& options,
                             const std::vector<int>& used,
                             Eigen::VectorXd* robust_weights) {
   CorrectionProblem weighted = problem;
+  // The isolation test looks at the directions a smooth machine error takes,
+  // one Tikhonov level over those above min_flank_effect_um: the weak
+  // directions the per-direction filter may follow have a lone point's shape,
+  // and would fit the very outlier the test looks for.
+  weighted.signal_noise_um = 0.0;
   LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
   for (int pass = 0; pass < kRobustPasses && !used.empty(); ++pass) {
     std::vector<double> misfit_um(used.size()), size(used.size());
@@ -59,10 +64,7 @@ std::vector<double> StandardisedResiduals(const LinearSolve& ls,
   std::vector<double> loo(used.size());
   for (size_t r = 0; r < used.size(); ++r) {
     double h = 0.0;
-    for (int i = 0; i < ls.k; ++i) {
-      const double s2 = ls.svd.sigma(i) * ls.svd.sigma(i);
-      h += s2 / (s2 + ls.lambda * ls.lambda) * ls.svd.u(r, i) * ls.svd.u(r, i);
-    }
+    for (int i : ls.kept) h += ls.filter(i) * ls.svd.u(r, i) * ls.svd.u(r, i);
     loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) /
              std::sqrt(std::max(1.0 - h, 1e-6));
   }
