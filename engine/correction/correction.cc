@@ -254,21 +254,39 @@ double SignalNoise(const CorrectionProblem& problem,
          std::sqrt(problem.mean_teeth_averaged);
 }
 
-// Step 0 and the correction at the estimated state; false when the state is not
-// used (then the correction is computed at the commanded parameters).
+// Step 0 and the correction at the estimated state; false when the state is
+// not used (then the correction is computed at the commanded parameters, with
+// the test's outcome and the noise the state fit estimated in `test` and
+// `noise_um`).
 bool SolveAtMachineState(const CorrectionOptions& options,
                          const CorrectionProblem& problem,
-                         CorrectionResult* result) {
+                         CorrectionResult* result,
+                         MachineStateTest* test,
+                         double* noise_um) {
   CorrectionProblem state_problem;
-  if (!MachineStateProblem(problem, &state_problem)) return false;
+  if (!MachineStateProblem(problem, &state_problem)) {
+    test->reason = "no point for a state fit";
+    return false;
+  }
   const CorrectionResult state = SolveProblem(options, state_problem);
   Eigen::VectorXd state_parameters;
-  if (!AcceptMachineState(problem, state, &state_parameters)) return false;
+  if (!AcceptMachineState(problem, state, &state_parameters)) {
+    test->reason =
+        "the state fit failed or loses a grid point the commanded settings "
+        "reach";
+    return false;
+  }
+  *noise_um = SignalNoise(problem, state.summary);
+  *test = TestMachineState(options, problem, state_problem, state);
+  if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
-  if (options.signal_filter)
-    at_state.signal_noise_um = SignalNoise(problem, state.summary);
+  if (options.signal_filter) at_state.signal_noise_um = *noise_um;
   *result = SolveProblem(options, std::move(at_state), &state);
-  if (!result->summary.IsSolutionUsable()) return false;
+  ReportMachineStateTest(*test, &result->summary);
+  if (!result->summary.IsSolutionUsable()) {
+    test->reason = "the correction at the state is not usable";
+    return false;
+  }
   result->parameters = problem.parameters + result->delta;
   return true;
 }
@@ -289,8 +307,15 @@ CorrectionResult Correct(const CorrectionOptions& options,
   // at the commanded parameters the measured part was ground with.
   if (options.estimate_machine_state &&
       options.solver == CorrectionSolver::kRegularised &&
-      options.mode == CorrectionMode::kNextPart &&
-      SolveAtMachineState(options, problem, &result)) {
+      options.mode == CorrectionMode::kNextPart) {
+    MachineStateTest test;
+    double noise_um =
+        problem.probe_noise_um >= 0.0 ? problem.probe_noise_um : 0.0;
+    if (SolveAtMachineState(options, problem, &result, &test, &noise_um))
+      return result;
+    if (options.signal_filter) problem.signal_noise_um = noise_um;
+    result = SolveProblem(options, problem);
+    ReportMachineStateTest(test, &result.summary);
     return result;
   }
   return SolveProblem(options, problem);

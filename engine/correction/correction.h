@@ -413,6 +413,14 @@ struct CorrectionSummary {
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;
   double machine_state_dof = 0.0;  // effective dof of the state fit
+  // The test that decides whether the state is used (machine_state.h,
+  // TestMachineState): "chi-square" (noise stated), "F" (noise unknown),
+  // "exact data" or "" (no state fit), its statistic and threshold, and the
+  // decision in words (also when the state was not used).
+  std::string machine_state_test;
+  double machine_state_statistic = 0.0;
+  double machine_state_threshold = 0.0;
+  std::string machine_state_reason;
 
   // How sure the prediction is (engine/correction/prediction_band.h): the
   // probe noise used (stated, or estimated from the state's or the

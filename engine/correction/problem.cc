@@ -48,31 +48,6 @@ void ChooseRollRange(const CorrectionInput& input,
   }
 }
 
-// CorrectionProblem::motion_rows.
-Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem) {
-  std::vector<Eigen::RowVectorXd> rows;
-  for (const ParameterBlock& block : problem.blocks) {
-    const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
-                         : block.unit == "rad" ? options.max_axis_motion_rad
-                                               : 0.0;
-    if (!block.is_polynomial || !(bound > 0.0)) continue;
-    for (int s = 0; s < kMotionBoundSamples; ++s) {
-      const double phi =
-          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
-                                     s / (kMotionBoundSamples - 1.0);
-      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(problem.num_parameters);
-      double power = 1.0;
-      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
-        row(block.first_index + k) = power / bound;
-      rows.push_back(row);
-    }
-  }
-  Eigen::MatrixXd m(static_cast<int>(rows.size()), problem.num_parameters);
-  for (size_t r = 0; r < rows.size(); ++r) m.row(static_cast<int>(r)) = rows[r];
-  return m;
-}
-
 // The coefficients that may change: orders 0..max order of each block
 // (max_order, else default_max_order clamped to the block's degree; scalar
 // blocks free unless named -1, or fixed unless named when fixed_by_default).
@@ -293,6 +268,31 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   SetBounds(options, p);
   p->motion_rows = RelativeMotionRows(options, *p);
   return true;
+}
+
+// CorrectionProblem::motion_rows.
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem) {
+  std::vector<Eigen::RowVectorXd> rows;
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
+                         : block.unit == "rad" ? options.max_axis_motion_rad
+                                               : 0.0;
+    if (!block.is_polynomial || !(bound > 0.0)) continue;
+    for (int s = 0; s < kMotionBoundSamples; ++s) {
+      const double phi =
+          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
+                                     s / (kMotionBoundSamples - 1.0);
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(problem.num_parameters);
+      double power = 1.0;
+      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
+        row(block.first_index + k) = power / bound;
+      rows.push_back(row);
+    }
+  }
+  Eigen::MatrixXd m(static_cast<int>(rows.size()), problem.num_parameters);
+  for (size_t r = 0; r < rows.size(); ++r) m.row(static_cast<int>(r)) = rows[r];
+  return m;
 }
 
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,

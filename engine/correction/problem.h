@@ -137,6 +137,10 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
 
 // The same problem linearised at `parameters` (S evaluated there; roll range
 // and T kept).
+// CorrectionProblem::motion_rows for `problem`'s blocks and roll range.
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem);
+
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
                                  const Eigen::VectorXd& parameters);
 

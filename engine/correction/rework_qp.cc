@@ -188,6 +188,16 @@ namespace {
 constexpr int kBoundedHalvings = 4;
 constexpr double kBoundedStopRelative = 1e-4;
 
+// Whether T V_k z keeps every sampled axis motion within its bound (to the
+// QP's tolerance).
+bool WithinMotionBound(const CorrectionProblem& problem,
+                       const KeptSubspace& subspace,
+                       const Eigen::VectorXd& z) {
+  if (problem.motion_rows.rows() == 0) return true;
+  return (problem.motion_rows * (subspace.tv * z)).cwiseAbs().maxCoeff() <=
+         1.0 + 1e-9;
+}
+
 // The exact cost of the next part at z (infinity when a used point is lost);
 // `evaluation` gets the model at p + T V_k z, with its Jacobian on request.
 double ExactBoundedCost(const CorrectionProblem& problem,
@@ -216,14 +226,16 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
                             Eigen::VectorXd* delta,
                             std::string* not_converged) {
   ModelEvaluation at;
-  double cost = ExactBoundedCost(problem, subspace, *z, true, &at);
+  double cost = ExactBoundedCost(problem, subspace, *z, false, &at);
   if (!std::isfinite(cost)) {
     // The linear answer loses a point: walk out from no change instead.
     z->setZero();
-    cost = ExactBoundedCost(problem, subspace, *z, true, &at);
+    cost = ExactBoundedCost(problem, subspace, *z, false, &at);
   }
   int pass = 0;
   for (; pass < options.max_num_iterations; ++pass) {
+    // The Jacobian only where a pass starts (the trial points need none).
+    problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
     Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
     for (int i : problem.used)
       change(i) = at.deviations_um(i) - problem.d0()(i);
@@ -236,14 +248,23 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
     Eigen::VectorXd step = z_qp - *z;
     double trial_cost = kInf;
     ModelEvaluation trial;
+    if (!WithinMotionBound(problem, subspace, *z)) {
+      // A start beyond the bound (lower cost, not allowed): the QP's answer
+      // is within it; take it whole if it keeps every point.
+      trial_cost = ExactBoundedCost(problem, subspace, z_qp, false, &trial);
+      if (!std::isfinite(trial_cost)) break;
+      *z = z_qp;
+      cost = trial_cost;
+      continue;
+    }
     for (int h = 0; h <= kBoundedHalvings; ++h, step *= 0.5) {
-      trial_cost = ExactBoundedCost(problem, subspace, *z + step, true, &trial);
+      trial_cost =
+          ExactBoundedCost(problem, subspace, *z + step, false, &trial);
       if (trial_cost < cost) break;
     }
     if (!(trial_cost < cost)) break;  // no fall along the QP step
     const double fall = cost - trial_cost;
     *z += step;
-    at = trial;
     cost = trial_cost;
     if (fall < kBoundedStopRelative * cost) {
       ++pass;

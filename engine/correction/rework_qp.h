@@ -62,8 +62,9 @@ int RunReworkPasses(const CorrectionOptions& options,
 // less than kBoundedStopRelative of it. Ceres' Levenberg-Marquardt with the
 // bound as a penalty rejected most of its steps on such problems (13 of 21 on
 // the robustness benchmark's scenario 133) and stopped at its iteration cap.
-// Updates z and delta; returns the passes made; a failed QP goes to
-// not_converged (delta stays the last accepted change).
+// A start beyond the bound first takes the QP's answer whole (it is within
+// the bound). Updates z and delta; returns the passes made; a failed QP goes
+// to not_converged (delta stays the last accepted change).
 int RefineWithinMotionBound(const CorrectionOptions& options,
                             const CorrectionProblem& problem,
                             const KeptSubspace& subspace,
