@@ -73,6 +73,7 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
                                  CorrectionSummary* summary,
                                  std::string* not_converged) {
   summary->rule = problem.rule;
+  summary->signal_filter_used = problem.signal_noise_um > 0.0;
   summary->regularisation_level = ls.lambda;
   summary->effective_dof = ls.dof;
   summary->truncation_rank = ls.k;

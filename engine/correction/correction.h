@@ -417,6 +417,11 @@ struct CorrectionSummary {
   // TestMachineState): "chi-square" (noise stated), "F" (noise unknown),
   // "exact data" or "" (no state fit), its statistic and threshold, and the
   // decision in words (also when the state was not used).
+  // true: the correction filtered each direction by its own signal to noise
+  // (options.signal_filter, regularisation.h SignalFilter; regularisation_level
+  // is then the largest level of a kept direction); false: one Tikhonov level
+  // by `rule`.
+  bool signal_filter_used = false;
   std::string machine_state_test;
   double machine_state_statistic = 0.0;
   double machine_state_threshold = 0.0;

@@ -85,6 +85,9 @@ struct CorrectionProblem {
   // parameter change (rows x num_parameters; no rows without a bound). The
   // regularised solve and the refinement keep |rows delta| <= 1.
   Eigen::MatrixXd motion_rows;
+  // false for the machine-state fit: the bound limits a correction, not the
+  // machine's errors (TestMachineState bounds the state's size).
+  bool bound_motion = true;
 
   // Bounds on delta [parameter units] (+-inf = unbounded); has_bounds: a free
   // one is finite.

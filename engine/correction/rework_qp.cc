@@ -233,6 +233,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
     cost = ExactBoundedCost(problem, subspace, *z, false, &at);
   }
   int pass = 0;
+  bool settled = false;
   for (; pass < options.max_num_iterations; ++pass) {
     // The Jacobian only where a pass starts (the trial points need none).
     problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
@@ -262,15 +263,21 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
           ExactBoundedCost(problem, subspace, *z + step, false, &trial);
       if (trial_cost < cost) break;
     }
-    if (!(trial_cost < cost)) break;  // no fall along the QP step
+    if (!(trial_cost < cost)) {  // no fall along the QP step: settled
+      settled = true;
+      break;
+    }
     const double fall = cost - trial_cost;
     *z += step;
     cost = trial_cost;
     if (fall < kBoundedStopRelative * cost) {
       ++pass;
+      settled = true;
       break;
     }
   }
+  if (!settled && pass == options.max_num_iterations && not_converged->empty())
+    *not_converged = "the exact-model refinement reached max_num_iterations";
   *delta = subspace.tv * *z;
   return pass;
 }

@@ -108,7 +108,8 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
   // Scaled to kMotionFill of the bound: the largest motion may lie between
   // the samples (within ~1 %).
   constexpr double kMotionFill = 0.99;
-  const double ratio = AxisMotionRatio(options, problem, delta);
+  const double ratio =
+      problem.bound_motion ? AxisMotionRatio(options, problem, delta) : 0.0;
   outcome->motion_scale = ratio > kMotionFill ? kMotionFill / ratio : 1.0;
   return delta * outcome->motion_scale;
 }
