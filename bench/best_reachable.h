@@ -74,6 +74,8 @@ struct ReachOptions {
   // Bounds on scalar blocks by name [block unit]; blocks not named are
   // unbounded.
   std::map<std::string, double> scalar_bounds;
+  // Blocks held at the state (not free in the reference), by name.
+  std::vector<std::string> fixed_blocks;
   // Flat-wheel wheel profile (blocks "cone_angle", "parabola_coefficient",
   // "parabola_vertex"), when > 0: the working depth D [mm] of the wheel profile
   // over which its change is bounded like an axis (see the file comment).
@@ -120,6 +122,10 @@ class ReachProblem {
     const int n = model.NumParameters();
     std::vector<int> free;
     for (const ParameterBlock& b : blocks_) {
+      if (std::find(options.fixed_blocks.begin(),
+                    options.fixed_blocks.end(),
+                    b.name) != options.fixed_blocks.end())
+        continue;
       const int top = b.is_polynomial
                           ? std::min(options.max_order, b.num_coefficients - 1)
                           : b.num_coefficients - 1;

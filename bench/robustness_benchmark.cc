@@ -109,7 +109,8 @@ ScenarioOutcome RunScenario(const Scenario& s,
                             const std::vector<Config>& configs,
                             std::uint64_t seed,
                             bool bound_wheel,
-                            int reach_iterations) {
+                            int reach_iterations,
+                            const std::vector<std::string>& reference_fixed) {
   ScenarioOutcome out;
   out.scenario = s;
   for (const Config& c : configs) {
@@ -124,6 +125,7 @@ ScenarioOutcome RunScenario(const Scenario& s,
     reach.max_order = configs[k].reach_order;
     reach.max_iterations = reach_iterations;
     reach.seed = seed + s.index;
+    reach.fixed_blocks = reference_fixed;
     // The wheel is as free as the solver's (issue 13 bounds the axes). With
     // --bound-wheel its profile is bounded like an axis over the working depth
     // D = (r_a - r_f) / cos(alpha_n): change within 0.2 mm, slope within
@@ -576,8 +578,9 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 2026;
   std::string orders = "both";
   const char* json = nullptr;
-  bool verbose = false, bound_wheel = false, no_state = false;
-  std::vector<std::string> fixed_blocks;
+  bool verbose = false, bound_wheel = false, no_state = false,
+       no_signal_filter = false;
+  std::vector<std::string> fixed_blocks, freed_blocks, reference_fixed;
   double min_flank_effect = -1.0;
   int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
@@ -601,6 +604,12 @@ int main(int argc, char** argv) {
       reach_iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--fix") == 0 && has_value) {
       fixed_blocks.push_back(argv[++i]);
+    } else if (std::strcmp(argv[i], "--reference-fix") == 0 && has_value) {
+      reference_fixed.push_back(argv[++i]);
+    } else if (std::strcmp(argv[i], "--free") == 0 && has_value) {
+      freed_blocks.push_back(argv[++i]);
+    } else if (std::strcmp(argv[i], "--no-signal-filter") == 0) {
+      no_signal_filter = true;
     } else if (std::strcmp(argv[i], "--no-state") == 0) {
       no_state = true;
     } else if (std::strcmp(argv[i], "--min-flank-effect") == 0 && has_value) {
@@ -636,7 +645,9 @@ int main(int argc, char** argv) {
   }
   for (Config& c : configs) {
     for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
+    for (const std::string& b : freed_blocks) c.options.max_order[b] = 0;
     if (no_state) c.options.estimate_machine_state = false;
+    if (no_signal_filter) c.options.signal_filter = false;
     if (min_flank_effect >= 0.0)
       c.options.min_flank_effect_um = min_flank_effect;
     if (iterations >= 0) c.options.max_num_iterations = iterations;
@@ -661,8 +672,8 @@ int main(int argc, char** argv) {
       const Scenario s = jobs[i].first
                              ? bench::DrawBevelScenario(seed, jobs[i].second)
                              : bench::DrawGrinderScenario(seed, jobs[i].second);
-      outcomes[i] =
-          RunScenario(s, configs, seed, bound_wheel, reach_iterations);
+      outcomes[i] = RunScenario(
+          s, configs, seed, bound_wheel, reach_iterations, reference_fixed);
       std::fprintf(stderr, "scenario %d of %d done\n", i + 1, total);
     }
   };

@@ -57,6 +57,12 @@ class BevelFreeFormGenerator : public MachineModel {
   // The span of t over the grid's cradle contacts [rad].
   double roll_min_rad() const { return grid_.roll_min_rad; }
   double roll_max_rad() const { return grid_.roll_max_rad; }
+  bool NominalRollRange(double* roll_min_rad,
+                        double* roll_max_rad) const override {
+    *roll_min_rad = this->roll_min_rad();
+    *roll_max_rad = this->roll_max_rad();
+    return *roll_min_rad < *roll_max_rad;
+  }
 
   // MachineModel.
   int NumParameters() const override { return nominal_.NumParameters(); }

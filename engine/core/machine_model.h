@@ -84,6 +84,16 @@ class MachineModel {
   virtual void Evaluate(const Eigen::VectorXd& parameters,
                         bool with_jacobian,
                         ModelEvaluation* evaluation) const = 0;
+
+  // The span of the roll angle over the grid's nominal contacts [rad], where
+  // the model has one (the range a machine's generating roll is programmed
+  // over); false when it has none.
+  virtual bool NominalRollRange(double* roll_min_rad,
+                                double* roll_max_rad) const {
+    (void)roll_min_rad;
+    (void)roll_max_rad;
+    return false;
+  }
 };
 
 }  // namespace gearloop

@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/correction/baseline_solvers.h"
@@ -72,13 +73,17 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
                                  CorrectionSummary* summary,
                                  std::string* not_converged) {
   summary->rule = problem.rule;
+  summary->signal_filter_used = problem.signal_noise_um > 0.0;
   summary->regularisation_level = ls.lambda;
   summary->effective_dof = ls.dof;
   summary->truncation_rank = ls.k;
   const KeptSubspace subspace = KeepSubspace(ls, problem.t_map);
   const bool rework = problem.mode == CorrectionMode::kRework;
   Eigen::VectorXd z = subspace.z;
-  if (subspace.k > 0 && (rework || problem.has_bounds)) {
+  const bool beyond_motion_bound =
+      problem.motion_rows.rows() > 0 && subspace.k > 0 &&
+      (problem.motion_rows * (subspace.tv * z)).cwiseAbs().maxCoeff() > 1.0;
+  if (subspace.k > 0 && (rework || problem.has_bounds || beyond_motion_bound)) {
     Eigen::VectorXd z_new;
     if (SolveLinearisedQp(problem,
                           subspace,
@@ -98,6 +103,10 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
   } else if (rework) {
     summary->iterations =
         RunReworkPasses(options, problem, subspace, &z, &delta, not_converged);
+  } else if ((beyond_motion_bound || options.signal_filter) &&
+             !problem.has_bounds && options.max_num_iterations > 0) {
+    summary->iterations = RefineWithinMotionBound(
+        options, problem, subspace, &z, &delta, not_converged);
   } else if (options.max_num_iterations > 0) {
     RefineOnExactModel(
         options, problem, subspace, z, &delta, summary, not_converged);
@@ -233,19 +242,52 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
   return result;
 }
 
-// Step 0 and the correction at the estimated state; false when the state is not
-// used (then the correction is computed at the commanded parameters).
+// The probe noise of one grid for the per-direction filter at an estimated
+// state: the stated sigma, else the state fit's misfit corrected for its
+// degrees of freedom (the noise of the mean of the teeth, so scaled back to
+// one tooth); 0 (no filter) for exact data or a fit with no freedom left.
+double SignalNoise(const CorrectionProblem& problem,
+                   const CorrectionSummary& state) {
+  if (problem.probe_noise_um >= 0.0) return problem.probe_noise_um;
+  const double n = state.num_points_used;
+  if (!(n > state.effective_dof + 1.0)) return 0.0;
+  return state.residual_rms_um * std::sqrt(n / (n - state.effective_dof)) *
+         std::sqrt(problem.mean_teeth_averaged);
+}
+
+// Step 0 and the correction at the estimated state; false when the state is
+// not used (then the correction is computed at the commanded parameters, with
+// the test's outcome and the noise the state fit estimated in `test` and
+// `noise_um`).
 bool SolveAtMachineState(const CorrectionOptions& options,
                          const CorrectionProblem& problem,
-                         CorrectionResult* result) {
+                         CorrectionResult* result,
+                         MachineStateTest* test,
+                         double* noise_um) {
   CorrectionProblem state_problem;
-  if (!MachineStateProblem(problem, &state_problem)) return false;
+  if (!MachineStateProblem(problem, &state_problem)) {
+    test->reason = "no point for a state fit";
+    return false;
+  }
   const CorrectionResult state = SolveProblem(options, state_problem);
   Eigen::VectorXd state_parameters;
-  if (!AcceptMachineState(problem, state, &state_parameters)) return false;
-  *result =
-      SolveProblem(options, RelinearisedAt(problem, state_parameters), &state);
-  if (!result->summary.IsSolutionUsable()) return false;
+  if (!AcceptMachineState(problem, state, &state_parameters)) {
+    test->reason =
+        "the state fit failed or loses a grid point the commanded settings "
+        "reach";
+    return false;
+  }
+  *noise_um = SignalNoise(problem, state.summary);
+  *test = TestMachineState(options, problem, state_problem, state);
+  if (!test->used) return false;
+  CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
+  if (options.signal_filter) at_state.signal_noise_um = *noise_um;
+  *result = SolveProblem(options, std::move(at_state), &state);
+  ReportMachineStateTest(*test, &result->summary);
+  if (!result->summary.IsSolutionUsable()) {
+    test->reason = "the correction at the state is not usable";
+    return false;
+  }
   result->parameters = problem.parameters + result->delta;
   return true;
 }
@@ -266,8 +308,15 @@ CorrectionResult Correct(const CorrectionOptions& options,
   // at the commanded parameters the measured part was ground with.
   if (options.estimate_machine_state &&
       options.solver == CorrectionSolver::kRegularised &&
-      options.mode == CorrectionMode::kNextPart &&
-      SolveAtMachineState(options, problem, &result)) {
+      options.mode == CorrectionMode::kNextPart) {
+    MachineStateTest test;
+    double noise_um =
+        problem.probe_noise_um >= 0.0 ? problem.probe_noise_um : 0.0;
+    if (SolveAtMachineState(options, problem, &result, &test, &noise_um))
+      return result;
+    if (options.signal_filter) problem.signal_noise_um = noise_um;
+    result = SolveProblem(options, problem);
+    ReportMachineStateTest(test, &result.summary);
     return result;
   }
   return SolveProblem(options, problem);

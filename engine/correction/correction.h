@@ -244,6 +244,16 @@ struct CorrectionOptions {
   // same worse rounds (1 and 3 of 600).
   double min_flank_effect_um = 0.01;
 
+  // The per-direction signal filter (regularisation.h, SignalFilter): at an
+  // estimated machine state with a noise (stated, or estimated from the state
+  // fit), each direction of the correction is kept as far as its coefficient
+  // stands above the noise along it, down to directions of 1e-4 um per unit
+  // (kWeakFlankEffectUm) instead of min_flank_effect_um, and with no single
+  // Tikhonov level. It reaches what weak directions (a wheel dish for a lead
+  // crowning) can make; the motion bound and the safe step keep it safe.
+  // false: one Tikhonov level by the rule, as at the commanded parameters.
+  bool signal_filter = true;
+
   // The safe step (regularised solver; correction.cc, "SafeStep"): before
   // answering, the next part is predicted on the exact model at the point the
   // correction was linearised at (the estimated machine state, or the
@@ -403,6 +413,19 @@ struct CorrectionSummary {
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;
   double machine_state_dof = 0.0;  // effective dof of the state fit
+  // The test that decides whether the state is used (machine_state.h,
+  // TestMachineState): "chi-square" (noise stated), "F" (noise unknown),
+  // "exact data" or "" (no state fit), its statistic and threshold, and the
+  // decision in words (also when the state was not used).
+  // true: the correction filtered each direction by its own signal to noise
+  // (options.signal_filter, regularisation.h SignalFilter; regularisation_level
+  // is then the largest level of a kept direction); false: one Tikhonov level
+  // by `rule`.
+  bool signal_filter_used = false;
+  std::string machine_state_test;
+  double machine_state_statistic = 0.0;
+  double machine_state_threshold = 0.0;
+  std::string machine_state_reason;
 
   // How sure the prediction is (engine/correction/prediction_band.h): the
   // probe noise used (stated, or estimated from the state's or the

@@ -158,6 +158,8 @@ std::string CorrectionSummary::BriefReport() const {
           << " point(s) with a tooth left out";
     out << ", machine state "
         << (machine_state_estimated ? "estimated" : "commanded");
+    if (!machine_state_reason.empty())
+      out << " (" << machine_state_reason << ")";
     if (safe_step_checked) {
       out << ", safe step: motion x" << motion_scale << ", fraction "
           << step_fraction << " (exact rms " << safe_step_current_rms_um

@@ -3,6 +3,10 @@
 #include "engine/correction/machine_state.h"
 
 #include <cmath>
+#include <sstream>
+#include <string>
+
+#include "engine/correction/safe_step.h"
 
 namespace gearloop {
 namespace correction_internal {
@@ -31,6 +35,8 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
   state->has_bounds = false;
   state->lower = Eigen::VectorXd::Constant(commanded.num_parameters, -kInf);
   state->upper = Eigen::VectorXd::Constant(commanded.num_parameters, kInf);
+  state->bound_motion = false;
+  state->motion_rows.resize(0, commanded.num_parameters);
   SelectPoints(state);
   return !state->used.empty();
 }
@@ -52,6 +58,68 @@ bool AcceptMachineState(const CorrectionProblem& commanded,
       return false;
   }
   return true;
+}
+
+MachineStateTest TestMachineState(const CorrectionOptions& options,
+                                  const CorrectionProblem& commanded,
+                                  const CorrectionProblem& state_problem,
+                                  const CorrectionResult& state) {
+  MachineStateTest t;
+  const CorrectionSummary& s = state.summary;
+  const double n = s.num_points_used;
+  const double dof = s.effective_dof;
+  const double fall2 = n * (s.initial_rms_um * s.initial_rms_um -
+                            s.residual_rms_um * s.residual_rms_um);
+  const double sigma = state_problem.probe_noise_um;
+  std::ostringstream why;
+  if (!(dof > 0.0) || !(fall2 > 0.0)) {
+    t.reason = "the state fit explains nothing the commanded settings do not";
+    return t;
+  }
+  if (sigma > 0.0) {
+    t.test = "chi-square";
+    t.statistic = fall2 / (sigma * sigma);
+    t.threshold = dof + kStateChiSds * std::sqrt(2.0 * dof);
+  } else if (sigma == 0.0) {
+    t.test = "exact data";
+    t.statistic = fall2;
+    t.threshold = 0.0;
+  } else {
+    const double rest2 = n * s.residual_rms_um * s.residual_rms_um;
+    t.test = "F";
+    t.statistic = n > dof + 1.0 && rest2 > 0.0
+                      ? (fall2 / dof) / (rest2 / (n - dof))
+                      : kInf;
+    t.threshold = kStateF;
+  }
+  why << t.test << " " << t.statistic
+      << (t.statistic > t.threshold ? " > " : " <= ") << t.threshold << " at "
+      << dof << " dof";
+  if (!(t.statistic > t.threshold)) {
+    t.reason =
+        "the state does not explain the measurement significantly "
+        "better than the commanded settings (" +
+        why.str() + ")";
+    return t;
+  }
+  const double motion = AxisMotionRatio(options, commanded, state.delta);
+  if (motion > kStateMotionLimit) {
+    t.reason = "the state is " + std::to_string(motion) +
+               " times the motion bound away from the commanded settings (" +
+               "limit " + std::to_string(kStateMotionLimit) + ")";
+    return t;
+  }
+  t.used = true;
+  t.reason = "significant (" + why.str() + ")";
+  return t;
+}
+
+void ReportMachineStateTest(const MachineStateTest& test,
+                            CorrectionSummary* summary) {
+  summary->machine_state_test = test.test;
+  summary->machine_state_statistic = test.statistic;
+  summary->machine_state_threshold = test.threshold;
+  summary->machine_state_reason = test.reason;
 }
 
 void ReportMachineState(const CorrectionResult& state,

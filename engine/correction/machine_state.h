@@ -17,6 +17,7 @@
 #define GEARLOOP_ENGINE_CORRECTION_MACHINE_STATE_H_
 
 #include <Eigen/Core>
+#include <string>
 
 #include "engine/correction/correction.h"
 #include "engine/correction/problem.h"
@@ -43,10 +44,45 @@ bool AcceptMachineState(const CorrectionProblem& commanded,
                         const CorrectionResult& state,
                         Eigen::VectorXd* state_parameters);
 
+// Item 2 of issue 13: the state earns its place only when it explains the
+// measurement significantly better than the commanded settings, and only
+// within a stated size.
+//  - Noise stated (sigma > 0, of the teeth average): chi = n (r_c^2 - r_s^2) /
+//    sigma^2, r_c the rms misfit of the commanded flank, r_s the state's, n
+//    its points, must exceed dof + kStateChiSds sqrt(2 dof), the chi-square
+//    distribution's mean + 3 standard deviations at the state fit's effective
+//    dof (what noise alone would explain). Noise stated 0: any fall.
+//  - Noise unknown: F = (n (r_c^2 - r_s^2) / dof) / (n r_s^2 / (n - dof)) must
+//    exceed kStateF, about the 1 % point of F(dof, n - dof) for the 5-12 dof
+//    and 30-40 points these fits have (F(5, 35) 3.6, F(10, 35) 3.0).
+//  - Size: its axis motion over the roll range within kStateMotionLimit times
+//    the correction's motion bound (1 mm, 15 mrad by default): a machine that
+//    far off is a setup error, not one to correct around.
+constexpr double kStateChiSds = 3.0;
+constexpr double kStateF = 4.0;
+constexpr double kStateMotionLimit = 5.0;
+
+struct MachineStateTest {
+  bool used = false;
+  std::string test;  // "chi-square", "F", "exact data" or "" (not tested)
+  double statistic = 0.0;
+  double threshold = 0.0;
+  std::string reason;  // why it was used or not, in words
+};
+
+MachineStateTest TestMachineState(const CorrectionOptions& options,
+                                  const CorrectionProblem& commanded,
+                                  const CorrectionProblem& state_problem,
+                                  const CorrectionResult& state);
+
 // The state's correction size and misfit into `summary`
 // (machine_state_estimated = true).
 void ReportMachineState(const CorrectionResult& state,
                         CorrectionSummary* summary);
+
+// The test's outcome into `summary` (both when the state was used and not).
+void ReportMachineStateTest(const MachineStateTest& test,
+                            CorrectionSummary* summary);
 
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -15,8 +15,11 @@ namespace correction_internal {
 namespace {
 
 // The roll range of the request, else the span of the contact roll angles of
-// the reached points
-// ([-1, 1] when they span nothing).
+// the reached points together with the model's nominal roll range (a
+// correction shifts the contacts along the roll, by a quarter of the range
+// after a work-rotation offset, while the machine keeps rolling over the
+// programmed range: the motion is bounded over both) ([-1, 1] when they span
+// nothing).
 void ChooseRollRange(const CorrectionInput& input,
                      const ModelEvaluation& evaluation,
                      int n,
@@ -27,6 +30,11 @@ void ChooseRollRange(const CorrectionInput& input,
   if (*roll_min < *roll_max) return;
   *roll_min = kInf;
   *roll_max = -kInf;
+  double nominal_min = 0.0, nominal_max = 0.0;
+  if (input.model->NominalRollRange(&nominal_min, &nominal_max)) {
+    *roll_min = nominal_min;
+    *roll_max = nominal_max;
+  }
   for (int i = 0; i < n; ++i) {
     if (evaluation.status[i] == PointStatus::kOk &&
         std::isfinite(evaluation.contact_roll_rad[i])) {
@@ -258,7 +266,33 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   BuildCoordinates(options, p);
   p->st = p->jacobian_um * p->t_map;  // n x nf
   SetBounds(options, p);
+  p->motion_rows = RelativeMotionRows(options, *p);
   return true;
+}
+
+// CorrectionProblem::motion_rows.
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem) {
+  std::vector<Eigen::RowVectorXd> rows;
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
+                         : block.unit == "rad" ? options.max_axis_motion_rad
+                                               : 0.0;
+    if (!block.is_polynomial || !(bound > 0.0)) continue;
+    for (int s = 0; s < kMotionBoundSamples; ++s) {
+      const double phi =
+          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
+                                     s / (kMotionBoundSamples - 1.0);
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(problem.num_parameters);
+      double power = 1.0;
+      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
+        row(block.first_index + k) = power / bound;
+      rows.push_back(row);
+    }
+  }
+  Eigen::MatrixXd m(static_cast<int>(rows.size()), problem.num_parameters);
+  for (size_t r = 0; r < rows.size(); ++r) m.row(static_cast<int>(r)) = rows[r];
+  return m;
 }
 
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,

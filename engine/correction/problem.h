@@ -39,6 +39,11 @@ struct MeasuredFlank {
   std::vector<int> tooth_outliers;  // points where a tooth's value was left out
 };
 
+// Roll angles at which the regularised solve and the refinement hold the
+// motion bound (the safe step checks 41 afterwards and scales the change if one
+// is still out).
+constexpr int kMotionBoundSamples = 17;
+
 struct CorrectionProblem {
   const MachineModel* model = nullptr;
   std::vector<ParameterBlock> blocks;
@@ -51,6 +56,12 @@ struct CorrectionProblem {
   RegularisationRule rule =
       RegularisationRule::kNone;  // ChooseRegularisationRule(options)
   double probe_noise_um = -1.0;   // sigma [um] (< 0 unknown)
+  // > 0: the regularised solve filters each direction by its own signal to
+  // noise (regularisation.h, SignalFilter) at this sigma [um] of one grid (the
+  // stated noise, or the one estimated from the machine-state fit), down to
+  // directions of kWeakFlankEffectUm per unit; 0: one Tikhonov level by
+  // `rule` over the directions above min_flank_effect_um.
+  double signal_noise_um = 0.0;
 
   // The measurement: m (teeth averaged), e = m - t [um] (NaN where missing),
   // weights w and noise shares per point.
@@ -67,6 +78,16 @@ struct CorrectionProblem {
   std::vector<int> free;   // parameter indices that may change
   Eigen::MatrixXd t_map;   // T: free coordinates -> delta (np x nf)
   Eigen::MatrixXd t_free;  // the rows `free` of T (nf x nf)
+
+  // The axis motion bound (options.max_axis_motion_mm / _rad) as linear rows:
+  // dC(phi_s) / bound of every bounded polynomial block at
+  // kMotionBoundSamples roll angles over the roll range, per unit of the
+  // parameter change (rows x num_parameters; no rows without a bound). The
+  // regularised solve and the refinement keep |rows delta| <= 1.
+  Eigen::MatrixXd motion_rows;
+  // false for the machine-state fit: the bound limits a correction, not the
+  // machine's errors (TestMachineState bounds the state's size).
+  bool bound_motion = true;
 
   // Bounds on delta [parameter units] (+-inf = unbounded); has_bounds: a free
   // one is finite.
@@ -119,6 +140,10 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
 
 // The same problem linearised at `parameters` (S evaluated there; roll range
 // and T kept).
+// CorrectionProblem::motion_rows for `problem`'s blocks and roll range.
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem);
+
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
                                  const Eigen::VectorXd& parameters);
 

@@ -14,6 +14,13 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
+// The motion bound inside the refinement (issue 13): um of weighted flank
+// residual per unit of relative motion beyond max_axis_motion_mm / _rad, large
+// enough that the bound holds for every practical purpose (as the robustness
+// benchmark's reference, bench/best_reachable.h), yet a penalty, so that a
+// start outside the bound walks back into it instead of failing.
+constexpr double kMotionPenalty = 1e3;
+
 // ---------------------------------------------------------------------------------------------
 // Ceres refinement on the exact model: parameters v, delta = P v, residuals
 //   sqrt(w_i) (e_i + d_i(zeta_c + P v) - d0_i)  over the used points,  R v.
@@ -26,7 +33,8 @@ class ExactModelCost : public ceres::CostFunction {
                  const Eigen::VectorXd& weights,
                  const std::vector<int>& used,
                  const Eigen::MatrixXd& p,
-                 const Eigen::MatrixXd& regulariser)
+                 const Eigen::MatrixXd& regulariser,
+                 const Eigen::MatrixXd& motion)
       : model_(model),
         current_(current),
         d0_(d0),
@@ -34,8 +42,10 @@ class ExactModelCost : public ceres::CostFunction {
         weights_(weights),
         used_(used),
         p_(p),
-        regulariser_(regulariser) {
-    set_num_residuals(static_cast<int>(used.size() + regulariser.rows()));
+        regulariser_(regulariser),
+        motion_(motion) {
+    set_num_residuals(
+        static_cast<int>(used.size() + regulariser.rows() + motion.rows()));
     mutable_parameter_block_sizes()->push_back(static_cast<int>(p.cols()));
   }
 
@@ -58,6 +68,15 @@ class ExactModelCost : public ceres::CostFunction {
     }
     const Eigen::VectorXd reg = regulariser_ * v;
     for (int r = 0; r < reg.size(); ++r) residuals[nu + r] = reg(r);
+    // The motion bound: kMotionPenalty per unit of motion beyond the bound.
+    const int nm = static_cast<int>(motion_.rows());
+    const Eigen::VectorXd motion = motion_ * v;
+    const int first_motion = nu + static_cast<int>(reg.size());
+    for (int r = 0; r < nm; ++r) {
+      const double excess = std::abs(motion(r)) - 1.0;
+      residuals[first_motion + r] =
+          excess > 0.0 ? kMotionPenalty * excess : 0.0;
+    }
     if (want_jacobian) {
       Eigen::Map<
           Eigen::
@@ -67,7 +86,16 @@ class ExactModelCost : public ceres::CostFunction {
         const int i = used_[r];
         jac.row(r) = std::sqrt(weights_(i)) * (eval.jacobian_um.row(i) * p_);
       }
-      jac.bottomRows(regulariser_.rows()) = regulariser_;
+      jac.middleRows(nu, regulariser_.rows()) = regulariser_;
+      for (int r = 0; r < nm; ++r) {
+        const double excess = std::abs(motion(r)) - 1.0;
+        if (excess > 0.0) {
+          jac.row(first_motion + r) =
+              kMotionPenalty * (motion(r) > 0.0 ? 1.0 : -1.0) * motion_.row(r);
+        } else {
+          jac.row(first_motion + r).setZero();
+        }
+      }
     }
     return true;
   }
@@ -81,6 +109,7 @@ class ExactModelCost : public ceres::CostFunction {
   const std::vector<int>& used_;
   Eigen::MatrixXd p_;
   Eigen::MatrixXd regulariser_;
+  Eigen::MatrixXd motion_;  // axis motion at the samples / its bound, per v
 };
 
 // The variables of the refinement: delta = P v, the regulariser R v, and the
@@ -88,6 +117,7 @@ class ExactModelCost : public ceres::CostFunction {
 struct RefinementVariables {
   Eigen::MatrixXd p;
   Eigen::MatrixXd reg;
+  Eigen::MatrixXd motion;  // relative axis motion per v (rows: block, sample)
   Eigen::VectorXd v;
 };
 
@@ -109,16 +139,17 @@ RefinementVariables ChooseVariables(const CorrectionProblem& problem,
     x.reg.topRows(nf) =
         s.sigma1 *
         (Eigen::MatrixXd::Identity(nf, nf) - s.vk * s.vk.transpose()) * t_inv;
-    x.reg.bottomRows(k) = s.lambda * s.vk.transpose() * t_inv;
+    x.reg.bottomRows(k) = s.mu.asDiagonal() * s.vk.transpose() * t_inv;
     x.v.resize(nf);
     for (int c = 0; c < nf; ++c)
       x.v(c) = std::clamp(
           delta(free[c]), problem.lower(free[c]), problem.upper(free[c]));
   } else {
     x.p = s.tv;
-    x.reg = s.lambda * Eigen::MatrixXd::Identity(k, k);
+    x.reg = s.mu.asDiagonal();
     x.v = z;
   }
+  x.motion = problem.motion_rows * x.p;
   return x;
 }
 
@@ -138,7 +169,8 @@ void Refine(const CorrectionOptions& options,
                                                     problem.weights,
                                                     problem.used,
                                                     x.p,
-                                                    x.reg),
+                                                    x.reg,
+                                                    x.motion),
                                  nullptr,
                                  v->data());
   if (problem.has_bounds) {
@@ -156,9 +188,9 @@ void Refine(const CorrectionOptions& options,
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.num_threads = 1;
-  solver_options.function_tolerance = 1e-10;
+  solver_options.function_tolerance = 1e-6;
   solver_options.gradient_tolerance = 1e-12;
-  solver_options.parameter_tolerance = 1e-10;
+  solver_options.parameter_tolerance = 1e-8;
   ceres::Solve(solver_options, &ceres_problem, ceres_summary);
 }
 

@@ -58,6 +58,26 @@ double DiscrepancyLambda(const LambdaCriteria& c,
 
 }  // namespace
 
+void SignalFilter(const Eigen::VectorXd& sigma,
+                  const Eigen::VectorXd& beta,
+                  const Eigen::VectorXd& noise2,
+                  LinearSolve* ls) {
+  const int rank = static_cast<int>(noise2.size());
+  ls->filter = Eigen::VectorXd::Zero(rank);
+  ls->mu = Eigen::VectorXd::Constant(rank, kInf);
+  ls->kept.clear();
+  ls->lambda = 0.0;
+  for (int i = 0; i < rank; ++i) {
+    const double b2 = beta(i) * beta(i);
+    const double f = b2 > 0.0 ? 1.0 - kSignalShrink * noise2(i) / b2 : 0.0;
+    if (!(f > 0.0)) continue;
+    ls->filter(i) = f;
+    ls->mu(i) = sigma(i) * std::sqrt((1.0 - f) / f);
+    ls->lambda = std::max(ls->lambda, ls->mu(i));
+    ls->kept.push_back(i);
+  }
+}
+
 Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   Svd s;
   if (a.rows() == 0 || a.cols() == 0) return s;
@@ -165,7 +185,11 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   // A direction with singular value sigma changes the flank by sigma / sqrt(sum
   // w) um rms per unit of correction size; below min_flank_effect_um it is not
   // counted as reachable.
-  ls.svd = ComputeSvd(a, options.min_flank_effect_um * std::sqrt(weight_sum));
+  const bool per_direction = problem.signal_noise_um > 0.0;
+  ls.svd = ComputeSvd(
+      a,
+      (per_direction ? kWeakFlankEffectUm : options.min_flank_effect_um) *
+          std::sqrt(weight_sum));
   const int rank = ls.svd.rank;
   ls.beta = ls.svd.u.transpose() * b;
   ls.best = b;
@@ -179,45 +203,58 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   c.probe_noise_um = problem.probe_noise_um;
   // The probe noise expected inside the range, sigma^2 sum_{i<rank} sum_r w_r
   // s_r U_ri^2.
-  const double s2 = problem.probe_noise_um > 0.0
-                        ? problem.probe_noise_um * problem.probe_noise_um
-                        : 0.0;
+  const double sigma_noise =
+      per_direction ? problem.signal_noise_um : problem.probe_noise_um;
+  const double s2 = sigma_noise > 0.0 ? sigma_noise * sigma_noise : 0.0;
+  Eigen::VectorXd noise2 = Eigen::VectorXd::Zero(rank);
   for (int i = 0; i < rank; ++i) {
     double v = 0.0;
     for (size_t r = 0; r < rows.size(); ++r) {
       v += problem.weights(rows[r]) * problem.noise_share(rows[r]) *
            ls.svd.u(r, i) * ls.svd.u(r, i);
     }
+    noise2(i) = s2 * v;
     c.in_range_noise2 += s2 * v;
   }
   ls.k = rank;
-  ls.lambda =
-      ChooseLambda(problem.rule, c, options.min_relative_regularisation);
-  ls.dof = DegreesOfFreedom(c, ls.lambda);
-  ls.y = Eigen::VectorXd::Zero(nf);
-  for (int i = 0; i < rank; ++i) {
-    const double sg = ls.svd.sigma(i);
-    ls.y +=
-        sg * ls.beta(i) / (sg * sg + ls.lambda * ls.lambda) * ls.svd.v.col(i);
+  if (per_direction) {
+    SignalFilter(ls.svd.sigma, ls.beta, noise2, &ls);
+  } else {
+    ls.lambda =
+        ChooseLambda(problem.rule, c, options.min_relative_regularisation);
+    ls.filter.resize(rank);
+    ls.mu = Eigen::VectorXd::Constant(rank, ls.lambda);
+    for (int i = 0; i < rank; ++i) {
+      const double sg = ls.svd.sigma(i);
+      ls.filter(i) = sg * sg / (sg * sg + ls.lambda * ls.lambda);
+      ls.kept.push_back(i);
+    }
   }
+  ls.dof = ls.filter.sum();
+  ls.y = Eigen::VectorXd::Zero(nf);
+  for (int i : ls.kept)
+    ls.y += ls.filter(i) * ls.beta(i) / ls.svd.sigma(i) * ls.svd.v.col(i);
   ls.residual = a * ls.y - b;
   return ls;
 }
 
 KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map) {
   KeptSubspace s;
-  s.k = ls.k;
+  s.k = static_cast<int>(ls.kept.size());
   s.lambda = ls.lambda;
   s.sigma1 = ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) : 0.0;
   s.ridge = 1e-12 *
             (ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) * ls.svd.sigma(0) : 1.0);
-  s.vk = ls.svd.v.leftCols(s.k);
-  s.tv = t_map * s.vk;  // np x k
+  s.vk.resize(ls.svd.v.rows(), s.k);
+  s.mu.resize(s.k);
   s.z = Eigen::VectorXd::Zero(s.k);
-  for (int i = 0; i < s.k; ++i) {
-    s.z(i) = ls.svd.sigma(i) * ls.beta(i) /
-             (ls.svd.sigma(i) * ls.svd.sigma(i) + s.lambda * s.lambda);
+  for (int j = 0; j < s.k; ++j) {
+    const int i = ls.kept[j];
+    s.vk.col(j) = ls.svd.v.col(i);
+    s.mu(j) = ls.mu(i);
+    s.z(j) = ls.filter(i) * ls.beta(i) / ls.svd.sigma(i);
   }
+  s.tv = t_map * s.vk;  // np x k
   return s;
 }
 

@@ -73,12 +73,29 @@ double ChooseLambda(RegularisationRule rule,
                     const LambdaCriteria& criteria,
                     double min_relative_regularisation);
 
+struct LinearSolve;
+
+// The per-direction filter (problem.signal_noise_um > 0): f_i = max(0, 1 -
+// kSignalShrink noise2_i / beta_i^2) for each of the rank directions, mu_i from
+// f_i, the directions with f_i > 0 kept, lambda = the largest kept mu_i.
+void SignalFilter(const Eigen::VectorXd& sigma,
+                  const Eigen::VectorXd& beta,
+                  const Eigen::VectorXd& noise2,
+                  LinearSolve* ls);
+
 // Everything one regularised linear solve produces.
 struct LinearSolve {
   Svd svd;
-  Eigen::VectorXd beta;      // U' b
-  int k = 0;                 // directions eligible (the numerical rank)
-  double lambda = 0.0;       // Tikhonov level
+  Eigen::VectorXd beta;  // U' b
+  int k = 0;             // directions eligible (the numerical rank)
+  double lambda = 0.0;   // Tikhonov level (the largest mu_i kept)
+  // Per eligible direction i < k: the filter factor f_i and the level mu_i
+  // with f_i = sigma_i^2 / (sigma_i^2 + mu_i^2) (mu_i = lambda for one
+  // Tikhonov level), and the directions kept (f_i > 0, every i < k for one
+  // level).
+  Eigen::VectorXd filter;
+  Eigen::VectorXd mu;
+  std::vector<int> kept;
   double dof = 0.0;          // sum of the filter factors
   Eigen::VectorXd y;         // free coordinates
   Eigen::VectorXd residual;  // weighted residual A y - b over the rows
@@ -97,15 +114,28 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
 struct KeptSubspace {
   int k = 0;
   double lambda = 0.0;
+  Eigen::VectorXd mu;   // the level of each kept direction (k)
   double sigma1 = 0.0;  // largest singular value (0 when there is none)
   double ridge = 0.0;   // 1e-12 sigma_1^2 (1e-12 when there is none): keeps the
                         // QPs definite
-  Eigen::MatrixXd vk;   // V_k (nf x k)
+  Eigen::MatrixXd vk;   // V_k: the kept columns of V (nf x k)
   Eigen::MatrixXd tv;   // T V_k (np x k)
   Eigen::VectorXd
-      z;  // the Tikhonov answer, z_i = sigma_i beta_i / (sigma_i^2 + lambda^2)
+      z;  // the Tikhonov answer, z_i = sigma_i beta_i / (sigma_i^2 + mu_i^2)
 };
 KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map);
+
+// The flank effect per unit of correction size [um rms] down to which the
+// per-direction filter (problem.signal_noise_um > 0) looks for signal: a wheel
+// dish of a few mrad that makes a lead crowning moves the flank by ~1e-3 um
+// per urad, far below min_flank_effect_um, yet it is what the machine can do.
+constexpr double kWeakFlankEffectUm = 1e-4;
+
+// How many noise variances a direction's squared coefficient must exceed
+// before it is used: f_i = max(0, 1 - kSignalShrink n_i^2 / beta_i^2), the
+// positive-part James-Stein shrinkage of each coefficient toward zero (n_i^2:
+// the probe noise expected along u_i).
+constexpr double kSignalShrink = 2.0;
 
 }  // namespace correction_internal
 }  // namespace gearloop

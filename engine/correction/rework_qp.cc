@@ -105,10 +105,8 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
     a.row(r) = sw * stv.row(i);
     b(r) = -sw * (problem.error_um(i) + change_k(i) - stv.row(i).dot(z_k));
   }
-  const double lambda = subspace.lambda;
-  const Eigen::MatrixXd hess =
-      a.transpose() * a +
-      (subspace.ridge + lambda * lambda) * Eigen::MatrixXd::Identity(k, k);
+  Eigen::MatrixXd hess = a.transpose() * a;
+  hess.diagonal().array() += subspace.ridge + subspace.mu.array().square();
   const Eigen::VectorXd grad = a.transpose() * b;
   std::vector<Eigen::RowVectorXd> rows;
   std::vector<double> lims;
@@ -128,6 +126,14 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
       rows.push_back(-tv.row(j));
       lims.push_back(-problem.lower(j));
     }
+  }
+  // The motion bound: -1 <= rows T V_k z <= 1.
+  const Eigen::MatrixXd motion = problem.motion_rows * tv;
+  for (int r = 0; r < motion.rows(); ++r) {
+    rows.push_back(motion.row(r));
+    lims.push_back(1.0);
+    rows.push_back(-motion.row(r));
+    lims.push_back(1.0);
   }
   Eigen::MatrixXd g_mat(rows.size(), k);
   Eigen::VectorXd h_vec(rows.size());
@@ -174,6 +180,105 @@ int RunReworkPasses(const CorrectionOptions& options,
     *z = z_new;
     *delta = subspace.tv * *z;
   }
+  return pass;
+}
+
+namespace {
+
+constexpr int kBoundedHalvings = 4;
+constexpr double kBoundedStopRelative = 1e-4;
+
+// Whether T V_k z keeps every sampled axis motion within its bound (to the
+// QP's tolerance).
+bool WithinMotionBound(const CorrectionProblem& problem,
+                       const KeptSubspace& subspace,
+                       const Eigen::VectorXd& z) {
+  if (problem.motion_rows.rows() == 0) return true;
+  return (problem.motion_rows * (subspace.tv * z)).cwiseAbs().maxCoeff() <=
+         1.0 + 1e-9;
+}
+
+// The exact cost of the next part at z (infinity when a used point is lost);
+// `evaluation` gets the model at p + T V_k z, with its Jacobian on request.
+double ExactBoundedCost(const CorrectionProblem& problem,
+                        const KeptSubspace& subspace,
+                        const Eigen::VectorXd& z,
+                        bool with_jacobian,
+                        ModelEvaluation* evaluation) {
+  problem.model->Evaluate(
+      problem.parameters + subspace.tv * z, with_jacobian, evaluation);
+  double cost = (subspace.mu.array() * z.array()).matrix().squaredNorm();
+  for (int i : problem.used) {
+    if (evaluation->status[i] != PointStatus::kOk) return kInf;
+    const double r =
+        problem.error_um(i) + evaluation->deviations_um(i) - problem.d0()(i);
+    cost += problem.weights(i) * r * r;
+  }
+  return cost;
+}
+
+}  // namespace
+
+int RefineWithinMotionBound(const CorrectionOptions& options,
+                            const CorrectionProblem& problem,
+                            const KeptSubspace& subspace,
+                            Eigen::VectorXd* z,
+                            Eigen::VectorXd* delta,
+                            std::string* not_converged) {
+  ModelEvaluation at;
+  double cost = ExactBoundedCost(problem, subspace, *z, false, &at);
+  if (!std::isfinite(cost)) {
+    // The linear answer loses a point: walk out from no change instead.
+    z->setZero();
+    cost = ExactBoundedCost(problem, subspace, *z, false, &at);
+  }
+  int pass = 0;
+  bool settled = false;
+  for (; pass < options.max_num_iterations; ++pass) {
+    // The Jacobian only where a pass starts (the trial points need none).
+    problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
+    Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
+    for (int i : problem.used)
+      change(i) = at.deviations_um(i) - problem.d0()(i);
+    Eigen::VectorXd z_qp;
+    if (!SolveLinearisedQp(
+            problem, subspace, at.jacobian_um, change, *z, &z_qp)) {
+      *not_converged = "the constrained linear problem failed";
+      break;
+    }
+    Eigen::VectorXd step = z_qp - *z;
+    double trial_cost = kInf;
+    ModelEvaluation trial;
+    if (!WithinMotionBound(problem, subspace, *z)) {
+      // A start beyond the bound (lower cost, not allowed): the QP's answer
+      // is within it; take it whole if it keeps every point.
+      trial_cost = ExactBoundedCost(problem, subspace, z_qp, false, &trial);
+      if (!std::isfinite(trial_cost)) break;
+      *z = z_qp;
+      cost = trial_cost;
+      continue;
+    }
+    for (int h = 0; h <= kBoundedHalvings; ++h, step *= 0.5) {
+      trial_cost =
+          ExactBoundedCost(problem, subspace, *z + step, false, &trial);
+      if (trial_cost < cost) break;
+    }
+    if (!(trial_cost < cost)) {  // no fall along the QP step: settled
+      settled = true;
+      break;
+    }
+    const double fall = cost - trial_cost;
+    *z += step;
+    cost = trial_cost;
+    if (fall < kBoundedStopRelative * cost) {
+      ++pass;
+      settled = true;
+      break;
+    }
+  }
+  if (!settled && pass == options.max_num_iterations && not_converged->empty())
+    *not_converged = "the exact-model refinement reached max_num_iterations";
+  *delta = subspace.tv * *z;
   return pass;
 }
 

@@ -53,6 +53,25 @@ int RunReworkPasses(const CorrectionOptions& options,
                     Eigen::VectorXd* delta,
                     std::string* not_converged);
 
+// The next part with the motion bound active at the linear answer: sequential
+// QPs on the exact model (SolveLinearisedQp at the current change, its motion
+// rows and bounds held exactly), each step halved, at most kBoundedHalvings
+// times, until the exact cost |W^1/2 (e + d(p + T V_k z) - d(p))|^2 + |mu z|^2
+// falls (a step losing a used point counts as no fall), at most
+// options.max_num_iterations passes, stopping when a pass lowers the cost by
+// less than kBoundedStopRelative of it. Ceres' Levenberg-Marquardt with the
+// bound as a penalty rejected most of its steps on such problems (13 of 21 on
+// the robustness benchmark's scenario 133) and stopped at its iteration cap.
+// A start beyond the bound first takes the QP's answer whole (it is within
+// the bound). Updates z and delta; returns the passes made; a failed QP goes
+// to not_converged (delta stays the last accepted change).
+int RefineWithinMotionBound(const CorrectionOptions& options,
+                            const CorrectionProblem& problem,
+                            const KeptSubspace& subspace,
+                            Eigen::VectorXd* z,
+                            Eigen::VectorXd* delta,
+                            std::string* not_converged);
+
 }  // namespace correction_internal
 }  // namespace gearloop
 

@@ -105,8 +105,12 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
                                 const CorrectionProblem& problem,
                                 const Eigen::VectorXd& delta,
                                 SafeStepOutcome* outcome) {
-  const double ratio = AxisMotionRatio(options, problem, delta);
-  outcome->motion_scale = ratio > 1.0 ? 1.0 / ratio : 1.0;
+  // Scaled to kMotionFill of the bound: the largest motion may lie between
+  // the samples (within ~1 %).
+  constexpr double kMotionFill = 0.99;
+  const double ratio =
+      problem.bound_motion ? AxisMotionRatio(options, problem, delta) : 0.0;
+  outcome->motion_scale = ratio > kMotionFill ? kMotionFill / ratio : 1.0;
   return delta * outcome->motion_scale;
 }
 

@@ -138,6 +138,12 @@ class FlatWheelGrinder : public MachineModel {
   // (MODEL.md §6).
   double roll_min_rad() const { return roll_min_rad_; }
   double roll_max_rad() const { return roll_max_rad_; }
+  bool NominalRollRange(double* roll_min_rad,
+                        double* roll_max_rad) const override {
+    *roll_min_rad = this->roll_min_rad();
+    *roll_max_rad = this->roll_max_rad();
+    return *roll_min_rad < *roll_max_rad;
+  }
 
  private:
   GrindingSetup setup_;

@@ -604,12 +604,146 @@ TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   SafeStepOutcome outcome;
   const Eigen::VectorXd bounded =
       BoundAxisMotion(options, problem, delta, &outcome);
-  EXPECT_NEAR(outcome.motion_scale, 0.2 / 1.1, 1e-12);
-  EXPECT_TRUE(bounded.isApprox(delta * (0.2 / 1.1)));
+  // To 99 % of the bound: the largest motion may lie between the samples.
+  EXPECT_NEAR(outcome.motion_scale, 0.99 * 0.2 / 1.1, 1e-12);
+  EXPECT_TRUE(bounded.isApprox(delta * (0.99 * 0.2 / 1.1)));
   // Within the bound: unchanged.
   EXPECT_EQ(BoundAxisMotion(options, problem, 0.1 * delta, &outcome),
             0.1 * delta);
   EXPECT_EQ(outcome.motion_scale, 1.0);
+}
+
+}  // namespace
+}  // namespace correction_internal
+}  // namespace gearloop
+
+// ---------------------------------------------------------------------------------------------
+// The per-direction signal filter, the motion bound inside the solve, the
+// machine-state test and the roll range (issue 13, reach).
+
+namespace gearloop {
+namespace correction_internal {
+namespace {
+
+// f_i = 1 - kSignalShrink n_i^2 / beta_i^2 where positive, the rest dropped;
+// mu_i gives the same filter as a Tikhonov level of its own.
+TEST(SignalFilter, KeepsEachDirectionAsFarAsItStandsAboveTheNoise) {
+  Eigen::VectorXd sigma(4), beta(4), noise2(4);
+  sigma << 10.0, 1.0, 1e-2, 1e-3;
+  beta << 5.0, 0.1, 3.0, -2.0;
+  noise2 << 0.01, 0.01, 0.01, 4.0;  // the last: 2 n^2 = 8 > beta^2 = 4
+  LinearSolve ls;
+  SignalFilter(sigma, beta, noise2, &ls);
+  ASSERT_EQ(ls.kept, (std::vector<int>{0, 2}));
+  EXPECT_NEAR(ls.filter(0), 1.0 - kSignalShrink * 0.01 / 25.0, 1e-15);
+  EXPECT_EQ(ls.filter(1), 0.0);  // 0.1 is at the noise: 1 - 2 < 0
+  EXPECT_NEAR(ls.filter(2), 1.0 - kSignalShrink * 0.01 / 9.0, 1e-15);
+  EXPECT_EQ(ls.filter(3), 0.0);
+  for (int i : ls.kept) {
+    const double s2 = sigma(i) * sigma(i);
+    EXPECT_NEAR(s2 / (s2 + ls.mu(i) * ls.mu(i)), ls.filter(i), 1e-12);
+  }
+  // A weak direction with a strong coefficient is kept almost whole, whatever
+  // its singular value (one Tikhonov level would have dropped it).
+  EXPECT_GT(ls.filter(2), 0.99);
+  EXPECT_EQ(ls.lambda, std::max(ls.mu(0), ls.mu(2)));
+}
+
+// A part whose exact answer moves the axis block 3 times beyond its bound:
+// the sequential QPs keep every sampled motion within the bound, hold it on at
+// least one sample, and leave less error than the answer scaled down whole.
+TEST(RefineWithinMotionBound, HoldsTheBoundAndBeatsTheScaledAnswer) {
+  const LinearModel model(21);
+  CorrectionOptions options;
+  options.max_axis_motion_mm = 0.2;
+  Eigen::VectorXd best = Eigen::VectorXd::Zero(5);
+  best << 0.3, 1.0, -0.5, 2e-4, 0.05;  // P over [-0.2, 0.3]: up to 0.6 mm
+  CorrectionProblem problem = SafeStepProblem(model, best);
+  problem.motion_rows = RelativeMotionRows(options, problem);
+  ASSERT_EQ(problem.motion_rows.rows(), kMotionBoundSamples);
+  const double exact_ratio = (problem.motion_rows * best).cwiseAbs().maxCoeff();
+  ASSERT_GT(exact_ratio, 2.5);
+  options.min_flank_effect_um = 1e-6;
+  const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
+  const KeptSubspace subspace = KeepSubspace(ls, problem.t_map);
+  ASSERT_EQ(subspace.k, 5);
+  Eigen::VectorXd z = subspace.z, delta = subspace.tv * z;
+  std::string not_converged;
+  const int passes = RefineWithinMotionBound(
+      options, problem, subspace, &z, &delta, &not_converged);
+  EXPECT_TRUE(not_converged.empty()) << not_converged;
+  EXPECT_GE(passes, 1);
+  const Eigen::VectorXd motion = problem.motion_rows * delta;
+  EXPECT_LE(motion.cwiseAbs().maxCoeff(), 1.0 + /*qp_tol=*/1e-9);
+  EXPECT_GT(motion.cwiseAbs().maxCoeff(), 1.0 - 1e-6);
+  auto rms_after = [&](const Eigen::VectorXd& d) {
+    ModelEvaluation e;
+    model.Evaluate(d, false, &e);
+    return Rms(problem.error_um + e.deviations_um, problem.used);
+  };
+  EXPECT_LT(rms_after(delta), rms_after(best / exact_ratio));
+}
+
+// The machine-state test: a hidden offset far above the stated noise is used
+// (chi-square), a measurement of noise alone is not, and the reason says so.
+TEST(TestMachineState, UsesTheStateOnlyWhereItExplainsMoreThanTheNoise) {
+  const LinearModel model(22);
+  const int n = model.NumPoints();
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> gauss(0.0, 0.3);
+  Eigen::VectorXd noise(n);
+  for (int i = 0; i < n; ++i) noise(i) = gauss(rng);
+  Eigen::VectorXd hidden = Eigen::VectorXd::Zero(5);
+  hidden << 2e-3, -1e-3, 0.0, 3e-5, 1e-3;
+  ModelEvaluation ran;
+  model.Evaluate(hidden, false, &ran);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.3;
+  input.measured_um = ran.deviations_um + noise;
+  CorrectionResult result = ComputeCorrection(options, input);
+  EXPECT_TRUE(result.summary.machine_state_estimated);
+  EXPECT_EQ(result.summary.machine_state_test, "chi-square");
+  EXPECT_GT(result.summary.machine_state_statistic,
+            result.summary.machine_state_threshold);
+  // Noise alone, stated and unknown: the commanded settings, with the reason.
+  input.measured_um = noise;
+  for (double sigma : {0.3, -1.0}) {
+    options.probe_noise_um = sigma;
+    result = ComputeCorrection(options, input);
+    EXPECT_FALSE(result.summary.machine_state_estimated) << sigma;
+    EXPECT_EQ(result.summary.machine_state_test,
+              sigma > 0.0 ? "chi-square" : "F");
+    EXPECT_LE(result.summary.machine_state_statistic,
+              result.summary.machine_state_threshold);
+    EXPECT_NE(result.summary.machine_state_reason.find("significantly"),
+              std::string::npos)
+        << result.summary.machine_state_reason;
+  }
+}
+
+// The roll range of a model with a nominal range wider than its contacts is
+// the union of both (the machine rolls over the programmed range).
+class WideRollModel : public LinearModel {
+ public:
+  WideRollModel() : LinearModel(23) {}
+  bool NominalRollRange(double* roll_min_rad,
+                        double* roll_max_rad) const override {
+    *roll_min_rad = -0.4;
+    *roll_max_rad = 0.25;
+    return true;
+  }
+};
+
+TEST(PrepareCorrectionProblem, RollRangeJoinsTheNominalRangeAndTheContacts) {
+  const WideRollModel model;
+  const CorrectionProblem problem =
+      SafeStepProblem(model, Eigen::VectorXd::Constant(5, 1e-3));
+  EXPECT_EQ(problem.roll_min_rad, -0.4);  // nominal
+  EXPECT_EQ(problem.roll_max_rad, 0.3);   // contacts
 }
 
 }  // namespace

@@ -307,6 +307,13 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   EXPECT_EQ(result["regularisation"]["rule"], "upre");
   EXPECT_EQ(result["machine_state"]["estimated"], true);
   EXPECT_GT(result["machine_state"]["size"].get<double>(), 0.0);
+  // The state test that decided (stated noise: chi-square), and why.
+  EXPECT_EQ(result["machine_state"]["test"], "chi-square");
+  EXPECT_GT(result["machine_state"]["statistic"].get<double>(),
+            result["machine_state"]["threshold"].get<double>());
+  EXPECT_EQ(result["machine_state"]["reason"].get<std::string>().rfind(
+                "significant", 0),
+            0u);
   // The correction brings the flank close to the best the model can reach (3 um
   // hidden errors).
   EXPECT_LT(result["residual_rms_um"].get<double>(), 1.0);
@@ -1375,9 +1382,10 @@ TEST_F(GearloopServerTest, ListsTheCorrectedSettingsForTheMachine) {
             404);
 }
 
-// A 10 um lead crowning from a perfect flank on the example gear: the fixed
-// wheel cannot make all of it. With a tight tolerance the job says so instead
-// of "converged"; with a loose one it converges and passes.
+// A 10 um end relief from a perfect flank on the example gear: the fixed
+// wheel cannot make all of it (its lead crowning it now can, through the
+// wheel's dish). With a tight tolerance the job says so instead of
+// "converged"; with a loose one it converges and passes.
 TEST_F(GearloopServerTest,
        JudgesPartsAgainstTheToleranceAndNamesWhatIsOutOfReach) {
   nlohmann::json request = DefaultSetup();
@@ -1386,7 +1394,7 @@ TEST_F(GearloopServerTest,
     request["measurement"]["deviations_um"].push_back(
         std::vector<double>(9, 0.0));
   request["target"] = {
-      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 10}}}}};
+      {"modifications", {{{"kind", "end_relief"}, {"amount_um", 10}}}}};
   request["tolerance"] = {{"rms_um", 1.0}, {"max_um", 3.0}};
   const Answer tight = Post(*client_, "/api/v1/corrections", request);
   ASSERT_EQ(tight.status, 201) << tight.body.dump();

@@ -113,10 +113,9 @@ TEST_F(ServicesTest, CreateCorrectionStoresTheJobAndAnswersItsLocation) {
 }
 
 // The engine averages several teeth itself and knows that a mean of three
-// readings is less noisy than one, so the regularisation it chooses is weaker
-// than for the same mean sent as one grid.
-TEST_F(ServicesTest,
-       ThreeMeasuredTeethGetASmallerRegularisationLevelThanTheirMeanAsOneGrid) {
+// readings is less noisy than one, so its regularisation keeps more than for
+// the same mean sent as one grid.
+TEST_F(ServicesTest, ThreeMeasuredTeethKeepMoreThanTheirMeanAsOneGrid) {
   const nlohmann::json measured = Measurement(3);
   ASSERT_EQ(measured["teeth"].size(), 3u);
   nlohmann::json teeth = DefaultSetup();
@@ -131,12 +130,17 @@ TEST_F(ServicesTest,
   // Both answers show the grid the solver corrected: the mean of the teeth.
   EXPECT_EQ(from_teeth.body["result"]["measured_um"],
             from_mean.body["result"]["measured_um"]);
-  const double level_teeth =
-      from_teeth.body["result"]["regularisation"]["level"].get<double>();
-  const double level_mean =
-      from_mean.body["result"]["regularisation"]["level"].get<double>();
-  EXPECT_GT(level_mean, 0.0);
-  EXPECT_LT(level_teeth, level_mean);
+  // At the estimated state each direction is filtered by its own signal to
+  // noise (docs/correction-safety.md): less noise keeps more of every
+  // direction, so the teeth's filter factors sum to more degrees of freedom.
+  const nlohmann::json& teeth_filter =
+      from_teeth.body["result"]["regularisation"];
+  const nlohmann::json& mean_filter =
+      from_mean.body["result"]["regularisation"];
+  EXPECT_EQ(teeth_filter["filter"], "per-direction");
+  EXPECT_EQ(mean_filter["filter"], "per-direction");
+  EXPECT_GT(teeth_filter["effective_dof"].get<double>(),
+            mean_filter["effective_dof"].get<double>());
 }
 
 TEST_F(ServicesTest,
