@@ -248,10 +248,11 @@ struct CorrectionOptions {
   // estimated machine state with a noise (stated, or estimated from the state
   // fit), each direction of the correction is kept as far as its coefficient
   // stands above the noise along it, down to directions of 1e-4 um per unit
-  // (kWeakFlankEffectUm) instead of min_flank_effect_um, and with no single
-  // Tikhonov level. It reaches what weak directions (a wheel dish for a lead
-  // crowning) can make; the motion bound and the safe step keep it safe.
-  // false: one Tikhonov level by the rule, as at the commanded parameters.
+  // (kWeakFlankEffectShare of min_flank_effect_um) instead of
+  // min_flank_effect_um, and with no single Tikhonov level. It reaches what
+  // weak directions (a wheel dish for a lead crowning) can make; the motion
+  // bound and the safe step keep it safe. false: one Tikhonov level by the
+  // rule, as at the commanded parameters.
   bool signal_filter = true;
 
   // The safe step (regularised solver; correction.cc, "SafeStep"): before

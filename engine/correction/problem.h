@@ -59,8 +59,8 @@ struct CorrectionProblem {
   // > 0: the regularised solve filters each direction by its own signal to
   // noise (regularisation.h, SignalFilter) at this sigma [um] of one grid (the
   // stated noise, or the one estimated from the machine-state fit), down to
-  // directions of kWeakFlankEffectUm per unit; 0: one Tikhonov level by
-  // `rule` over the directions above min_flank_effect_um.
+  // directions of kWeakFlankEffectShare x min_flank_effect_um per unit; 0: one
+  // Tikhonov level by `rule` over the directions above min_flank_effect_um.
   double signal_noise_um = 0.0;
 
   // The measurement: m (teeth averaged), e = m - t [um] (NaN where missing),

@@ -60,6 +60,7 @@ double DiscrepancyLambda(const LambdaCriteria& c,
 
 void SignalFilter(const Eigen::VectorXd& sigma,
                   const Eigen::VectorXd& beta,
+                  const Eigen::VectorXd& beta_measured,
                   const Eigen::VectorXd& noise2,
                   LinearSolve* ls) {
   const int rank = static_cast<int>(noise2.size());
@@ -68,8 +69,14 @@ void SignalFilter(const Eigen::VectorXd& sigma,
   ls->kept.clear();
   ls->lambda = 0.0;
   for (int i = 0; i < rank; ++i) {
-    const double b2 = beta(i) * beta(i);
-    const double f = b2 > 0.0 ? 1.0 - kSignalShrink * noise2(i) / b2 : 0.0;
+    const double m2 = beta_measured(i) * beta_measured(i);
+    const double f_measured =
+        m2 > 0.0 ? std::max(0.0, 1.0 - kSignalShrink * noise2(i) / m2) : 0.0;
+    // The model's own part (beta - beta_measured) whole, the measured part as
+    // far as it stands above the noise; as one filter factor on beta.
+    const double kept = beta(i) - (1.0 - f_measured) * beta_measured(i);
+    const double f =
+        beta(i) != 0.0 ? std::clamp(kept / beta(i), 0.0, 1.0) : 0.0;
     if (!(f > 0.0)) continue;
     ls->filter(i) = f;
     ls->mu(i) = sigma(i) * std::sqrt((1.0 - f) / f);
@@ -183,13 +190,13 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
     weight_sum += problem.weights(rows[r]);
   }
   // A direction with singular value sigma changes the flank by sigma / sqrt(sum
-  // w) um rms per unit of correction size; below min_flank_effect_um it is not
-  // counted as reachable.
+  // w) um rms per unit of correction size; below min_flank_effect_um (the
+  // per-direction filter: kWeakFlankEffectShare of it) it is not counted as
+  // reachable.
   const bool per_direction = problem.signal_noise_um > 0.0;
-  ls.svd = ComputeSvd(
-      a,
-      (per_direction ? kWeakFlankEffectUm : options.min_flank_effect_um) *
-          std::sqrt(weight_sum));
+  ls.svd = ComputeSvd(a,
+                      (per_direction ? kWeakFlankEffectShare : 1.0) *
+                          options.min_flank_effect_um * std::sqrt(weight_sum));
   const int rank = ls.svd.rank;
   ls.beta = ls.svd.u.transpose() * b;
   ls.best = b;
@@ -218,7 +225,18 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   }
   ls.k = rank;
   if (per_direction) {
-    SignalFilter(ls.svd.sigma, ls.beta, noise2, &ls);
+    // The measured part of b: what only the measurement tells, m - d(p) (the
+    // machine's error and the probe noise); the rest, d(p) - t, is the model's
+    // own and exact.
+    Eigen::VectorXd b_measured(rows.size());
+    for (size_t r = 0; r < rows.size(); ++r) {
+      const int i = rows[r];
+      b_measured(r) = -std::sqrt(problem.weights(i)) *
+                      (problem.measured_um(i) - problem.d0()(i));
+    }
+    const Eigen::VectorXd beta_measured =
+        ls.svd.u.leftCols(rank).transpose() * b_measured;
+    SignalFilter(ls.svd.sigma, ls.beta, beta_measured, noise2, &ls);
   } else {
     ls.lambda =
         ChooseLambda(problem.rule, c, options.min_relative_regularisation);

@@ -20,10 +20,13 @@ nlohmann::json FiniteOrNullJson(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
 }
 
-// 1 - (unreachable / target)^2, NaN without a target.
+// 1 - (unreachable / target)^2, NaN without a target. Unreachable: the larger
+// of the linear best reachable and the correction's exact prediction (within
+// the motion bound): the per-direction filter follows weak directions whose
+// linear reach a bounded move need not make.
 double ShareOf(const CorrectionSummary& s) {
   const double target = s.initial_rms_um;
-  const double left = s.best_reachable_rms_um;
+  const double left = std::max(s.best_reachable_rms_um, s.residual_rms_um);
   if (!(target > 0.0) || !std::isfinite(left)) return std::nan("");
   return std::max(0.0, 1.0 - (left * left) / (target * target));
 }

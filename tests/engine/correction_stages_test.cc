@@ -625,28 +625,35 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// f_i = 1 - kSignalShrink n_i^2 / beta_i^2 where positive, the rest dropped;
-// mu_i gives the same filter as a Tikhonov level of its own.
-TEST(SignalFilter, KeepsEachDirectionAsFarAsItStandsAboveTheNoise) {
-  Eigen::VectorXd sigma(4), beta(4), noise2(4);
-  sigma << 10.0, 1.0, 1e-2, 1e-3;
-  beta << 5.0, 0.1, 3.0, -2.0;
-  noise2 << 0.01, 0.01, 0.01, 4.0;  // the last: 2 n^2 = 8 > beta^2 = 4
+// A measured coefficient is kept as far as it stands above the noise
+// (f = 1 - kSignalShrink n^2 / beta_m^2), the model's own part whole; mu_i
+// gives the same filter as a Tikhonov level of its own.
+TEST(SignalFilter, KeepsTheModelsOwnPartAndTheMeasuredPartAboveTheNoise) {
+  Eigen::VectorXd sigma(5), beta(5), measured(5), noise2(5);
+  sigma << 10.0, 1.0, 1e-2, 1e-3, 1e-3;
+  beta << 5.0, 0.1, 3.0, -2.0, 4.0;
+  measured << 5.0, 0.1, 3.0, -2.0, 1.0;  // the last: 3 of 4 the model's own
+  noise2 << 0.01, 0.01, 0.01, 4.0, 0.01;
   LinearSolve ls;
-  SignalFilter(sigma, beta, noise2, &ls);
-  ASSERT_EQ(ls.kept, (std::vector<int>{0, 2}));
+  SignalFilter(sigma, beta, measured, noise2, &ls);
+  ASSERT_EQ(ls.kept, (std::vector<int>{0, 2, 4}));
   EXPECT_NEAR(ls.filter(0), 1.0 - kSignalShrink * 0.01 / 25.0, 1e-15);
-  EXPECT_EQ(ls.filter(1), 0.0);  // 0.1 is at the noise: 1 - 2 < 0
+  EXPECT_EQ(ls.filter(1), 0.0);  // 0.1 is at the noise
   EXPECT_NEAR(ls.filter(2), 1.0 - kSignalShrink * 0.01 / 9.0, 1e-15);
-  EXPECT_EQ(ls.filter(3), 0.0);
+  EXPECT_EQ(ls.filter(3), 0.0);  // 2 against a noise of 2
+  // 3 (own) + (1 - 9 * 0.01 / 1) * 1 (measured), over 4.
+  EXPECT_NEAR(ls.filter(4), (3.0 + (1.0 - kSignalShrink * 0.01)) / 4.0, 1e-15);
   for (int i : ls.kept) {
     const double s2 = sigma(i) * sigma(i);
     EXPECT_NEAR(s2 / (s2 + ls.mu(i) * ls.mu(i)), ls.filter(i), 1e-12);
   }
   // A weak direction with a strong coefficient is kept almost whole, whatever
   // its singular value (one Tikhonov level would have dropped it).
-  EXPECT_GT(ls.filter(2), 0.99);
-  EXPECT_EQ(ls.lambda, std::max(ls.mu(0), ls.mu(2)));
+  EXPECT_GT(ls.filter(2), 0.98);
+  // The model's own part alone (a target on a perfect part) is kept whole.
+  measured.setZero();
+  SignalFilter(sigma, beta, measured, noise2, &ls);
+  EXPECT_EQ(ls.filter, Eigen::VectorXd::Ones(5));
 }
 
 // A part whose exact answer moves the axis block 3 times beyond its bound:

@@ -82,7 +82,11 @@ class ReachRemedyTest : public ::testing::Test {
     if (!options.is_null()) request["options"] = options;
     const nlohmann::json job = Post("/api/v1/corrections", request, 201);
     const double target = job["result"]["initial_rms_um"];
-    const double left = job["result"]["best_reachable_rms_um"];
+    // What is left: the linear best reachable or, larger, the correction's
+    // exact prediction within the motion bound (reach_remedy.cc, ShareOf).
+    const double left =
+        std::max(job["result"]["best_reachable_rms_um"].get<double>(),
+                 job["result"]["residual_rms_um"].get<double>());
     return std::max(0.0, 1.0 - (left * left) / (target * target));
   }
 
@@ -97,14 +101,14 @@ class ReachRemedyTest : public ::testing::Test {
   std::unique_ptr<httplib::Client> client_;
 };
 
-// (a) With every axis at order 1, a profile crowning is far from made; the
-// remedy names the axis and order that make the most of it, and no other
+// (a) With every axis at order 1, a 10 um profile crowning is far from made;
+// the remedy names the axis and order that make the most of it, and no other
 // single axis opened higher (orders 2..6, each solved here) beats it.
 TEST_F(ReachRemedyTest, NamesTheAxisAndOrderThatMakeTheMostOfTheRest) {
   nlohmann::json setup = ReadmeSetup();
   setup["options"] = {{"default_max_order", 1}};
   const nlohmann::json crowning = {{"kind", "profile_crowning"},
-                                   {"amount_um", 3}};
+                                   {"amount_um", 10}};
   const nlohmann::json reach = Reach(setup, nlohmann::json::array({crowning}));
   const nlohmann::json& c = reach["components"][0];
   const double share = c["reachable_share"];
@@ -138,43 +142,43 @@ TEST_F(ReachRemedyTest, NamesTheAxisAndOrderThatMakeTheMostOfTheRest) {
 }
 
 // (b) On the README setup the wheel's parabola (fixed by default) makes most
-// of a lead crowning: the remedy says so with the share a solve with it freed
-// reaches; it tried the axes (less) and, a lead modification on the fixed
-// wheel, the traverse C_s, which gains nothing.
-TEST_F(ReachRemedyTest, AFreedWheelProfileMakesMostOfTheLeadCrowning) {
-  const nlohmann::json lead = {{"kind", "lead_crowning"}, {"amount_um", 4}};
+// of a tip relief: the remedy says so with the share a solve with it freed
+// reaches; it tried the axes (less). (A lead crowning the fixed wheel now
+// makes whole through its dish, issue 13.)
+TEST_F(ReachRemedyTest, AFreedWheelProfileMakesMostOfTheTipRelief) {
+  const nlohmann::json tip = {{"kind", "tip_relief"}, {"amount_um", 10}};
   const nlohmann::json c =
-      Reach(ReadmeSetup(), nlohmann::json::array({lead}))["components"][0];
+      Reach(ReadmeSetup(), nlohmann::json::array({tip}))["components"][0];
   const double share = c["reachable_share"];
   const nlohmann::json& remedy = c["remedy"];
   ASSERT_TRUE(remedy.is_object());
   EXPECT_EQ(remedy["kind"], "wheel_profile") << remedy.dump();
   const double profile = remedy["wheel_profile"]["reachable_share"];
-  EXPECT_GT(profile - share, kUsefulShareGain);
+  // It helps as reach_remedy.h counts help: 5 % more, or half of what is
+  // missing closed.
+  EXPECT_TRUE(profile - share > kUsefulShareGain ||
+              1.0 - profile < 0.5 * (1.0 - share))
+      << share << " -> " << profile;
   const nlohmann::json freed = {{"max_order",
                                  {{"cone_angle", 0},
                                   {"parabola_coefficient", 0},
                                   {"parabola_vertex", 0}}}};
   EXPECT_NEAR(
-      profile, ShareBySolve(ReadmeSetup(), lead, freed), kSameShareTolerance);
+      profile, ShareBySolve(ReadmeSetup(), tip, freed), kSameShareTolerance);
   EXPECT_LT(remedy["higher_order"]["reachable_share"].get<double>(), profile);
-  const nlohmann::json& traverse = remedy["wheel_traverse"];
-  ASSERT_TRUE(traverse.is_object());
-  EXPECT_EQ(traverse["in_model"], false);
-  EXPECT_NEAR(traverse["share_gain"].get<double>(), 0.0, kSameShareTolerance);
 }
 
 // (c) A spur gear with the wheel's parabola already free: no axis order and no
-// wheel form make the rest of a lead crowning; the remedy is the wheel
+// wheel form make the rest of an end relief; the remedy is the wheel
 // traverse along the lead, outside the model. That C_s gives nothing is
 // checked another way too: a machine with C_s = 20 mm/rad (its nominal
 // settings move the wheel along the lead with the roll) reaches the same
 // share, and has no traverse remedy (it is not the fixed-wheel setup).
-TEST_F(ReachRemedyTest, ALeadCrowningOnTheFixedWheelNeedsAWheelTraverse) {
+TEST_F(ReachRemedyTest, AnEndReliefOnTheFixedWheelNeedsAWheelTraverse) {
   nlohmann::json setup = SpurSetup();
   setup["options"] = {
       {"max_order", {{"parabola_coefficient", 0}, {"parabola_vertex", 0}}}};
-  const nlohmann::json lead = {{"kind", "lead_crowning"}, {"amount_um", 10}};
+  const nlohmann::json lead = {{"kind", "end_relief"}, {"amount_um", 10}};
   const nlohmann::json c =
       Reach(setup, nlohmann::json::array({lead}))["components"][0];
   const double share = c["reachable_share"];
@@ -215,7 +219,7 @@ TEST_F(ReachRemedyTest, APartlyReachableJobCarriesTheReachAndRemedies) {
   nlohmann::json request = ReadmeSetup();
   request["measurement"] = {{"deviations_um", ZeroGrid()}};
   request["target"] = {
-      {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 4}}}}};
+      {"modifications", {{{"kind", "tip_relief"}, {"amount_um", 10}}}}};
   request["tolerance"] = {{"rms_um", 0.5}};
   const nlohmann::json job = Post("/api/v1/corrections", request, 201);
   const nlohmann::json& result = job["result"];

@@ -125,7 +125,9 @@ TEST_F(ZeroCorrectionTest, RankZeroNamesMinFlankEffect) {
   nlohmann::json request = Request(NoiseOnlyGrid());
   request["target"] = {
       {"modifications", {{{"kind", "lead_crowning"}, {"amount_um", 1}}}}};
-  request["options"]["min_flank_effect_um"] = 5;
+  // The per-direction filter looks down to 1 % of min_flank_effect_um: 500
+  // leaves no direction above 5 um per unit.
+  request["options"]["min_flank_effect_um"] = 500;
   const nlohmann::json result = Correct(request);
   EXPECT_EQ(result["rank"], 0);
   EXPECT_EQ(result["status"], "no_safe_improvement");
