@@ -162,14 +162,16 @@ TEST(GracefulShutdown, AnswersInFlightRequestsAndExitsCleanly) {
   TempPath db;
   ServerProcess server(db.path(), FreePort());
   ASSERT_TRUE(server.WaitReady());
-  // A closed loop of 8 corrections on a fine grid takes a while: ~0.5 s in the
-  // Release build, tens of seconds under ASan on a busy machine (hence the long
-  // read timeout).
+  // A closed loop of 20 corrections on a fine grid takes a while: ~0.8 s in
+  // the Release build (2026-11-23; 8 corrections on 20 x 30 took 0.15 s once
+  // the corrections at the noise stopped moving the axes: no longer in flight
+  // after the 150 ms below), tens of seconds under ASan on a busy machine
+  // (hence the long read timeout).
   nlohmann::json scenario = DefaultSetup();
-  scenario["grid"] = {{"profile_points", 20}, {"lead_points", 30}};
+  scenario["grid"] = {{"profile_points", 30}, {"lead_points", 40}};
   scenario["random_hidden_errors"] = {{"block_size", 3.0}, {"seed", 4}};
   scenario["noise_um"] = 0.3;
-  scenario["corrections"] = 8;
+  scenario["corrections"] = 20;
   std::atomic<int> status{0};
   std::thread slow([&] {
     httplib::Client client("127.0.0.1", server.port());
