@@ -88,8 +88,7 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
   const bool rework = problem.mode == CorrectionMode::kRework;
   Eigen::VectorXd z = subspace.z;
   const bool beyond_motion_bound =
-      problem.motion_rows.rows() > 0 && subspace.k > 0 &&
-      (problem.motion_rows * (subspace.tv * z)).cwiseAbs().maxCoeff() > 1.0;
+      subspace.k > 0 && !WithinMotionBound(problem, subspace, z);
   if (subspace.k > 0 && (rework || problem.has_bounds || beyond_motion_bound)) {
     Eigen::VectorXd z_new;
     if (SolveLinearisedQp(problem,

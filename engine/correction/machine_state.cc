@@ -35,7 +35,6 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
   state->has_bounds = false;
   state->lower = Eigen::VectorXd::Constant(commanded.num_parameters, -kInf);
   state->upper = Eigen::VectorXd::Constant(commanded.num_parameters, kInf);
-  state->bound_motion = false;
   state->motion_rows.resize(0, commanded.num_parameters);
   SelectPoints(state);
   return !state->used.empty();

@@ -266,23 +266,23 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   BuildCoordinates(options, p);
   p->st = p->jacobian_um * p->t_map;  // n x nf
   SetBounds(options, p);
-  p->motion_rows = RelativeMotionRows(options, *p);
+  p->motion_rows = RelativeMotionRows(options, *p, kMotionBoundSamples);
   return true;
 }
 
-// CorrectionProblem::motion_rows.
 Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem) {
+                                   const CorrectionProblem& problem,
+                                   int samples) {
   std::vector<Eigen::RowVectorXd> rows;
   for (const ParameterBlock& block : problem.blocks) {
     const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
                          : block.unit == "rad" ? options.max_axis_motion_rad
                                                : 0.0;
     if (!block.is_polynomial || !(bound > 0.0)) continue;
-    for (int s = 0; s < kMotionBoundSamples; ++s) {
+    for (int s = 0; s < samples; ++s) {
       const double phi =
-          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
-                                     s / (kMotionBoundSamples - 1.0);
+          problem.roll_min_rad +
+          (problem.roll_max_rad - problem.roll_min_rad) * s / (samples - 1.0);
       Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(problem.num_parameters);
       double power = 1.0;
       for (int k = 0; k < block.num_coefficients; ++k, power *= phi)

@@ -84,10 +84,9 @@ struct CorrectionProblem {
   // kMotionBoundSamples roll angles over the roll range, per unit of the
   // parameter change (rows x num_parameters; no rows without a bound). The
   // regularised solve and the refinement keep |rows delta| <= 1.
-  Eigen::MatrixXd motion_rows;
-  // false for the machine-state fit: the bound limits a correction, not the
+  // The machine-state fit has none: the bound limits a correction, not the
   // machine's errors (TestMachineState bounds the state's size).
-  bool bound_motion = true;
+  Eigen::MatrixXd motion_rows;
 
   // Bounds on delta [parameter units] (+-inf = unbounded); has_bounds: a free
   // one is finite.
@@ -138,12 +137,17 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
                               CorrectionSummary* summary,
                               std::string* error);
 
+// The axis motion dC(phi_s) / bound of every polynomial block with a bound
+// (options.max_axis_motion_mm / _rad) at `samples` roll angles evenly over
+// `problem`'s roll range, per unit of the parameter change (rows x
+// num_parameters; no rows without a bound): motion_rows at
+// kMotionBoundSamples, and the safe step's check (AxisMotionRatio).
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem,
+                                   int samples);
+
 // The same problem linearised at `parameters` (S evaluated there; roll range
 // and T kept).
-// CorrectionProblem::motion_rows for `problem`'s blocks and roll range.
-Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem);
-
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
                                  const Eigen::VectorXd& parameters);
 

@@ -307,7 +307,6 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
 KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map) {
   KeptSubspace s;
   s.k = static_cast<int>(ls.kept.size());
-  s.lambda = ls.lambda;
   s.sigma1 = ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) : 0.0;
   s.ridge = 1e-12 *
             (ls.svd.sigma.size() > 0 ? ls.svd.sigma(0) * ls.svd.sigma(0) : 1.0);

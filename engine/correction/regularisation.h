@@ -120,7 +120,6 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
 // k the rank.
 struct KeptSubspace {
   int k = 0;
-  double lambda = 0.0;
   Eigen::VectorXd mu;   // the level of each kept direction (k)
   double sigma1 = 0.0;  // largest singular value (0 when there is none)
   double ridge = 0.0;   // 1e-12 sigma_1^2 (1e-12 when there is none): keeps the

@@ -183,20 +183,18 @@ int RunReworkPasses(const CorrectionOptions& options,
   return pass;
 }
 
-namespace {
-
-constexpr int kBoundedHalvings = 4;
-constexpr double kBoundedStopRelative = 1e-4;
-
-// Whether T V_k z keeps every sampled axis motion within its bound (to the
-// QP's tolerance).
 bool WithinMotionBound(const CorrectionProblem& problem,
                        const KeptSubspace& subspace,
                        const Eigen::VectorXd& z) {
   if (problem.motion_rows.rows() == 0) return true;
   return (problem.motion_rows * (subspace.tv * z)).cwiseAbs().maxCoeff() <=
-         1.0 + 1e-9;
+         1.0 + kMotionBoundTolerance;
 }
+
+namespace {
+
+constexpr int kBoundedHalvings = 4;
+constexpr double kBoundedStopRelative = 1e-4;
 
 // The exact cost of the next part at z (infinity when a used point is lost);
 // `evaluation` gets the model at p + T V_k z, with its Jacobian on request.
@@ -235,7 +233,8 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
   int pass = 0;
   bool settled = false;
   for (; pass < options.max_num_iterations; ++pass) {
-    // The Jacobian only where a pass starts (the trial points need none).
+    // The Jacobian only where a pass starts (the trial points need none; the
+    // start's came with its cost).
     problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
     Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
     for (int i : problem.used)

@@ -53,6 +53,15 @@ int RunReworkPasses(const CorrectionOptions& options,
                     Eigen::VectorXd* delta,
                     std::string* not_converged);
 
+// The QP's tolerance on the motion bound's rows (|rows delta| <= 1).
+constexpr double kMotionBoundTolerance = 1e-9;
+
+// Whether T V_k z keeps every sampled axis motion within its bound
+// (problem.motion_rows, to kMotionBoundTolerance); true without rows.
+bool WithinMotionBound(const CorrectionProblem& problem,
+                       const KeptSubspace& subspace,
+                       const Eigen::VectorXd& z);
+
 // The next part with the motion bound active at the linear answer: sequential
 // QPs on the exact model (SolveLinearisedQp at the current change, its motion
 // rows and bounds held exactly), each step halved, at most kBoundedHalvings

@@ -20,13 +20,6 @@ constexpr int kMotionSamples = 41;
 // loop (final median 1.26 -> 1.42 um, seed 7).
 constexpr double kModelAgreement = 1.0;
 
-// The bound of an axis in `unit` (0 = none).
-double MotionBound(const CorrectionOptions& options, const std::string& unit) {
-  if (unit == "mm") return options.max_axis_motion_mm;
-  if (unit == "rad") return options.max_axis_motion_rad;
-  return 0.0;
-}
-
 // Linearised at an estimated machine state: whether the exact change `delta`
 // makes at the commanded parameters differs from `change` (the change at the
 // state, on the used points) by more than kModelAgreement times the rms of
@@ -82,23 +75,9 @@ double ExactPredictionRms(const CorrectionProblem& problem,
 double AxisMotionRatio(const CorrectionOptions& options,
                        const CorrectionProblem& problem,
                        const Eigen::VectorXd& delta) {
-  double ratio = 0.0;
-  for (const ParameterBlock& block : problem.blocks) {
-    const double bound = MotionBound(options, block.unit);
-    if (!block.is_polynomial || !(bound > 0.0)) continue;
-    for (int s = 0; s < kMotionSamples; ++s) {
-      const double phi =
-          problem.roll_min_rad + (problem.roll_max_rad - problem.roll_min_rad) *
-                                     s / (kMotionSamples - 1);
-      double motion = 0.0, power = 1.0;
-      for (int k = 0; k < block.num_coefficients; ++k) {
-        motion += delta(block.first_index + k) * power;
-        power *= phi;
-      }
-      ratio = std::max(ratio, std::abs(motion) / bound);
-    }
-  }
-  return ratio;
+  const Eigen::MatrixXd rows =
+      RelativeMotionRows(options, problem, kMotionSamples);
+  return rows.rows() > 0 ? (rows * delta).cwiseAbs().maxCoeff() : 0.0;
 }
 
 Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
@@ -108,8 +87,9 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
   // Scaled to kMotionFill of the bound: the largest motion may lie between
   // the samples (within ~1 %).
   constexpr double kMotionFill = 0.99;
-  const double ratio =
-      problem.bound_motion ? AxisMotionRatio(options, problem, delta) : 0.0;
+  const double ratio = problem.motion_rows.rows() > 0
+                           ? AxisMotionRatio(options, problem, delta)
+                           : 0.0;
   outcome->motion_scale = ratio > kMotionFill ? kMotionFill / ratio : 1.0;
   return delta * outcome->motion_scale;
 }

@@ -666,7 +666,8 @@ TEST(RefineWithinMotionBound, HoldsTheBoundAndBeatsTheScaledAnswer) {
   Eigen::VectorXd best = Eigen::VectorXd::Zero(5);
   best << 0.3, 1.0, -0.5, 2e-4, 0.05;  // P over [-0.2, 0.3]: up to 0.6 mm
   CorrectionProblem problem = SafeStepProblem(model, best);
-  problem.motion_rows = RelativeMotionRows(options, problem);
+  problem.motion_rows =
+      RelativeMotionRows(options, problem, kMotionBoundSamples);
   ASSERT_EQ(problem.motion_rows.rows(), kMotionBoundSamples);
   const double exact_ratio = (problem.motion_rows * best).cwiseAbs().maxCoeff();
   ASSERT_GT(exact_ratio, 2.5);
