@@ -39,6 +39,12 @@ struct ModelEvaluation {
   // The roll angle phi1 of each point's contact [rad] (NaN where status is not
   // kOk).
   std::vector<double> contact_roll_rad;
+  // How far inside the tool's working surface each point's contact lies [mm]
+  // (the flat wheel: inward from the rim, or from the centre, the nearer);
+  // negative for a contact the tool does not reach (kNotReached), NaN where
+  // no contact was found. Empty when the model does not say. A small margin
+  // is a point a small machine error can lose.
+  std::vector<double> contact_margin_mm;
 
   int NumReached() const;
   bool AllReached() const;

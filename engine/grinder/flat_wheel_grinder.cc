@@ -487,6 +487,9 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
   evaluation->status.assign(n, PointStatus::kNotConverged);
   evaluation->contact_roll_rad.assign(n,
                                       std::numeric_limits<double>::quiet_NaN());
+  evaluation->contact_margin_mm.assign(
+      n, std::numeric_limits<double>::quiet_NaN());
+  const double wheel_radius_mm = MakeChainConstants(setup_).wheel_radius_mm;
   if (with_jacobian) {
     evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
   } else {
@@ -496,6 +499,10 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
     const FlankGridPoint& point = grid_.points[i];
     const EnvelopeContact contact = SolveContact(settings, point);
     evaluation->status[i] = contact.status;
+    if (contact.status != PointStatus::kNotConverged) {
+      evaluation->contact_margin_mm[i] =
+          std::min(contact.wheel_u_mm, wheel_radius_mm - contact.wheel_u_mm);
+    }
     if (contact.status != PointStatus::kOk) continue;
     evaluation->deviations_um(i) = contact.deviation_mm * kMmToUm;
     evaluation->contact_roll_rad[i] = contact.roll_rad;

@@ -588,6 +588,59 @@ TEST(ChooseSafeStep, KeepsTheCurrentSettingsWhenNoFractionIsBetter) {
             std::string::npos);
 }
 
+// The linear machine with a wheel edge: point 0's contact margin falls by
+// 0.7 mm per 1e-3 of s2 (parameter 4) from `margin_at_zero_mm`; below zero
+// the wheel no longer reaches it.
+class EdgeModel : public LinearModel {
+ public:
+  EdgeModel(unsigned seed, double margin_at_zero_mm)
+      : LinearModel(seed), margin_at_zero_mm_(margin_at_zero_mm) {}
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    LinearModel::Evaluate(parameters, with_jacobian, e);
+    e->contact_margin_mm.assign(e->status.size(), 5.0);
+    e->contact_margin_mm[0] =
+        margin_at_zero_mm_ - kMarginPerUnitMm * parameters(4);
+    if (e->contact_margin_mm[0] < 0.0) {
+      e->status[0] = PointStatus::kNotReached;
+      e->deviations_um(0) = 0.0;
+      e->contact_roll_rad[0] = std::numeric_limits<double>::quiet_NaN();
+      if (with_jacobian) e->jacobian_um.row(0).setZero();
+    }
+  }
+  static constexpr double kMarginPerUnitMm = 700.0;
+
+ private:
+  double margin_at_zero_mm_;
+};
+
+// At the estimated state (s2 = -0.6/700: point 0 1.0 mm inside the wheel)
+// the whole step keeps point 0, 0.3 mm inside; at the commanded settings
+// (0.4 mm inside) the same step loses it. The point nears the edge (0.3 <
+// half of 1.0) and is lost at the other end of what the machine may run: the
+// step is halved (0.65 mm at the state, 0.05 mm at the commanded end). With
+// 2 mm of margin at the commanded end the whole step is kept.
+TEST(ChooseSafeStep, HalvesAStepThatTakesAPointToTheWheelsEdge) {
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
+  state(4) = -0.6 / EdgeModel::kMarginPerUnitMm;
+  for (const double commanded_margin_mm : {0.4, 2.0}) {
+    const EdgeModel model(15, commanded_margin_mm);
+    const CorrectionProblem at_state =
+        RelinearisedAt(SafeStepProblem(model, best), state);
+    ASSERT_EQ(at_state.evaluation.status[0], PointStatus::kOk);
+    ASSERT_EQ(at_state.commanded_status[0], PointStatus::kOk);
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd step =
+        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
+    EXPECT_TRUE(outcome.improved);
+    EXPECT_EQ(outcome.step_fraction, commanded_margin_mm < 1.0 ? 0.5 : 1.0)
+        << "commanded margin " << commanded_margin_mm << " mm";
+    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
+  }
+}
+
 TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   const LinearModel model(14);
   const CorrectionProblem problem =

@@ -334,6 +334,46 @@ TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
   }
 }
 
+// The contact margin is how far inside the wheel each contact lies: the
+// nearer of the rim (u_w = 0) and the wheel centre (u_w = R), from the same
+// contact SolveContact finds; negative exactly where the rim does not reach.
+TEST(FlatWheelGrinder, ContactMarginIsTheDistanceInsideTheWheel) {
+  GrindingSetup setup = SpurSetup();
+  setup.gear.face_width_mm = 160.0;
+  setup.wheel.radius_mm = 60.0;
+  setup.grid.profile_begin = 0.0;
+  setup.grid.lead_begin = -0.5;
+  setup.grid.lead_end = 0.5;
+  ValidationIssue issue;
+  ASSERT_TRUE(ValidateSetup(setup, &issue)) << issue.message;
+  const FlatWheelGrinder grinder(setup);
+  ModelEvaluation eval;
+  grinder.Evaluate(grinder.nominal().ToVector(), false, &eval);
+  ASSERT_EQ(eval.contact_margin_mm.size(), 45u);
+  int reached = 0, not_reached = 0;
+  for (int i = 0; i < 45; ++i) {
+    const EnvelopeContact contact =
+        grinder.SolveContact(grinder.nominal(), grinder.grid().points[i]);
+    ASSERT_EQ(contact.status, eval.status[i]) << "point " << i;
+    if (contact.status == PointStatus::kNotConverged) {
+      EXPECT_TRUE(std::isnan(eval.contact_margin_mm[i])) << "point " << i;
+      continue;
+    }
+    const double expected_mm = std::min(
+        contact.wheel_u_mm, setup.wheel.radius_mm - contact.wheel_u_mm);
+    EXPECT_EQ(eval.contact_margin_mm[i], expected_mm) << "point " << i;
+    if (contact.status == PointStatus::kOk) {
+      EXPECT_GE(eval.contact_margin_mm[i], 0.0) << "point " << i;
+      ++reached;
+    } else {
+      EXPECT_LT(eval.contact_margin_mm[i], 0.0) << "point " << i;
+      ++not_reached;
+    }
+  }
+  EXPECT_GT(reached, 0);
+  EXPECT_GT(not_reached, 0);  // the root corners lie beyond the rim
+}
+
 TEST(FlatWheelGrinder, FarBranchesOfTheEnvelopeAreNotReportedAsNumbers) {
   // Absurd settings (a correction gone wrong): the wheel 10 mm deeper (3.4 mm
   // into the flank) and the work axis running 30 % fast. Whatever Newton finds
