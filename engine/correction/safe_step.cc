@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 namespace gearloop {
@@ -84,10 +85,24 @@ bool ModelsDisagree(const CorrectionProblem& problem,
          kModelAgreement * std::max(Rms(change, problem.used), 1e-3);
 }
 
+// The share of the used points (at least one) whose gains are set aside when
+// the safe step asks whether the part is predicted better without its most
+// improved points: a gain that rests on a few points is the model following
+// what the outlier test did not catch (a 19 um probe spike in a part at its
+// reach, 3.5 um rms) or a misfit it cannot follow. Robustness benchmark, 200
+// flat-wheel scenarios, default options (quick count): rounds worse 1 -> 0
+// (seed 2026) and 5 -> 1 (seed 7) at 3 of 45 points, the reach unchanged
+// (192 and 190 of 200 within 1.2 x best + noise); 1 point: 0 and 4; 5 and 8
+// points: no fewer worse rounds, and 8 lost reach (190 and 188).
+constexpr double kMostImprovedShare = 0.05;
+
 // The exact prediction at `problem` after `delta`: the rms over its used
-// points of e + d(p + delta) - d(p); infinity when a used point is lost.
+// points of e + d(p + delta) - d(p) (infinity when a used point is lost or
+// the models disagree), and in `robust_gain_um2` the sum over the used points
+// of e^2 - r^2 without the kMostImprovedShare largest terms.
 double ExactPredictionRms(const CorrectionProblem& problem,
-                          const Eigen::VectorXd& delta) {
+                          const Eigen::VectorXd& delta,
+                          double* robust_gain_um2) {
   ModelEvaluation eval;
   problem.model->Evaluate(problem.parameters + delta, false, &eval);
   Eigen::VectorXd residual = problem.error_um;
@@ -100,6 +115,22 @@ double ExactPredictionRms(const CorrectionProblem& problem,
   if (ModelsDisagree(
           problem, delta, change, PointsNearingTheEdge(problem, eval)))
     return kInf;
+  std::vector<double> gains_um2;
+  for (int i : problem.used) {
+    const double e = problem.error_um(i), r = residual(i);
+    gains_um2.push_back(e * e - r * r);
+  }
+  const size_t set_aside = std::min(
+      gains_um2.size(),
+      static_cast<size_t>(std::ceil(kMostImprovedShare *
+                                    static_cast<double>(gains_um2.size()))));
+  std::partial_sort(gains_um2.begin(),
+                    gains_um2.begin() + set_aside,
+                    gains_um2.end(),
+                    std::greater<double>());
+  *robust_gain_um2 = 0.0;
+  for (size_t k = set_aside; k < gains_um2.size(); ++k)
+    *robust_gain_um2 += gains_um2[k];
   return Rms(residual, problem.used);
 }
 
@@ -134,8 +165,11 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
   outcome->current_rms_um = Rms(problem.error_um, problem.used);
   double alpha = 1.0;
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
-    outcome->predicted_rms_um = ExactPredictionRms(problem, alpha * delta);
-    if (outcome->predicted_rms_um < outcome->current_rms_um) {
+    double robust_gain_um2 = 0.0;
+    outcome->predicted_rms_um =
+        ExactPredictionRms(problem, alpha * delta, &robust_gain_um2);
+    if (outcome->predicted_rms_um < outcome->current_rms_um &&
+        robust_gain_um2 > 0.0) {
       outcome->step_fraction = alpha;
       return alpha * delta;
     }
@@ -150,7 +184,8 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
       " is predicted by the exact model to make a better part than the "
       "current settings (rms " +
       std::to_string(outcome->current_rms_um) +
-      " um); the current settings are kept";
+      " um), even without its 5 % most improved points; the current settings "
+      "are kept";
   return Eigen::VectorXd::Zero(delta.size());
 }
 

@@ -641,6 +641,56 @@ TEST(ChooseSafeStep, HalvesAStepThatTakesAPointToTheWheelsEdge) {
   }
 }
 
+// A machine whose parameter 4 moves point 0 by -20 um per 1e-3 and every
+// other point by +-1 um: a change that removes a lone spike at point 0 and
+// disturbs the rest of the flank a little.
+class SpikeModel : public LinearModel {
+ public:
+  SpikeModel() : LinearModel(16), spike_(kRows * kColumns, 5) {
+    spike_.setZero();
+    spike_(0, 4) = -2e4;
+    for (int i = 1; i < spike_.rows(); ++i) spike_(i, 4) = i % 2 ? 1e3 : -1e3;
+  }
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    LinearModel::Evaluate(parameters, with_jacobian, e);
+    e->deviations_um = spike_ * parameters;
+    if (with_jacobian) e->jacobian_um = spike_;
+  }
+
+ private:
+  Eigen::MatrixXd spike_;
+};
+
+// A part 20 um off at one point and on target elsewhere: removing the spike
+// would take the rms from 2.98 to 0.99 um, but the whole gain rests on that
+// one point (the other 44 get worse), so no fraction of the step is taken.
+// The same step on a part that is off by the step's own shape everywhere (a
+// gain spread over the flank) is taken whole.
+TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
+  const SpikeModel model;
+  Eigen::VectorXd step = Eigen::VectorXd::Zero(5);
+  step(4) = 1e-3;
+  CorrectionProblem problem = SafeStepProblem(model, step);
+  ASSERT_EQ(problem.used.size(), 45u);
+  problem.error_um.setZero();
+  problem.error_um(0) = 20.0;
+  SafeStepOutcome outcome;
+  Eigen::VectorXd kept =
+      ChooseSafeStep(CorrectionOptions(), problem, step, &outcome);
+  EXPECT_FALSE(outcome.improved);
+  EXPECT_EQ(kept, Eigen::VectorXd::Zero(5));
+  EXPECT_NE(outcome.message.find("most improved points"), std::string::npos);
+
+  const CorrectionProblem spread = SafeStepProblem(model, step);
+  SafeStepOutcome spread_outcome;
+  kept = ChooseSafeStep(CorrectionOptions(), spread, step, &spread_outcome);
+  EXPECT_TRUE(spread_outcome.improved);
+  EXPECT_EQ(spread_outcome.step_fraction, 1.0);
+  EXPECT_NEAR(spread_outcome.predicted_rms_um, 0.0, /*tol_um=*/1e-9);
+}
+
 TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   const LinearModel model(14);
   const CorrectionProblem problem =
