@@ -842,9 +842,8 @@ void WriteJson(const char* path,
   std::fclose(f);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command line (see the file comment).
+struct Args {
   int scenarios = 200, bevel = 10, threads = 1, only = -1;
   std::uint64_t seed = 2026;
   std::string orders = "both", solver = "regularised", compare;
@@ -855,142 +854,192 @@ int main(int argc, char** argv) {
   double min_flank_effect = -1.0;
   int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
+};
+
+// False (with the usage printed) on an unknown flag or a missing value.
+bool ParseArgs(int argc, char** argv, Args* a) {
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (std::strcmp(argv[i], "--scenarios") == 0 && has_value) {
-      scenarios = std::atoi(argv[++i]);
+      a->scenarios = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bevel") == 0 && has_value) {
-      bevel = std::atoi(argv[++i]);
+      a->bevel = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--seed") == 0 && has_value) {
-      seed = std::strtoull(argv[++i], nullptr, 10);
+      a->seed = std::strtoull(argv[++i], nullptr, 10);
     } else if (std::strcmp(argv[i], "--orders") == 0 && has_value) {
-      orders = argv[++i];
+      a->orders = argv[++i];
     } else if (std::strcmp(argv[i], "--solver") == 0 && has_value) {
-      solver = argv[++i];
+      a->solver = argv[++i];
     } else if (std::strcmp(argv[i], "--compare") == 0 && has_value) {
-      compare = argv[++i];
+      a->compare = argv[++i];
     } else if (std::strcmp(argv[i], "--threads") == 0 && has_value) {
-      threads = std::atoi(argv[++i]);
+      a->threads = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--json") == 0 && has_value) {
-      json = argv[++i];
+      a->json = argv[++i];
     } else if (std::strcmp(argv[i], "--only") == 0 && has_value) {
-      only = std::atoi(argv[++i]);
+      a->only = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--reach-iterations") == 0 && has_value) {
-      reach_iterations = std::atoi(argv[++i]);
+      a->reach_iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--fix") == 0 && has_value) {
-      fixed_blocks.push_back(argv[++i]);
+      a->fixed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--reference-fix") == 0 && has_value) {
-      reference_fixed.push_back(argv[++i]);
+      a->reference_fixed.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--free") == 0 && has_value) {
-      freed_blocks.push_back(argv[++i]);
+      a->freed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-signal-filter") == 0) {
-      no_signal_filter = true;
+      a->no_signal_filter = true;
     } else if (std::strcmp(argv[i], "--no-state") == 0) {
-      no_state = true;
+      a->no_state = true;
     } else if (std::strcmp(argv[i], "--min-flank-effect") == 0 && has_value) {
-      min_flank_effect = std::atof(argv[++i]);
+      a->min_flank_effect = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--iterations") == 0 && has_value) {
-      iterations = std::atoi(argv[++i]);
+      a->iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
-      bound_wheel = true;
+      a->bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
-      verbose = true;
+      a->verbose = true;
     } else {
       std::fprintf(stderr,
                    "usage: robustness_benchmark [--scenarios N] [--bevel N] "
                    "[--seed S] [--orders default|all|both] "
                    "[--solver NAME] [--compare NAME] "
                    "[--threads N] [--json FILE] [--verbose] [--only I]\n");
-      return 2;
+      return false;
     }
   }
-  if (scenarios < 0 || bevel < 0 || threads < 1 ||
-      (orders != "default" && orders != "all" && orders != "both")) {
-    std::fprintf(stderr,
-                 "robustness_benchmark: bad --scenarios, --bevel, --threads or "
-                 "--orders\n");
-    return 2;
-  }
+  return true;
+}
+
+// The configurations the flags ask for: default options and/or every order
+// open, with the study flags and --solver; then, with --compare, each one's
+// twin with the compared solver. False (with the reason printed) on bad
+// values.
+bool BuildConfigs(const Args& a, std::vector<Config>* configs) {
   CorrectionSolver main_solver, compared_solver;
-  if (!ParseCorrectionSolver(solver, &main_solver) ||
-      (!compare.empty() && (!ParseCorrectionSolver(compare, &compared_solver) ||
-                            main_solver != CorrectionSolver::kRegularised))) {
+  if (!ParseCorrectionSolver(a.solver, &main_solver) ||
+      (!a.compare.empty() &&
+       (!ParseCorrectionSolver(a.compare, &compared_solver) ||
+        main_solver != CorrectionSolver::kRegularised))) {
     std::fprintf(
         stderr,
         "robustness_benchmark: bad --solver or --compare (regularised, "
         "pso or lsq-plain; --compare with the default solver)\n");
-    return 2;
+    return false;
   }
-  std::vector<Config> configs;
-  if (orders != "all")
-    configs.push_back({"default options", CorrectionOptions(), 3});
-  if (orders != "default") {
+  if (a.orders != "all")
+    configs->push_back({"default options", CorrectionOptions(), 3});
+  if (a.orders != "default") {
     Config all{"every order 0-6 open", CorrectionOptions(), 6};
     all.options.default_max_order = 6;
-    configs.push_back(all);
+    configs->push_back(all);
   }
-  for (Config& c : configs) {
-    for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
-    for (const std::string& b : freed_blocks) c.options.max_order[b] = 0;
-    if (no_state) c.options.estimate_machine_state = false;
-    if (no_signal_filter) c.options.signal_filter = false;
-    if (min_flank_effect >= 0.0)
-      c.options.min_flank_effect_um = min_flank_effect;
-    if (iterations >= 0) c.options.max_num_iterations = iterations;
+  for (Config& c : *configs) {
+    for (const std::string& b : a.fixed_blocks) c.options.max_order[b] = -1;
+    for (const std::string& b : a.freed_blocks) c.options.max_order[b] = 0;
+    if (a.no_state) c.options.estimate_machine_state = false;
+    if (a.no_signal_filter) c.options.signal_filter = false;
+    if (a.min_flank_effect >= 0.0)
+      c.options.min_flank_effect_um = a.min_flank_effect;
+    if (a.iterations >= 0) c.options.max_num_iterations = a.iterations;
     // --solver: every configuration with that solver (named after it unless
     // it is the default).
     c.options.solver = main_solver;
     if (main_solver != CorrectionSolver::kRegularised)
-      c.name = "\"" + solver + "\", " + c.name;
+      c.name = "\"" + a.solver + "\", " + c.name;
   }
   // --compare: each configuration's twin with the compared solver, scored
   // against the same best reachable.
-  const size_t own_configs = configs.size();
-  if (!compare.empty()) {
-    for (size_t k = 0; k < own_configs; ++k) {
-      Config twin = configs[k];
-      twin.options.solver = compared_solver;
-      twin.name = "\"" + compare + "\", " + configs[k].name;
-      twin.reference_of = static_cast<int>(k);
-      configs.push_back(twin);
-    }
+  const size_t own_configs = configs->size();
+  for (size_t k = 0; !a.compare.empty() && k < own_configs; ++k) {
+    Config twin = (*configs)[k];
+    twin.options.solver = compared_solver;
+    twin.name = "\"" + a.compare + "\", " + (*configs)[k].name;
+    twin.reference_of = static_cast<int>(k);
+    configs->push_back(twin);
   }
+  return true;
+}
 
-  // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone
-  // (for diagnosis; drawn exactly as in the full run).
-  std::vector<std::pair<bool, int>> jobs;
-  if (only >= 0) {
-    jobs.push_back({false, only});
-    scenarios = 1;
-    bevel = 0;
-  } else {
-    for (int i = 0; i < scenarios; ++i) jobs.push_back({false, i});
-    for (int i = 0; i < bevel; ++i) jobs.push_back({true, i});
-  }
+// Every job (bevel?, index) on `threads` threads, in the order of the jobs.
+std::vector<ScenarioOutcome> RunJobs(
+    const Args& a,
+    const std::vector<Config>& configs,
+    const std::vector<std::pair<bool, int>>& jobs) {
   const int total = static_cast<int>(jobs.size());
   std::vector<ScenarioOutcome> outcomes(total);
   std::atomic<int> next{0};
   auto work = [&]() {
     for (int i = next++; i < total; i = next++) {
-      const Scenario s = jobs[i].first
-                             ? bench::DrawBevelScenario(seed, jobs[i].second)
-                             : bench::DrawGrinderScenario(seed, jobs[i].second);
-      outcomes[i] = RunScenario(
-          s, configs, seed, bound_wheel, reach_iterations, reference_fixed);
+      const Scenario s =
+          jobs[i].first ? bench::DrawBevelScenario(a.seed, jobs[i].second)
+                        : bench::DrawGrinderScenario(a.seed, jobs[i].second);
+      outcomes[i] = RunScenario(s,
+                                configs,
+                                a.seed,
+                                a.bound_wheel,
+                                a.reach_iterations,
+                                a.reference_fixed);
       std::fprintf(stderr, "scenario %d of %d done\n", i + 1, total);
     }
   };
   std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  for (int t = 1; t < a.threads; ++t) pool.emplace_back(work);
   work();
   for (std::thread& t : pool) t.join();
+  return outcomes;
+}
+
+// The --compare reports: each baseline twin against its configuration.
+void PrintComparisons(const Args& a,
+                      const std::vector<ScenarioOutcome>& outcomes,
+                      const std::vector<Config>& configs) {
+  for (size_t k = 0; k < configs.size(); ++k) {
+    if (configs[k].reference_of < 0) continue;
+    const size_t base = configs[k].reference_of;
+    for (int bevel = 0; bevel < 2; ++bevel) {
+      PrintComparison(Compare(outcomes, base, k, bevel == 1),
+                      (bevel ? "bevel generator, " : "flat-wheel grinder, ") +
+                          configs[base].name,
+                      a.compare);
+    }
+    if (a.verbose) PrintComparisonVerbose(outcomes, base, k, a.compare);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  if (!ParseArgs(argc, argv, &a)) return 2;
+  if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
+      (a.orders != "default" && a.orders != "all" && a.orders != "both")) {
+    std::fprintf(stderr,
+                 "robustness_benchmark: bad --scenarios, --bevel, --threads or "
+                 "--orders\n");
+    return 2;
+  }
+  std::vector<Config> configs;
+  if (!BuildConfigs(a, &configs)) return 2;
+
+  // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone
+  // (for diagnosis; drawn exactly as in the full run).
+  std::vector<std::pair<bool, int>> jobs;
+  if (a.only >= 0) {
+    jobs.push_back({false, a.only});
+    a.scenarios = 1;
+    a.bevel = 0;
+  } else {
+    for (int i = 0; i < a.scenarios; ++i) jobs.push_back({false, i});
+    for (int i = 0; i < a.bevel; ++i) jobs.push_back({true, i});
+  }
+  const std::vector<ScenarioOutcome> outcomes = RunJobs(a, configs, jobs);
 
   std::printf(
       "# Robustness benchmark: seed %llu, %d flat-wheel and %d bevel "
       "scenarios, %d rounds each\n\n",
-      static_cast<unsigned long long>(seed),
-      scenarios,
-      bevel,
+      static_cast<unsigned long long>(a.seed),
+      a.scenarios,
+      a.bevel,
       kRounds);
   PrintDistribution(outcomes);
   std::printf(
@@ -1010,17 +1059,8 @@ int main(int argc, char** argv) {
   }
   std::printf("(reference optimiser: %.1f s CPU over all scenarios)\n\n",
               reference_s);
-  if (verbose) PrintVerbose(outcomes, configs);
-  for (size_t k = own_configs; k < configs.size(); ++k) {
-    const size_t base = configs[k].reference_of;
-    for (int bevel = 0; bevel < 2; ++bevel) {
-      PrintComparison(Compare(outcomes, base, k, bevel == 1),
-                      (bevel ? "bevel generator, " : "flat-wheel grinder, ") +
-                          configs[base].name,
-                      compare);
-    }
-    if (verbose) PrintComparisonVerbose(outcomes, base, k, compare);
-  }
-  if (json != nullptr) WriteJson(json, outcomes, configs, seed);
+  if (a.verbose) PrintVerbose(outcomes, configs);
+  PrintComparisons(a, outcomes, configs);
+  if (a.json != nullptr) WriteJson(a.json, outcomes, configs, a.seed);
   return 0;
 }
