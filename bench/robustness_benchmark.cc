@@ -29,10 +29,10 @@
 // --compare NAME runs, beside each configuration, its twin with that solver on
 // the same scenarios (scored against the same best reachable) and reports,
 // per scenario, the true rms of the next part, the correction size (largest
-// axis motion over the roll range against its bound) and the CPU per
-// correction of both: round 1 from the same measured part, and each solver's
-// own three-round loop (BENCHMARKS.md, "Default vs published pso on the
-// robustness scenarios").
+// axis motion over the roll range against its bound, and MODEL.md §6 size)
+// and the CPU per correction of both: round 1 from the same measured part, and
+// each solver's own three-round loop (BENCHMARKS.md, "Default vs published pso
+// on the robustness scenarios").
 // --threads runs scenarios in parallel; every correction stays on one thread
 // and its CPU time is that thread's (CLOCK_THREAD_CPUTIME_ID).
 #include <algorithm>
