@@ -11,7 +11,7 @@
 //       [--scenarios 200] [--bevel 10] [--seed 2026]
 //       [--orders default|all|both] [--threads 1] [--json FILE] [--verbose]
 //       [--only I] [--bound-wheel] [--reach-iterations 300]
-//       [--fix BLOCK]... [--no-state]
+//       [--fix BLOCK]... [--no-state] [--solver pso] [--compare pso]
 //
 // --only I runs the flat-wheel scenario I alone, drawn as in the full run.
 // --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
@@ -24,6 +24,15 @@
 // --orders default: the solver's default options (default_max_order 3); all:
 // every order 0-6 open (default_max_order 6; the bevel generator's degree 5);
 // both (the default) runs both.
+// --solver NAME runs every configuration with that solver instead of the
+// default ("regularised"; "pso" is the published swarm, MODEL.md §6).
+// --compare NAME runs, beside each configuration, its twin with that solver on
+// the same scenarios (scored against the same best reachable) and reports,
+// per scenario, the true rms of the next part, the correction size (largest
+// axis motion over the roll range against its bound, and MODEL.md §6 size)
+// and the CPU per correction of both: round 1 from the same measured part, and
+// each solver's own three-round loop (BENCHMARKS.md, "Default vs published pso
+// on the robustness scenarios").
 // --threads runs scenarios in parallel; every correction stays on one thread
 // and its CPU time is that thread's (CLOCK_THREAD_CPUTIME_ID).
 #include <algorithm>
@@ -54,6 +63,11 @@ struct Config {
   std::string name;
   CorrectionOptions options;
   int reach_order = 3;
+  // A baseline twin (--compare) of configuration `reference_of`: the same
+  // options but the solver, and that configuration's best reachable (the
+  // reference is not run again, and the twin's end points are not among its
+  // starts). -1: a configuration of its own.
+  int reference_of = -1;
 };
 
 struct ConfigOutcome {
@@ -105,6 +119,71 @@ std::string JsonString(const std::string& s) {
   return out + "\"";
 }
 
+// The best reachable for configuration k (bench/best_reachable.h), started
+// from the cancellation of the hidden errors, the end points of the
+// configurations with no more freedom and their references (baseline twins'
+// left out).
+bench::ReachResult ReferenceFor(const Scenario& s,
+                                const std::vector<Config>& configs,
+                                size_t k,
+                                const ScenarioOutcome& out,
+                                const bench::ReachOptions& reach) {
+  std::vector<std::pair<std::string, Eigen::VectorXd>> starts;
+  starts.push_back({"cancel hidden errors", -s.hidden_errors});
+  // The solver's own end points: of this configuration and of any with no
+  // more freedom.
+  for (size_t j = 0; j < configs.size(); ++j) {
+    if (configs[j].reference_of < 0 &&
+        configs[j].reach_order <= configs[k].reach_order) {
+      starts.push_back(
+          {"solver final (" + configs[j].name + ")",
+           out.configs[j].loop.final_parameters - s.initial_parameters});
+    }
+  }
+  // The references of configurations with no more freedom: a larger free set
+  // reaches at least as low.
+  for (size_t j = 0; j < k; ++j) {
+    if (configs[j].reference_of < 0 &&
+        configs[j].reach_order <= configs[k].reach_order &&
+        out.configs[j].reach.delta.size() > 0) {
+      starts.push_back(
+          {"reference (" + configs[j].name + ")", out.configs[j].reach.delta});
+    }
+  }
+  const Eigen::VectorXd true_state = s.initial_parameters + s.hidden_errors;
+  return bench::BestReachable(*s.model,
+                              true_state,
+                              s.target_um,
+                              s.roll_min_rad,
+                              s.roll_max_rad,
+                              starts,
+                              reach);
+}
+
+// final / best reachable and whether final <= 1.2 best + sigma.
+void ScoreAgainstReference(const Scenario& s, ConfigOutcome* o) {
+  const double final_rms = o->loop.part_rms_um.back();
+  o->ratio = final_rms / std::max(o->reach.rms_um, 0.01);
+  o->within = final_rms <= 1.2 * o->reach.rms_um + s.probe_noise_um;
+}
+
+void PrintReachStarts(const Scenario& s,
+                      const std::string& config,
+                      const bench::ReachResult& reach) {
+  for (const bench::ReachStart& st : reach.starts) {
+    std::fprintf(stderr,
+                 "  scenario %d %s: start %s (%.4g um, %d halvings) -> %.4g um "
+                 "in %d iterations\n",
+                 s.index,
+                 config.c_str(),
+                 st.name.c_str(),
+                 st.start_rms_um,
+                 st.halvings,
+                 st.rms_um,
+                 st.iterations);
+  }
+}
+
 ScenarioOutcome RunScenario(const Scenario& s,
                             const std::vector<Config>& configs,
                             std::uint64_t seed,
@@ -119,8 +198,8 @@ ScenarioOutcome RunScenario(const Scenario& s,
     out.configs.push_back(o);
   }
   const double start = bench::ThreadCpuMs();
-  const Eigen::VectorXd true_state = s.initial_parameters + s.hidden_errors;
   for (size_t k = 0; k < configs.size(); ++k) {
+    if (configs[k].reference_of >= 0) continue;
     bench::ReachOptions reach;
     reach.max_order = configs[k].reach_order;
     reach.max_iterations = reach_iterations;
@@ -135,52 +214,17 @@ ScenarioOutcome RunScenario(const Scenario& s,
       reach.wheel_depth_mm = (g.tip_radius_mm - g.root_radius_mm) /
                              std::cos(g.normal_pressure_angle_rad);
     }
-    std::vector<std::pair<std::string, Eigen::VectorXd>> starts;
-    starts.push_back({"cancel hidden errors", -s.hidden_errors});
-    // The solver's own end points: of this configuration and of any with no
-    // more freedom.
-    for (size_t j = 0; j < configs.size(); ++j) {
-      if (configs[j].reach_order <= configs[k].reach_order) {
-        starts.push_back(
-            {"solver final (" + configs[j].name + ")",
-             out.configs[j].loop.final_parameters - s.initial_parameters});
-      }
-    }
-    // The references of configurations with no more freedom: a larger free set
-    // reaches at least as low.
-    for (size_t j = 0; j < k; ++j) {
-      if (configs[j].reach_order <= configs[k].reach_order &&
-          out.configs[j].reach.delta.size() > 0) {
-        starts.push_back({"reference (" + configs[j].name + ")",
-                          out.configs[j].reach.delta});
-      }
-    }
     ConfigOutcome& o = out.configs[k];
-    o.reach = bench::BestReachable(*s.model,
-                                   true_state,
-                                   s.target_um,
-                                   s.roll_min_rad,
-                                   s.roll_max_rad,
-                                   starts,
-                                   reach);
-    const double final_rms = o.loop.part_rms_um.back();
-    o.ratio = final_rms / std::max(o.reach.rms_um, 0.01);
-    o.within = final_rms <= 1.2 * o.reach.rms_um + s.probe_noise_um;
-    if (std::getenv("ROBUSTNESS_DEBUG_REACH") != nullptr) {
-      for (const bench::ReachStart& st : o.reach.starts) {
-        std::fprintf(
-            stderr,
-            "  scenario %d %s: start %s (%.4g um, %d halvings) -> %.4g um "
-            "in %d iterations\n",
-            s.index,
-            configs[k].name.c_str(),
-            st.name.c_str(),
-            st.start_rms_um,
-            st.halvings,
-            st.rms_um,
-            st.iterations);
-      }
-    }
+    o.reach = ReferenceFor(s, configs, k, out, reach);
+    ScoreAgainstReference(s, &o);
+    if (std::getenv("ROBUSTNESS_DEBUG_REACH") != nullptr)
+      PrintReachStarts(s, configs[k].name, o.reach);
+  }
+  // A baseline twin is scored against its configuration's best reachable.
+  for (size_t k = 0; k < configs.size(); ++k) {
+    if (configs[k].reference_of < 0) continue;
+    out.configs[k].reach = out.configs[configs[k].reference_of].reach;
+    ScoreAgainstReference(s, &out.configs[k]);
   }
   out.reference_cpu_s = 1e-3 * (bench::ThreadCpuMs() - start);
   return out;
@@ -465,6 +509,233 @@ void PrintVerbose(const std::vector<ScenarioOutcome>& outcomes,
   }
 }
 
+// --compare SOLVER: the default solver against a baseline on the same
+// scenarios. Round 1 of both corrects the same measured part (the loop is
+// deterministic in the scenario, and both start from it); the three-round
+// loops then follow each solver's own parts. A pair of figures counts as
+// equal within these tolerances:
+constexpr double kSameRmsUm = 0.01;        // rms: max(0.01 um, 1 %)
+constexpr double kSameRmsFraction = 0.01;  //   of the smaller
+constexpr double kSameSizeOfBound = 0.01;  // size: 1 % of the motion bound
+constexpr double kSameCpuFraction = 0.1;   // CPU: 10 % of the smaller
+// MODEL.md §6 size (the solver's correction_size, um): 1 % of the smaller.
+constexpr double kSameModelSizeFraction = 0.01;
+
+// A correction's size as the benchmark measures it: the largest axis motion
+// over the roll range as a fraction of its bound (0.2 mm for X, Y, Z; 3e-3
+// rad for A, B, C); 0 for a correction not used (the settings kept).
+double SizeOfBound(const RoundRecord& r) {
+  if (!r.usable) return 0.0;
+  return std::max(r.max_linear_motion_mm / bench::kLinearMotionBoundMm,
+                  r.max_angular_motion_rad / bench::kAngularMotionBoundRad);
+}
+
+// The correction's size as MODEL.md §6 defines it (summary correction_size:
+// axis motion and the wheel, scaled, um); 0 for a correction not used.
+double ModelSize(const RoundRecord& r) {
+  return r.usable ? r.correction_size : 0.0;
+}
+
+// One figure for both solvers, scenario by scenario: lower is better.
+struct ComparedFigure {
+  std::string name;
+  double same_abs = 0.0, same_fraction = 0.0;
+  std::vector<double> base, other;
+  int better = 0, equal = 0, worse = 0;  // the default against the baseline
+
+  void Add(double b, double o) {
+    base.push_back(b);
+    other.push_back(o);
+    const double same =
+        std::max(same_abs, same_fraction * std::min(std::abs(b), std::abs(o)));
+    if (std::abs(b - o) <= same) {
+      ++equal;
+    } else if (b < o) {
+      ++better;
+    } else {
+      ++worse;
+    }
+  }
+};
+
+struct Comparison {
+  int scenarios = 0, rounds = 0;
+  int different_start = 0;  // round 1 not on the same part (expected 0)
+  // 0-3: round 1 true rms, size against the bound, MODEL.md size, CPU; 4-7:
+  // the loop's final true rms, its largest sizes, its mean CPU per correction.
+  std::vector<ComparedFigure> figures;
+  int worse_rounds[2] = {0, 0}, beyond_bound[2] = {0, 0};
+  std::vector<std::string> other_worse_list;
+};
+
+Comparison NewComparison() {
+  Comparison c;
+  auto add = [&c](const char* name, double same_abs, double same_fraction) {
+    ComparedFigure f;
+    f.name = name;
+    f.same_abs = same_abs;
+    f.same_fraction = same_fraction;
+    c.figures.push_back(f);
+  };
+  add("round 1: true rms of the next part (um)", kSameRmsUm, kSameRmsFraction);
+  add("round 1: correction size (of the bound)", kSameSizeOfBound, 0.0);
+  add("round 1: MODEL.md §6 size (um)", 0.0, kSameModelSizeFraction);
+  add("round 1: CPU per correction (ms)", 0.0, kSameCpuFraction);
+  add("3 rounds: final true rms (um)", kSameRmsUm, kSameRmsFraction);
+  add("3 rounds: largest correction size (of the bound)",
+      kSameSizeOfBound,
+      0.0);
+  add("3 rounds: largest MODEL.md §6 size (um)", 0.0, kSameModelSizeFraction);
+  add("3 rounds: mean CPU per correction (ms)", 0.0, kSameCpuFraction);
+  return c;
+}
+
+// The loop's largest correction sizes (against the bound, MODEL.md §6) and
+// mean CPU per correction; counts its worse rounds and corrections beyond the
+// bound into `worse` and `beyond`.
+void LoopFigures(const LoopRecord& loop,
+                 double size[2],
+                 double* cpu_ms,
+                 int* worse,
+                 int* beyond) {
+  size[0] = size[1] = 0.0;
+  *cpu_ms = 0.0;
+  for (const RoundRecord& r : loop.rounds) {
+    size[0] = std::max(size[0], SizeOfBound(r));
+    size[1] = std::max(size[1], ModelSize(r));
+    *cpu_ms += r.cpu_ms / loop.rounds.size();
+    *worse += r.worse;
+    *beyond += r.usable && !r.motion_within_bounds;
+  }
+}
+
+Comparison Compare(const std::vector<ScenarioOutcome>& outcomes,
+                   size_t base,
+                   size_t other,
+                   bool bevel) {
+  Comparison c = NewComparison();
+  for (const ScenarioOutcome& o : outcomes) {
+    if (o.scenario.bevel != bevel) continue;
+    const LoopRecord& b = o.configs[base].loop;
+    const LoopRecord& p = o.configs[other].loop;
+    ++c.scenarios;
+    c.rounds += p.rounds.size();
+    c.different_start += b.part_rms_um[0] != p.part_rms_um[0];
+    const RoundRecord& b1 = b.rounds.front();
+    const RoundRecord& p1 = p.rounds.front();
+    c.figures[0].Add(b1.rms_after_um, p1.rms_after_um);
+    c.figures[1].Add(SizeOfBound(b1), SizeOfBound(p1));
+    c.figures[2].Add(ModelSize(b1), ModelSize(p1));
+    c.figures[3].Add(b1.cpu_ms, p1.cpu_ms);
+    double size[2][2], cpu[2];
+    LoopFigures(b, size[0], &cpu[0], &c.worse_rounds[0], &c.beyond_bound[0]);
+    LoopFigures(p, size[1], &cpu[1], &c.worse_rounds[1], &c.beyond_bound[1]);
+    c.figures[4].Add(b.part_rms_um.back(), p.part_rms_um.back());
+    c.figures[5].Add(size[0][0], size[1][0]);
+    c.figures[6].Add(size[0][1], size[1][1]);
+    c.figures[7].Add(cpu[0], cpu[1]);
+    for (size_t r = 0; r < p.rounds.size(); ++r) {
+      if (!p.rounds[r].worse) continue;
+      c.other_worse_list.push_back(std::to_string(o.scenario.index) + "/" +
+                                   std::to_string(r + 1) + " (" +
+                                   Num(p.rounds[r].rms_before_um) + " -> " +
+                                   Num(p.rounds[r].rms_after_um) + ")");
+    }
+  }
+  return c;
+}
+
+std::string Spread(const std::vector<double>& v) {
+  return Num(Quantile(v, 0.5)) + " / " + Num(Quantile(v, 0.9)) + " / " +
+         Num(Quantile(v, 1.0));
+}
+
+void PrintComparison(const Comparison& c,
+                     const std::string& title,
+                     const std::string& other) {
+  if (c.scenarios == 0) return;
+  std::printf(
+      "### Default vs \"%s\" on the same scenarios, %s: %d scenarios\n\n",
+      other.c_str(),
+      title.c_str(),
+      c.scenarios);
+  std::printf(
+      "Round 1: both solvers correct the same measured part (%d scenarios "
+      "started apart: expected 0). 3 rounds: each solver's own loop. Size: "
+      "the largest axis motion over the roll range as a fraction of its bound "
+      "(0.2 mm X, Y, Z; 3e-3 rad A, B, C; 0 when the settings were kept); "
+      "MODEL.md §6 size: the solver's correction_size (axes and wheel). "
+      "Equal within max(%g um, %g %%) (rms), %g of the bound (size), %g %% "
+      "(MODEL.md size), %g %% (CPU).\n\n",
+      c.different_start,
+      kSameRmsUm,
+      100.0 * kSameRmsFraction,
+      kSameSizeOfBound,
+      100.0 * kSameModelSizeFraction,
+      100.0 * kSameCpuFraction);
+  std::printf(
+      "| figure | default: median / 90th / worst | %s: median / 90th / worst "
+      "| default better / equal / worse |\n|---|---|---|---|\n",
+      other.c_str());
+  for (const ComparedFigure& f : c.figures) {
+    std::printf("| %s | %s | %s | %d / %d / %d |\n",
+                f.name.c_str(),
+                Spread(f.base).c_str(),
+                Spread(f.other).c_str(),
+                f.better,
+                f.equal,
+                f.worse);
+  }
+  std::printf("| rounds that made the part worse | %d of %d | %d of %d | |\n",
+              c.worse_rounds[0],
+              c.rounds,
+              c.worse_rounds[1],
+              c.rounds);
+  std::printf("| corrections beyond 0.2 mm / 3e-3 rad | %d | %d | |\n\n",
+              c.beyond_bound[0],
+              c.beyond_bound[1]);
+  if (!c.other_worse_list.empty()) {
+    std::printf("%s worse rounds (scenario/round, true rms um): ",
+                other.c_str());
+    for (size_t k = 0; k < c.other_worse_list.size(); ++k)
+      std::printf("%s%s", k ? "; " : "", c.other_worse_list[k].c_str());
+    std::printf("\n\n");
+  }
+}
+
+// Per scenario, round 1 and the final part of both solvers (--verbose).
+void PrintComparisonVerbose(const std::vector<ScenarioOutcome>& outcomes,
+                            size_t base,
+                            size_t other,
+                            const std::string& other_name) {
+  std::printf(
+      "### Per scenario, default vs \"%s\"\n\n| # | part 0 (um) | round 1: "
+      "next part default / %s (um) | size default / %s | CPU default / %s "
+      "(ms) | final default / %s (um) |\n|---|---|---|---|---|---|\n",
+      other_name.c_str(),
+      other_name.c_str(),
+      other_name.c_str(),
+      other_name.c_str(),
+      other_name.c_str());
+  for (const ScenarioOutcome& o : outcomes) {
+    const LoopRecord& b = o.configs[base].loop;
+    const LoopRecord& p = o.configs[other].loop;
+    std::printf("| %s%d | %s | %s / %s | %s / %s | %s / %s | %s / %s |\n",
+                o.scenario.bevel ? "bevel " : "",
+                o.scenario.index,
+                Num(b.part_rms_um[0]).c_str(),
+                Num(b.rounds[0].rms_after_um).c_str(),
+                Num(p.rounds[0].rms_after_um).c_str(),
+                Num(SizeOfBound(b.rounds[0])).c_str(),
+                Num(SizeOfBound(p.rounds[0])).c_str(),
+                Num(b.rounds[0].cpu_ms, "%.2f").c_str(),
+                Num(p.rounds[0].cpu_ms, "%.2f").c_str(),
+                Num(b.part_rms_um.back()).c_str(),
+                Num(p.part_rms_um.back()).c_str());
+  }
+  std::printf("\n");
+}
+
 void WriteJson(const char* path,
                const std::vector<ScenarioOutcome>& outcomes,
                const std::vector<Config>& configs,
@@ -571,12 +842,11 @@ void WriteJson(const char* path,
   std::fclose(f);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command line (see the file comment).
+struct Args {
   int scenarios = 200, bevel = 10, threads = 1, only = -1;
   std::uint64_t seed = 2026;
-  std::string orders = "both";
+  std::string orders = "both", solver = "regularised", compare;
   const char* json = nullptr;
   bool verbose = false, bound_wheel = false, no_state = false,
        no_signal_filter = false;
@@ -584,110 +854,192 @@ int main(int argc, char** argv) {
   double min_flank_effect = -1.0;
   int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
+};
+
+// False (with the usage printed) on an unknown flag or a missing value.
+bool ParseArgs(int argc, char** argv, Args* a) {
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (std::strcmp(argv[i], "--scenarios") == 0 && has_value) {
-      scenarios = std::atoi(argv[++i]);
+      a->scenarios = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bevel") == 0 && has_value) {
-      bevel = std::atoi(argv[++i]);
+      a->bevel = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--seed") == 0 && has_value) {
-      seed = std::strtoull(argv[++i], nullptr, 10);
+      a->seed = std::strtoull(argv[++i], nullptr, 10);
     } else if (std::strcmp(argv[i], "--orders") == 0 && has_value) {
-      orders = argv[++i];
+      a->orders = argv[++i];
+    } else if (std::strcmp(argv[i], "--solver") == 0 && has_value) {
+      a->solver = argv[++i];
+    } else if (std::strcmp(argv[i], "--compare") == 0 && has_value) {
+      a->compare = argv[++i];
     } else if (std::strcmp(argv[i], "--threads") == 0 && has_value) {
-      threads = std::atoi(argv[++i]);
+      a->threads = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--json") == 0 && has_value) {
-      json = argv[++i];
+      a->json = argv[++i];
     } else if (std::strcmp(argv[i], "--only") == 0 && has_value) {
-      only = std::atoi(argv[++i]);
+      a->only = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--reach-iterations") == 0 && has_value) {
-      reach_iterations = std::atoi(argv[++i]);
+      a->reach_iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--fix") == 0 && has_value) {
-      fixed_blocks.push_back(argv[++i]);
+      a->fixed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--reference-fix") == 0 && has_value) {
-      reference_fixed.push_back(argv[++i]);
+      a->reference_fixed.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--free") == 0 && has_value) {
-      freed_blocks.push_back(argv[++i]);
+      a->freed_blocks.push_back(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-signal-filter") == 0) {
-      no_signal_filter = true;
+      a->no_signal_filter = true;
     } else if (std::strcmp(argv[i], "--no-state") == 0) {
-      no_state = true;
+      a->no_state = true;
     } else if (std::strcmp(argv[i], "--min-flank-effect") == 0 && has_value) {
-      min_flank_effect = std::atof(argv[++i]);
+      a->min_flank_effect = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--iterations") == 0 && has_value) {
-      iterations = std::atoi(argv[++i]);
+      a->iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
-      bound_wheel = true;
+      a->bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
-      verbose = true;
+      a->verbose = true;
     } else {
       std::fprintf(stderr,
                    "usage: robustness_benchmark [--scenarios N] [--bevel N] "
                    "[--seed S] [--orders default|all|both] "
+                   "[--solver NAME] [--compare NAME] "
                    "[--threads N] [--json FILE] [--verbose] [--only I]\n");
-      return 2;
+      return false;
     }
   }
-  if (scenarios < 0 || bevel < 0 || threads < 1 ||
-      (orders != "default" && orders != "all" && orders != "both")) {
+  return true;
+}
+
+// The configurations the flags ask for: default options and/or every order
+// open, with the study flags and --solver; then, with --compare, each one's
+// twin with the compared solver. False (with the reason printed) on bad
+// values.
+bool BuildConfigs(const Args& a, std::vector<Config>* configs) {
+  CorrectionSolver main_solver, compared_solver;
+  if (!ParseCorrectionSolver(a.solver, &main_solver) ||
+      (!a.compare.empty() &&
+       (!ParseCorrectionSolver(a.compare, &compared_solver) ||
+        main_solver != CorrectionSolver::kRegularised))) {
+    std::fprintf(
+        stderr,
+        "robustness_benchmark: bad --solver or --compare (regularised, "
+        "pso or lsq-plain; --compare with the default solver)\n");
+    return false;
+  }
+  if (a.orders != "all")
+    configs->push_back({"default options", CorrectionOptions(), 3});
+  if (a.orders != "default") {
+    Config all{"every order 0-6 open", CorrectionOptions(), 6};
+    all.options.default_max_order = 6;
+    configs->push_back(all);
+  }
+  for (Config& c : *configs) {
+    for (const std::string& b : a.fixed_blocks) c.options.max_order[b] = -1;
+    for (const std::string& b : a.freed_blocks) c.options.max_order[b] = 0;
+    if (a.no_state) c.options.estimate_machine_state = false;
+    if (a.no_signal_filter) c.options.signal_filter = false;
+    if (a.min_flank_effect >= 0.0)
+      c.options.min_flank_effect_um = a.min_flank_effect;
+    if (a.iterations >= 0) c.options.max_num_iterations = a.iterations;
+    // --solver: every configuration with that solver (named after it unless
+    // it is the default).
+    c.options.solver = main_solver;
+    if (main_solver != CorrectionSolver::kRegularised)
+      c.name = "\"" + a.solver + "\", " + c.name;
+  }
+  // --compare: each configuration's twin with the compared solver, scored
+  // against the same best reachable.
+  const size_t own_configs = configs->size();
+  for (size_t k = 0; !a.compare.empty() && k < own_configs; ++k) {
+    Config twin = (*configs)[k];
+    twin.options.solver = compared_solver;
+    twin.name = "\"" + a.compare + "\", " + (*configs)[k].name;
+    twin.reference_of = static_cast<int>(k);
+    configs->push_back(twin);
+  }
+  return true;
+}
+
+// Every job (bevel?, index) on `threads` threads, in the order of the jobs.
+std::vector<ScenarioOutcome> RunJobs(
+    const Args& a,
+    const std::vector<Config>& configs,
+    const std::vector<std::pair<bool, int>>& jobs) {
+  const int total = static_cast<int>(jobs.size());
+  std::vector<ScenarioOutcome> outcomes(total);
+  std::atomic<int> next{0};
+  auto work = [&]() {
+    for (int i = next++; i < total; i = next++) {
+      const Scenario s =
+          jobs[i].first ? bench::DrawBevelScenario(a.seed, jobs[i].second)
+                        : bench::DrawGrinderScenario(a.seed, jobs[i].second);
+      outcomes[i] = RunScenario(s,
+                                configs,
+                                a.seed,
+                                a.bound_wheel,
+                                a.reach_iterations,
+                                a.reference_fixed);
+      std::fprintf(stderr, "scenario %d of %d done\n", i + 1, total);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < a.threads; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  return outcomes;
+}
+
+// The --compare reports: each baseline twin against its configuration.
+void PrintComparisons(const Args& a,
+                      const std::vector<ScenarioOutcome>& outcomes,
+                      const std::vector<Config>& configs) {
+  for (size_t k = 0; k < configs.size(); ++k) {
+    if (configs[k].reference_of < 0) continue;
+    const size_t base = configs[k].reference_of;
+    for (int bevel = 0; bevel < 2; ++bevel) {
+      PrintComparison(Compare(outcomes, base, k, bevel == 1),
+                      (bevel ? "bevel generator, " : "flat-wheel grinder, ") +
+                          configs[base].name,
+                      a.compare);
+    }
+    if (a.verbose) PrintComparisonVerbose(outcomes, base, k, a.compare);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  if (!ParseArgs(argc, argv, &a)) return 2;
+  if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
+      (a.orders != "default" && a.orders != "all" && a.orders != "both")) {
     std::fprintf(stderr,
                  "robustness_benchmark: bad --scenarios, --bevel, --threads or "
                  "--orders\n");
     return 2;
   }
   std::vector<Config> configs;
-  if (orders != "all")
-    configs.push_back({"default options", CorrectionOptions(), 3});
-  if (orders != "default") {
-    Config all{"every order 0-6 open", CorrectionOptions(), 6};
-    all.options.default_max_order = 6;
-    configs.push_back(all);
-  }
-  for (Config& c : configs) {
-    for (const std::string& b : fixed_blocks) c.options.max_order[b] = -1;
-    for (const std::string& b : freed_blocks) c.options.max_order[b] = 0;
-    if (no_state) c.options.estimate_machine_state = false;
-    if (no_signal_filter) c.options.signal_filter = false;
-    if (min_flank_effect >= 0.0)
-      c.options.min_flank_effect_um = min_flank_effect;
-    if (iterations >= 0) c.options.max_num_iterations = iterations;
-  }
+  if (!BuildConfigs(a, &configs)) return 2;
 
   // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone
   // (for diagnosis; drawn exactly as in the full run).
   std::vector<std::pair<bool, int>> jobs;
-  if (only >= 0) {
-    jobs.push_back({false, only});
-    scenarios = 1;
-    bevel = 0;
+  if (a.only >= 0) {
+    jobs.push_back({false, a.only});
+    a.scenarios = 1;
+    a.bevel = 0;
   } else {
-    for (int i = 0; i < scenarios; ++i) jobs.push_back({false, i});
-    for (int i = 0; i < bevel; ++i) jobs.push_back({true, i});
+    for (int i = 0; i < a.scenarios; ++i) jobs.push_back({false, i});
+    for (int i = 0; i < a.bevel; ++i) jobs.push_back({true, i});
   }
-  const int total = static_cast<int>(jobs.size());
-  std::vector<ScenarioOutcome> outcomes(total);
-  std::atomic<int> next{0};
-  auto work = [&]() {
-    for (int i = next++; i < total; i = next++) {
-      const Scenario s = jobs[i].first
-                             ? bench::DrawBevelScenario(seed, jobs[i].second)
-                             : bench::DrawGrinderScenario(seed, jobs[i].second);
-      outcomes[i] = RunScenario(
-          s, configs, seed, bound_wheel, reach_iterations, reference_fixed);
-      std::fprintf(stderr, "scenario %d of %d done\n", i + 1, total);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
+  const std::vector<ScenarioOutcome> outcomes = RunJobs(a, configs, jobs);
 
   std::printf(
       "# Robustness benchmark: seed %llu, %d flat-wheel and %d bevel "
       "scenarios, %d rounds each\n\n",
-      static_cast<unsigned long long>(seed),
-      scenarios,
-      bevel,
+      static_cast<unsigned long long>(a.seed),
+      a.scenarios,
+      a.bevel,
       kRounds);
   PrintDistribution(outcomes);
   std::printf(
@@ -707,7 +1059,8 @@ int main(int argc, char** argv) {
   }
   std::printf("(reference optimiser: %.1f s CPU over all scenarios)\n\n",
               reference_s);
-  if (verbose) PrintVerbose(outcomes, configs);
-  if (json != nullptr) WriteJson(json, outcomes, configs, seed);
+  if (a.verbose) PrintVerbose(outcomes, configs);
+  PrintComparisons(a, outcomes, configs);
+  if (a.json != nullptr) WriteJson(a.json, outcomes, configs, a.seed);
   return 0;
 }
