@@ -691,6 +691,90 @@ TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
   EXPECT_NEAR(spread_outcome.predicted_rms_um, 0.0, /*tol_um=*/1e-9);
 }
 
+// One axis of 7 polynomial coefficients whose flank effect is scaled by
+// (1 + p0): d = (1 + p0) J p with J p0's column zero, so a change that leaves
+// p0 alone makes (1 + p0) J delta, and the models at two settings of p0
+// disagree on every step by the ratio of their (1 + p0).
+class ScaledAxisModel : public MachineModel {
+ public:
+  ScaledAxisModel() : jacobian_(kPoints, kCoefficients) {
+    std::mt19937_64 rng(17);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    jacobian_.setZero();
+    for (int i = 0; i < kPoints; ++i)
+      for (int j = 1; j < kCoefficients; ++j)
+        jacobian_(i, j) = 1e3 * gauss(rng);
+  }
+  int NumParameters() const override { return kCoefficients; }
+  int GridRows() const override { return 5; }
+  int GridColumns() const override { return 9; }
+  std::string ParameterName(int j) const override {
+    return "P" + std::to_string(j);
+  }
+  std::vector<ParameterBlock> ParameterBlocks() const override {
+    return {{"P", "mm", 0, kCoefficients, true, 1e-3}};
+  }
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    e->deviations_um = (1.0 + parameters(0)) * (jacobian_ * parameters);
+    e->status.assign(kPoints, PointStatus::kOk);
+    e->contact_roll_rad.resize(kPoints);
+    for (int i = 0; i < kPoints; ++i)
+      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (kPoints - 1.0);
+    if (with_jacobian) {
+      e->jacobian_um = (1.0 + parameters(0)) * jacobian_;
+      e->jacobian_um.col(0) = jacobian_ * parameters;
+    }
+  }
+  static constexpr int kPoints = 45;
+  static constexpr int kCoefficients = 7;
+
+ private:
+  Eigen::MatrixXd jacobian_;
+};
+
+// At an estimated state with p0 = -3 the change is -2 J delta; at the
+// commanded settings (p0 = 0) it is J delta: they disagree by 1.5 times the
+// state's change. A step in orders 1-3 (the default freedom) is taken whole
+// on the state's word; the same step with an order-5 part must also agree at
+// the commanded settings, and no fraction of it does.
+TEST(ChooseSafeStep, AsksTheCommandedSettingsOnlyOfOrdersAboveCubic) {
+  const ScaledAxisModel model;
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(ScaledAxisModel::kCoefficients);
+  state(0) = -3.0;
+  for (const bool order_five : {false, true}) {
+    Eigen::VectorXd step =
+        Eigen::VectorXd::Zero(ScaledAxisModel::kCoefficients);
+    step(1) = 1e-3;
+    step(3) = -2e-3;
+    if (order_five) step(5) = 1e-3;
+    CorrectionInput input;
+    input.model = &model;
+    input.current_parameters = Eigen::VectorXd::Zero(step.size());
+    input.target_um = Eigen::VectorXd::Zero(ScaledAxisModel::kPoints);
+    input.measured_um = Eigen::VectorXd::Zero(ScaledAxisModel::kPoints);
+    CorrectionOptions options;
+    options.default_max_order = 6;
+    CorrectionProblem problem;
+    CorrectionSummary summary;
+    std::string error;
+    ASSERT_TRUE(
+        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+        << error;
+    CorrectionProblem at_state = RelinearisedAt(problem, state);
+    // The part the state's step removes exactly: e = -(-2 J step).
+    ModelEvaluation after;
+    model.Evaluate(state + step, false, &after);
+    at_state.error_um = -(after.deviations_um - at_state.d0());
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd kept =
+        ChooseSafeStep(options, at_state, step, &outcome);
+    EXPECT_EQ(outcome.improved, !order_five) << "order 5: " << order_five;
+    EXPECT_EQ(kept, order_five ? Eigen::VectorXd::Zero(step.size()) : step);
+  }
+}
+
 TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   const LinearModel model(14);
   const CorrectionProblem problem =
