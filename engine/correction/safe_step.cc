@@ -67,6 +67,63 @@ std::vector<bool> PointsNearingTheEdge(const CorrectionProblem& problem,
   return nearing;
 }
 
+// Joins the contact roll angles of every grid point the model reaches in
+// `evaluation` (measured or not: each is ground) into [*lo, *hi] [rad].
+void JoinContactRolls(const CorrectionProblem& problem,
+                      const ModelEvaluation& evaluation,
+                      double* lo,
+                      double* hi) {
+  for (int i = 0; i < problem.num_points; ++i) {
+    if (evaluation.status[i] != PointStatus::kOk ||
+        !std::isfinite(evaluation.contact_roll_rad[i]))
+      continue;
+    *lo = std::min(*lo, evaluation.contact_roll_rad[i]);
+    *hi = std::max(*hi, evaluation.contact_roll_rad[i]);
+  }
+}
+
+// Samples of each stretch of roll angle outside the problem's roll range.
+constexpr int kOutsideSamples = 9;
+// The motion outside the range may exceed the bound by this share (the
+// samples inside keep it to kMotionFill of the bound).
+constexpr double kOutsideMotionTolerance = 0.01;
+
+// Whether `delta` moves an axis by more than its bound anywhere in [lo, hi]
+// outside the problem's roll range, where the solve's motion bound did not
+// look. The next part's contacts may lie there (the step itself moves them):
+// a polynomial of order 4-6 held to 0.2 mm inside the range grows fast
+// outside it (seed 2026, every order open, scenario 175: contacts moved from
+// ..0.057 to ..0.126 rad, where the step's X motion is 4.5 mm; the real part
+// went 6.9 -> 89.5 um).
+bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
+                                      const CorrectionProblem& problem,
+                                      const Eigen::VectorXd& delta,
+                                      double lo,
+                                      double hi) {
+  std::vector<double> phis;
+  for (int s = 0; s < kOutsideSamples; ++s) {
+    const double t = (s + 1.0) / kOutsideSamples;
+    if (lo < problem.roll_min_rad)
+      phis.push_back(problem.roll_min_rad - t * (problem.roll_min_rad - lo));
+    if (hi > problem.roll_max_rad)
+      phis.push_back(problem.roll_max_rad + t * (hi - problem.roll_max_rad));
+  }
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
+                         : block.unit == "rad" ? options.max_axis_motion_rad
+                                               : 0.0;
+    if (!block.is_polynomial || !(bound > 0.0)) continue;
+    for (double phi : phis) {
+      double motion = 0.0, power = 1.0;
+      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
+        motion += delta(block.first_index + k) * power;
+      if (std::abs(motion) > (1.0 + kOutsideMotionTolerance) * bound)
+        return true;
+    }
+  }
+  return false;
+}
+
 // Linearised at an estimated machine state: whether the exact change `delta`
 // makes at the commanded parameters differs from `change` (the change at the
 // state, on the used points) by more than kModelAgreement times the rms of
@@ -76,17 +133,21 @@ std::vector<bool> PointsNearingTheEdge(const CorrectionProblem& problem,
 // orders 0-6, scenario 5: 4.2 um of change at the state, 148 um at the
 // commanded point; the real part went 11.4 -> 295 um). They disagree too
 // when a point `nearing` the wheel's edge at the state is lost at the
-// commanded end.
+// commanded end. The contacts at the commanded end are joined into
+// [*roll_lo, *roll_hi].
 bool ModelsDisagree(const CorrectionProblem& problem,
                     const Eigen::VectorXd& delta,
                     const Eigen::VectorXd& change,
-                    const std::vector<bool>& nearing) {
+                    const std::vector<bool>& nearing,
+                    double* roll_lo,
+                    double* roll_hi) {
   if (problem.commanded_parameters.size() != problem.parameters.size() ||
       problem.commanded_parameters == problem.parameters)
     return false;
   const bool high_orders = UsesOrdersAboveCubic(problem, delta);
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
+  JoinContactRolls(problem, after, roll_lo, roll_hi);
   double sum = 0.0;
   int count = 0;
   for (int i : problem.used) {
@@ -119,10 +180,12 @@ bool ModelsDisagree(const CorrectionProblem& problem,
 constexpr double kMostImprovedShare = 0.05;
 
 // The exact prediction at `problem` after `delta`: the rms over its used
-// points of e + d(p + delta) - d(p) (infinity when a used point is lost or
-// the models disagree), and in `robust_gain_um2` the sum over the used points
-// of e^2 - r^2 without the kMostImprovedShare largest terms.
-double ExactPredictionRms(const CorrectionProblem& problem,
+// points of e + d(p + delta) - d(p) (infinity when a used point is lost, the
+// models disagree or the next part's contacts run an axis beyond its bound
+// outside the roll range), and in `robust_gain_um2` the sum over the used
+// points of e^2 - r^2 without the kMostImprovedShare largest terms.
+double ExactPredictionRms(const CorrectionOptions& options,
+                          const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta,
                           double* robust_gain_um2) {
   ModelEvaluation eval;
@@ -134,8 +197,17 @@ double ExactPredictionRms(const CorrectionProblem& problem,
     change(i) = eval.deviations_um(i) - problem.d0()(i);
     residual(i) += change(i);
   }
-  if (ModelsDisagree(
-          problem, delta, change, PointsNearingTheEdge(problem, eval)))
+  double roll_lo = problem.roll_min_rad, roll_hi = problem.roll_max_rad;
+  JoinContactRolls(problem, eval, &roll_lo, &roll_hi);
+  if (ModelsDisagree(problem,
+                     delta,
+                     change,
+                     PointsNearingTheEdge(problem, eval),
+                     &roll_lo,
+                     &roll_hi) ||
+      (UsesOrdersAboveCubic(problem, delta) &&
+       MovesBeyondBoundOutsideRollRange(
+           options, problem, delta, roll_lo, roll_hi)))
     return kInf;
   std::vector<double> gains_um2;
   for (int i : problem.used) {
@@ -189,7 +261,7 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
     double robust_gain_um2 = 0.0;
     outcome->predicted_rms_um =
-        ExactPredictionRms(problem, alpha * delta, &robust_gain_um2);
+        ExactPredictionRms(options, problem, alpha * delta, &robust_gain_um2);
     if (outcome->predicted_rms_um < outcome->current_rms_um &&
         robust_gain_um2 > 0.0) {
       outcome->step_fraction = alpha;

@@ -691,6 +691,43 @@ TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
   EXPECT_NEAR(spread_outcome.predicted_rms_um, 0.0, /*tol_um=*/1e-9);
 }
 
+// The linear machine whose last grid point's contact rolls 0.7 rad further
+// per 1e-3 of s2 (parameter 4): a step can carry a contact out of the roll
+// range its motion bound was held over.
+class RollingContactModel : public LinearModel {
+ public:
+  RollingContactModel() : LinearModel(18) {}
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    LinearModel::Evaluate(parameters, with_jacobian, e);
+    e->contact_roll_rad.back() += 700.0 * parameters(4);
+  }
+};
+
+// The step's axis P moves 1 mm/rad^2 * phi^2: 0.09 mm at most over the roll
+// range [-0.2, 0.3], within the 0.2 mm bound. With s2 in the step the last
+// contact rolls to 1.0 rad, where P moves 1 mm: refused; half the step takes
+// it to 0.65 rad and 0.21 mm: refused; a quarter to 0.475 rad and 0.056 mm:
+// kept. Without s2 the contacts stay in the range and the whole step is
+// kept.
+TEST(ChooseSafeStep, HoldsTheMotionBoundWhereTheStepMovesTheContacts) {
+  const RollingContactModel model;
+  for (const bool rolls : {true, false}) {
+    Eigen::VectorXd step = Eigen::VectorXd::Zero(5);
+    step(2) = 1.0;
+    if (rolls) step(4) = 1e-3;
+    const CorrectionProblem problem = SafeStepProblem(model, step);
+    ASSERT_NEAR(problem.roll_max_rad, 0.3, 1e-12);
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd kept =
+        ChooseSafeStep(CorrectionOptions(), problem, step, &outcome);
+    EXPECT_TRUE(outcome.improved);
+    EXPECT_EQ(outcome.step_fraction, rolls ? 0.25 : 1.0) << "rolls " << rolls;
+    EXPECT_TRUE(kept.isApprox(outcome.step_fraction * step));
+  }
+}
+
 // One axis of 7 polynomial coefficients whose flank effect is scaled by
 // (1 + p0): d = (1 + p0) J p with J p0's column zero, so a change that leaves
 // p0 alone makes (1 + p0) J delta, and the models at two settings of p0
