@@ -691,39 +691,78 @@ TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
   EXPECT_NEAR(spread_outcome.predicted_rms_um, 0.0, /*tol_um=*/1e-9);
 }
 
-// The linear machine whose last grid point's contact rolls 0.7 rad further
-// per 1e-3 of s2 (parameter 4): a step can carry a contact out of the roll
-// range its motion bound was held over.
-class RollingContactModel : public LinearModel {
+// A linear machine of one axis P of 7 polynomial coefficients and a scalar s
+// whose last grid point's contact rolls 0.7 rad further per 1e-3 of s: a
+// step can carry a contact out of the roll range [-0.2, 0.3] its motion
+// bound was held over.
+class RollingContactModel : public MachineModel {
  public:
-  RollingContactModel() : LinearModel(18) {}
+  RollingContactModel() : jacobian_(kPoints, kParameters) {
+    std::mt19937_64 rng(18);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int i = 0; i < kPoints; ++i)
+      for (int j = 0; j < kParameters; ++j) jacobian_(i, j) = 1e3 * gauss(rng);
+  }
+  int NumParameters() const override { return kParameters; }
+  int GridRows() const override { return 5; }
+  int GridColumns() const override { return 9; }
+  std::string ParameterName(int j) const override {
+    return "p" + std::to_string(j);
+  }
+  std::vector<ParameterBlock> ParameterBlocks() const override {
+    return {{"P", "mm", 0, 7, true, 1e-3}, {"s", "mm", 7, 1, false, 1e-3}};
+  }
   void Evaluate(const Eigen::VectorXd& parameters,
                 bool with_jacobian,
                 ModelEvaluation* e) const override {
-    LinearModel::Evaluate(parameters, with_jacobian, e);
-    e->contact_roll_rad.back() += 700.0 * parameters(4);
+    e->deviations_um = jacobian_ * parameters;
+    e->status.assign(kPoints, PointStatus::kOk);
+    e->contact_roll_rad.resize(kPoints);
+    for (int i = 0; i < kPoints; ++i)
+      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (kPoints - 1.0);
+    e->contact_roll_rad.back() += 700.0 * parameters(7);
+    if (with_jacobian) e->jacobian_um = jacobian_;
   }
+  static constexpr int kPoints = 45;
+  static constexpr int kParameters = 8;
+
+ private:
+  Eigen::MatrixXd jacobian_;
 };
 
-// The step's axis P moves 1 mm/rad^2 * phi^2: 0.09 mm at most over the roll
-// range [-0.2, 0.3], within the 0.2 mm bound. With s2 in the step the last
-// contact rolls to 1.0 rad, where P moves 1 mm: refused; half the step takes
-// it to 0.65 rad and 0.21 mm: refused; a quarter to 0.475 rad and 0.056 mm:
-// kept. Without s2 the contacts stay in the range and the whole step is
-// kept.
+// The step's axis P moves 1 mm/rad^5 * phi^5 (order 5): 0.0024 mm at most
+// over the roll range [-0.2, 0.3]. With s in the step the last contact rolls
+// to 1.0 rad, where P moves 1 mm, beyond the 0.2 mm bound: refused; half the
+// step takes it to 0.65 rad and 0.058 mm: kept. Without s the contacts stay
+// in the range and the whole step is kept.
 TEST(ChooseSafeStep, HoldsTheMotionBoundWhereTheStepMovesTheContacts) {
   const RollingContactModel model;
+  CorrectionOptions options;
+  options.default_max_order = 6;
   for (const bool rolls : {true, false}) {
-    Eigen::VectorXd step = Eigen::VectorXd::Zero(5);
-    step(2) = 1.0;
-    if (rolls) step(4) = 1e-3;
-    const CorrectionProblem problem = SafeStepProblem(model, step);
+    Eigen::VectorXd step =
+        Eigen::VectorXd::Zero(RollingContactModel::kParameters);
+    step(5) = 1.0;
+    if (rolls) step(7) = 1e-3;
+    CorrectionInput input;
+    input.model = &model;
+    input.current_parameters = Eigen::VectorXd::Zero(step.size());
+    ModelEvaluation eval;
+    model.Evaluate(step, false, &eval);
+    input.measured_um = -eval.deviations_um;
+    input.target_um = Eigen::VectorXd::Zero(RollingContactModel::kPoints);
+    CorrectionProblem problem;
+    CorrectionSummary summary;
+    std::string error;
+    ASSERT_TRUE(
+        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+        << error;
     ASSERT_NEAR(problem.roll_max_rad, 0.3, 1e-12);
     SafeStepOutcome outcome;
     const Eigen::VectorXd kept =
-        ChooseSafeStep(CorrectionOptions(), problem, step, &outcome);
+        ChooseSafeStep(options, problem, step, &outcome);
     EXPECT_TRUE(outcome.improved);
-    EXPECT_EQ(outcome.step_fraction, rolls ? 0.25 : 1.0) << "rolls " << rolls;
+    EXPECT_EQ(outcome.step_fraction, rolls ? 0.5 : 1.0) << "rolls " << rolls;
     EXPECT_TRUE(kept.isApprox(outcome.step_fraction * step));
   }
 }
