@@ -52,6 +52,9 @@ bool AcceptMachineState(const CorrectionProblem& commanded,
   ModelEvaluation at_state;
   commanded.model->Evaluate(*state_parameters, false, &at_state);
   for (int i = 0; i < commanded.num_points; ++i) {
+    // A point the measurement lacks may be one the real machine no longer
+    // grinds: a state that loses it explains the measurement there too.
+    if (!std::isfinite(commanded.error_um(i))) continue;
     if (commanded.evaluation.status[i] == PointStatus::kOk &&
         at_state.status[i] != PointStatus::kOk)
       return false;

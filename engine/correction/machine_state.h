@@ -36,10 +36,11 @@ namespace correction_internal {
 bool MachineStateProblem(const CorrectionProblem& commanded,
                          CorrectionProblem* state);
 
-// Whether the solved state is used: usable, finite, and every grid point
-// reached at the commanded parameters still reached at commanded + h^ (then
-// `state_parameters`). Otherwise the correction is computed at the commanded
-// parameters, as without the option.
+// Whether the solved state is used: usable, finite, and every measured grid
+// point reached at the commanded parameters still reached at commanded + h^
+// (then `state_parameters`); a point the measurement lacks may be lost (the
+// real machine may no longer grind it). Otherwise the correction is computed at
+// the commanded parameters, as without the option.
 bool AcceptMachineState(const CorrectionProblem& commanded,
                         const CorrectionResult& state,
                         Eigen::VectorXd* state_parameters);

@@ -767,6 +767,39 @@ TEST(ChooseSafeStep, HoldsTheMotionBoundWhereTheStepMovesTheContacts) {
   }
 }
 
+// A state that loses a grid point is refused when the point was measured and
+// accepted when the measurement lacks it (the real machine may no longer
+// grind it: seed 2026, scenario 199, where the refused state left the solver
+// at 7.2 um and the accepted one reaches 0.18 um).
+TEST(AcceptMachineState, MayLoseOnlyPointsTheMeasurementLacks) {
+  const EdgeModel model(19, 0.4);  // point 0 lost beyond s2 = 0.4 / 700
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
+  state(4) = 1e-3;
+  for (const bool measured : {true, false}) {
+    CorrectionInput input;
+    input.model = &model;
+    input.current_parameters = Eigen::VectorXd::Zero(5);
+    ModelEvaluation eval;
+    model.Evaluate(state, false, &eval);
+    input.measured_um = eval.deviations_um;
+    input.measured_um(0) = measured ? 1.0 : kNaN;
+    input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
+    CorrectionProblem problem;
+    CorrectionSummary summary;
+    std::string error;
+    ASSERT_TRUE(PrepareCorrectionProblem(
+        CorrectionOptions(), input, &problem, &summary, &error))
+        << error;
+    ASSERT_EQ(problem.evaluation.status[0], PointStatus::kOk);
+    CorrectionResult fit;
+    fit.summary.status = CorrectionStatus::kConverged;
+    fit.delta = state;
+    Eigen::VectorXd at_state;
+    EXPECT_EQ(AcceptMachineState(problem, fit, &at_state), !measured)
+        << "point 0 measured: " << measured;
+  }
+}
+
 // One axis of 7 polynomial coefficients whose flank effect is scaled by
 // (1 + p0): d = (1 + p0) J p with J p0's column zero, so a change that leaves
 // p0 alone makes (1 + p0) J delta, and the models at two settings of p0
