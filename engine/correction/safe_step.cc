@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <string>
 #include <vector>
 
 namespace gearloop {
@@ -134,16 +135,16 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
 // commanded point; the real part went 11.4 -> 295 um). They disagree too
 // when a point `nearing` the wheel's edge at the state is lost at the
 // commanded end. The contacts at the commanded end are joined into
-// [*roll_lo, *roll_hi].
-bool ModelsDisagree(const CorrectionProblem& problem,
-                    const Eigen::VectorXd& delta,
-                    const Eigen::VectorXd& change,
-                    const std::vector<bool>& nearing,
-                    double* roll_lo,
-                    double* roll_hi) {
+// [*roll_lo, *roll_hi]. Why they disagree, or null.
+const char* ModelsDisagree(const CorrectionProblem& problem,
+                           const Eigen::VectorXd& delta,
+                           const Eigen::VectorXd& change,
+                           const std::vector<bool>& nearing,
+                           double* roll_lo,
+                           double* roll_hi) {
   if (problem.commanded_parameters.size() != problem.parameters.size() ||
       problem.commanded_parameters == problem.parameters)
-    return false;
+    return nullptr;
   const bool high_orders = UsesOrdersAboveCubic(problem, delta);
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
@@ -153,7 +154,9 @@ bool ModelsDisagree(const CorrectionProblem& problem,
   for (int i : problem.used) {
     if (problem.commanded_status[i] != PointStatus::kOk) continue;
     if (after.status[i] != PointStatus::kOk) {
-      if (nearing[i]) return true;
+      if (nearing[i])
+        return "takes a measured point near the wheel's edge and loses it at "
+               "the commanded settings";
       continue;
     }
     if (!high_orders) continue;
@@ -164,8 +167,11 @@ bool ModelsDisagree(const CorrectionProblem& problem,
     ++count;
   }
   const double disagreement = count > 0 ? std::sqrt(sum / count) : 0.0;
-  return disagreement >
-         kModelAgreement * std::max(Rms(change, problem.used), 1e-3);
+  if (disagreement >
+      kModelAgreement * std::max(Rms(change, problem.used), 1e-3))
+    return "changes the flank at the commanded settings unlike at the "
+           "estimated state (orders 4-6)";
+  return nullptr;
 }
 
 // The share of the used points (at least one) whose gains are set aside when
@@ -180,35 +186,44 @@ bool ModelsDisagree(const CorrectionProblem& problem,
 constexpr double kMostImprovedShare = 0.05;
 
 // The exact prediction at `problem` after `delta`: the rms over its used
-// points of e + d(p + delta) - d(p) (infinity when a used point is lost, the
+// points of e + d(p + delta) - d(p), and in `robust_gain_um2` the sum over
+// the used points of e^2 - r^2 without the kMostImprovedShare largest terms;
+// infinity, with the reason in `*refusal`, when a used point is lost, the
 // models disagree or the next part's contacts run an axis beyond its bound
-// outside the roll range), and in `robust_gain_um2` the sum over the used
-// points of e^2 - r^2 without the kMostImprovedShare largest terms.
+// outside the roll range.
 double ExactPredictionRms(const CorrectionOptions& options,
                           const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta,
-                          double* robust_gain_um2) {
+                          double* robust_gain_um2,
+                          const char** refusal) {
   ModelEvaluation eval;
   problem.model->Evaluate(problem.parameters + delta, false, &eval);
   Eigen::VectorXd residual = problem.error_um;
   Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
   for (int i : problem.used) {
-    if (eval.status[i] != PointStatus::kOk) return kInf;
+    if (eval.status[i] != PointStatus::kOk) {
+      *refusal = "loses a measured grid point";
+      return kInf;
+    }
     change(i) = eval.deviations_um(i) - problem.d0()(i);
     residual(i) += change(i);
   }
   double roll_lo = problem.roll_min_rad, roll_hi = problem.roll_max_rad;
   JoinContactRolls(problem, eval, &roll_lo, &roll_hi);
-  if (ModelsDisagree(problem,
-                     delta,
-                     change,
-                     PointsNearingTheEdge(problem, eval),
-                     &roll_lo,
-                     &roll_hi) ||
-      (UsesOrdersAboveCubic(problem, delta) &&
-       MovesBeyondBoundOutsideRollRange(
-           options, problem, delta, roll_lo, roll_hi)))
-    return kInf;
+  *refusal = ModelsDisagree(problem,
+                            delta,
+                            change,
+                            PointsNearingTheEdge(problem, eval),
+                            &roll_lo,
+                            &roll_hi);
+  if (*refusal == nullptr && UsesOrdersAboveCubic(problem, delta) &&
+      MovesBeyondBoundOutsideRollRange(
+          options, problem, delta, roll_lo, roll_hi)) {
+    *refusal =
+        "moves an axis beyond its bound where it moves the next part's "
+        "contacts, outside the roll range";
+  }
+  if (*refusal != nullptr) return kInf;
   std::vector<double> gains_um2;
   for (int i : problem.used) {
     const double e = problem.error_um(i), r = residual(i);
@@ -258,14 +273,23 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
                                SafeStepOutcome* outcome) {
   outcome->current_rms_um = Rms(problem.error_um, problem.used);
   double alpha = 1.0;
+  std::string whole;  // why the whole step was refused
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
     double robust_gain_um2 = 0.0;
-    outcome->predicted_rms_um =
-        ExactPredictionRms(options, problem, alpha * delta, &robust_gain_um2);
+    const char* refusal = nullptr;
+    outcome->predicted_rms_um = ExactPredictionRms(
+        options, problem, alpha * delta, &robust_gain_um2, &refusal);
     if (outcome->predicted_rms_um < outcome->current_rms_um &&
         robust_gain_um2 > 0.0) {
       outcome->step_fraction = alpha;
       return alpha * delta;
+    }
+    if (halving == 0) {
+      whole = refusal != nullptr ? refusal
+              : outcome->predicted_rms_um < outcome->current_rms_um
+                  ? "rests its gain on its 5 % most improved points"
+                  : "is predicted no better (rms " +
+                        std::to_string(outcome->predicted_rms_um) + " um)";
     }
     alpha *= 0.5;
   }
@@ -278,8 +302,8 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
       " is predicted by the exact model to make a better part than the "
       "current settings (rms " +
       std::to_string(outcome->current_rms_um) +
-      " um), even without its 5 % most improved points; the current settings "
-      "are kept";
+      " um), even without its 5 % most improved points; the whole correction " +
+      whole + "; the current settings are kept";
   return Eigen::VectorXd::Zero(delta.size());
 }
 

@@ -586,6 +586,9 @@ TEST(ChooseSafeStep, KeepsTheCurrentSettingsWhenNoFractionIsBetter) {
   EXPECT_EQ(step, Eigen::VectorXd::Zero(5));
   EXPECT_NE(outcome.message.find("current settings are kept"),
             std::string::npos);
+  EXPECT_NE(outcome.message.find("the whole correction is predicted no better"),
+            std::string::npos)
+      << outcome.message;
 }
 
 // The linear machine with a wheel edge: point 0's contact margin falls by
@@ -681,7 +684,10 @@ TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
       ChooseSafeStep(CorrectionOptions(), problem, step, &outcome);
   EXPECT_FALSE(outcome.improved);
   EXPECT_EQ(kept, Eigen::VectorXd::Zero(5));
-  EXPECT_NE(outcome.message.find("most improved points"), std::string::npos);
+  EXPECT_NE(outcome.message.find("the whole correction rests its gain on its "
+                                 "5 % most improved points"),
+            std::string::npos)
+      << outcome.message;
 
   const CorrectionProblem spread = SafeStepProblem(model, step);
   SafeStepOutcome spread_outcome;
