@@ -26,6 +26,16 @@ constexpr int kLocalRate = 8;    // + axis index
 constexpr int kLocalWheel = 14;  // + wheel parameter index
 constexpr int kNumLocal = 17;
 
+// Of these 17, only 8 enter (R1, f) non-linearly: u_w, phi_w, the rotations A,
+// B, C and the wheel profile. The sensitivity carries Jets of these 8
+// (kJet*); the translations X, Y, Z and the six rates enter R1 and f linearly,
+// and their columns are written out from the terms of LocalTerms.
+constexpr int kJetU = 0;
+constexpr int kJetPhiW = 1;
+constexpr int kJetRotation = 2;  // + 0, 1, 2 for A, B, C
+constexpr int kJetWheel = 5;     // + wheel parameter index
+constexpr int kNumJet = 8;
+
 template <typename T>
 struct Vec3 {
   T x, y, z;
@@ -98,22 +108,40 @@ void RotateWheel(const Vec3<T>& v,
 //   cross products) dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B'
 //   dM/dB w) f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B'
 //   dM/dB w)
-template <typename T>
+// The value of a scalar or of a Jet.
+inline double ValueOf(double x) { return x; }
+template <int N>
+double ValueOf(const ceres::Jet<double, N>& x) {
+  return x.a;
+}
+
+// Terms of LocalSurface in which the translations X, Y, Z and the rates enter
+// (R1, f) linearly: the wheel normal N = M (w_u x w_phi), q, dM/dA w, dM/dB w
+// and cos C, sin C (values only).
+struct LocalTerms {
+  Vec3<double> normal_f, q, dm_da_w, dm_db_w;
+  double cos_c = 1.0, sin_c = 0.0;
+};
+
+// T is the type of the unknowns and axes, W that of the wheel profile (double
+// when the profile is held: Newton needs no derivative of it).
+template <typename T, typename W>
 void LocalSurface(const T& u,
                   const T& phi_w,
                   const T* value,
                   const T* rate,
-                  const T* wheel,
+                  const W* wheel,
                   const ChainConstants& c,
                   Vec3<T>* r1,
-                  T* f) {
+                  T* f,
+                  LocalTerms* terms = nullptr) {
   using std::cos;
   using std::sin;
-  const T& cone = wheel[0];
-  const T& parabola = wheel[1];
-  const T& vertex = wheel[2];
-  const T cos_cone = cos(cone);
-  const T sin_cone = sin(cone);
+  const W& cone = wheel[0];
+  const W& parabola = wheel[1];
+  const W& vertex = wheel[2];
+  const W cos_cone = cos(cone);
+  const W sin_cone = sin(cone);
   const T du = u - vertex;
   const T delta = parabola * du * du;
   const T delta_u = 2.0 * parabola * du;
@@ -155,6 +183,17 @@ void LocalSurface(const T& u,
   r1->x = q.x;
   r1->y = cos_c * q.y + sin_c * q.z;
   r1->z = -sin_c * q.y + cos_c * q.z;
+  if (terms != nullptr) {
+    const auto values = [](const Vec3<T>& v) {
+      return Vec3<double>{ValueOf(v.x), ValueOf(v.y), ValueOf(v.z)};
+    };
+    terms->normal_f = values(normal_f);
+    terms->q = values(q);
+    terms->dm_da_w = values(dm_da_w);
+    terms->dm_db_w = values(dm_db_w);
+    terms->cos_c = ValueOf(cos_c);
+    terms->sin_c = ValueOf(sin_c);
+  }
 }
 
 // Axis values and rates of `settings` at roll `roll` (any scalar type).
@@ -199,9 +238,11 @@ void SystemAndJacobian(const MachineSettings& settings,
   const Jet3 roll(x(2), 2);
   Jet3 value[kNumAxes], rate[kNumAxes];
   AxisState(settings, roll, value, rate);
-  const Jet3 wheel[3] = {Jet3(settings.wheel.cone_angle_rad),
-                         Jet3(settings.wheel.parabola_coefficient_per_mm),
-                         Jet3(settings.wheel.parabola_vertex_mm)};
+  // The profile is held: plain numbers (the same values and derivatives as
+  // constant Jets, without their arithmetic).
+  const double wheel[3] = {settings.wheel.cone_angle_rad,
+                           settings.wheel.parabola_coefficient_per_mm,
+                           settings.wheel.parabola_vertex_mm};
   Vec3<Jet3> r1;
   Jet3 f;
   LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
@@ -215,6 +256,62 @@ void SystemAndJacobian(const MachineSettings& settings,
     for (int j = 0; j < 3; ++j) (*jacobian)(i, j) = rows[i]->v(j);
     (*jacobian)(i, 3) = i < 3 ? -point.normal(i) : 0.0;
   }
+}
+
+// d(R1, f) / d(the 17 local variables) at a contact: Jets of the 8 that enter
+// non-linearly; the columns of X, Y, Z and of the six rates from LocalTerms
+// (q = D [X, Y, Z] + M w, so dq/dX = -e_x, dq/dY = e_y, dq/dZ = -e_z; f =
+// N . v with v linear in the rates and in q through -C' e_x x q).
+Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
+    const WheelProfile& profile,
+    const ChainConstants& c,
+    const EnvelopeContact& contact,
+    const double* value_d,
+    const double* rate_d) {
+  using JetN = ceres::Jet<double, kNumJet>;
+  const JetN u(contact.wheel_u_mm, kJetU);
+  const JetN phi_w(contact.wheel_phi_rad, kJetPhiW);
+  JetN value[kNumAxes], rate[kNumAxes];
+  for (int i = 0; i < kNumAxes; ++i) {
+    value[i] =
+        i < 3 ? JetN(value_d[i]) : JetN(value_d[i], kJetRotation + i - 3);
+    rate[i] = JetN(rate_d[i]);
+  }
+  const JetN wheel[3] = {
+      JetN(profile.cone_angle_rad, kJetWheel),
+      JetN(profile.parabola_coefficient_per_mm, kJetWheel + 1),
+      JetN(profile.parabola_vertex_mm, kJetWheel + 2)};
+  Vec3<JetN> r1;
+  JetN f;
+  LocalTerms t;
+  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f, &t);
+  const JetN* rows[4] = {&r1.x, &r1.y, &r1.z, &f};
+  Eigen::Matrix<double, 4, kNumLocal> local;
+  local.setZero();
+  for (int r = 0; r < 4; ++r) {
+    local(r, kLocalU) = rows[r]->v(kJetU);
+    local(r, kLocalPhiW) = rows[r]->v(kJetPhiW);
+    for (int i = 0; i < 3; ++i) {
+      local(r, kLocalValue + 3 + i) = rows[r]->v(kJetRotation + i);
+      local(r, kLocalWheel + i) = rows[r]->v(kJetWheel + i);
+    }
+  }
+  const Vec3<double>& n = t.normal_f;
+  // R1 = Rot_x(-C) q: dR1/dX = (-1, 0, 0), dR1/dY = (0, cos C, -sin C),
+  // dR1/dZ = (0, -sin C, -cos C). f through q: dv/dY = (0, 0, -C'), dv/dZ =
+  // (0, -C', 0).
+  local.col(kLocalValue + 0) << -1.0, 0.0, 0.0, 0.0;
+  local.col(kLocalValue + 1) << 0.0, t.cos_c, -t.sin_c, -rate_d[5] * n.z;
+  local.col(kLocalValue + 2) << 0.0, -t.sin_c, -t.cos_c, -rate_d[5] * n.y;
+  // f = N . v, v = (-X' + A' dM/dA w_x + B' dM/dB w_x, C' q_z + Y' + ...,
+  // -C' q_y - Z' + ...); R1 does not depend on the rates.
+  local(3, kLocalRate + 0) = -n.x;
+  local(3, kLocalRate + 1) = n.y;
+  local(3, kLocalRate + 2) = -n.z;
+  local(3, kLocalRate + 3) = Dot(n, t.dm_da_w);
+  local(3, kLocalRate + 4) = Dot(n, t.dm_db_w);
+  local(3, kLocalRate + 5) = n.y * t.q.z - n.z * t.q.y;
+  return local;
 }
 
 double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
@@ -408,7 +505,6 @@ Eigen::Matrix<double, 1, kNumGrinderParameters>
 FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
                                      const FlankGridPoint& point,
                                      const EnvelopeContact& contact) const {
-  using JetN = ceres::Jet<double, kNumLocal>;
   const ChainConstants c = MakeChainConstants(setup_);
   const double roll = contact.roll_rad;
   double value_d[kNumAxes], rate_d[kNumAxes];
@@ -423,25 +519,8 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
       acc = acc * roll + double(k) * (k - 1) * a[k];
     accel_d[i] = acc;
   }
-  const JetN u(contact.wheel_u_mm, kLocalU);
-  const JetN phi_w(contact.wheel_phi_rad, kLocalPhiW);
-  JetN value[kNumAxes], rate[kNumAxes];
-  for (int i = 0; i < kNumAxes; ++i) {
-    value[i] = JetN(value_d[i], kLocalValue + i);
-    rate[i] = JetN(rate_d[i], kLocalRate + i);
-  }
-  const JetN wheel[3] = {
-      JetN(settings.wheel.cone_angle_rad, kLocalWheel),
-      JetN(settings.wheel.parabola_coefficient_per_mm, kLocalWheel + 1),
-      JetN(settings.wheel.parabola_vertex_mm, kLocalWheel + 2)};
-  Vec3<JetN> r1;
-  JetN f;
-  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
-  Eigen::Matrix<double, 4, kNumLocal> local;
-  local.row(0) = r1.x.v.transpose();
-  local.row(1) = r1.y.v.transpose();
-  local.row(2) = r1.z.v.transpose();
-  local.row(3) = f.v.transpose();
+  const Eigen::Matrix<double, 4, kNumLocal> local =
+      LocalDerivatives(settings.wheel, c, contact, value_d, rate_d);
 
   // d G / d(u_w, phi_w, phi1, lambda).
   Eigen::Matrix4d dg_dx;
