@@ -235,9 +235,18 @@ void SystemAndJacobian(const MachineSettings& settings,
   using Jet3 = ceres::Jet<double, 3>;
   const Jet3 u(x(0), 0);
   const Jet3 phi_w(x(1), 1);
-  const Jet3 roll(x(2), 2);
+  // The axes depend on phi1 alone: their polynomials in Jets of phi1 only (the
+  // same numbers as in Jet3, whose other parts stay exact zeros).
+  using Jet1 = ceres::Jet<double, 1>;
+  Jet1 value1[kNumAxes], rate1[kNumAxes];
+  AxisState(settings, Jet1(x(2), 0), value1, rate1);
   Jet3 value[kNumAxes], rate[kNumAxes];
-  AxisState(settings, roll, value, rate);
+  for (int i = 0; i < kNumAxes; ++i) {
+    value[i] = Jet3(value1[i].a);
+    value[i].v(2) = value1[i].v(0);
+    rate[i] = Jet3(rate1[i].a);
+    rate[i].v(2) = rate1[i].v(0);
+  }
   // The profile is held: plain numbers (the same values and derivatives as
   // constant Jets, without their arithmetic).
   const double wheel[3] = {settings.wheel.cone_angle_rad,
