@@ -123,6 +123,26 @@ struct LocalTerms {
   double cos_c = 1.0, sin_c = 0.0;
 };
 
+// The wheel profile of MODEL.md (cone angle theta_w as its cosine and sine,
+// a_w, d_w).
+template <typename W>
+struct Profile {
+  W cos_cone, sin_cone, parabola, vertex;
+};
+
+template <typename W>
+Profile<W> MakeProfile(const W& cone, const W& parabola, const W& vertex) {
+  using std::cos;
+  using std::sin;
+  return {cos(cone), sin(cone), parabola, vertex};
+}
+
+Profile<double> MakeProfile(const WheelProfile& wheel) {
+  return MakeProfile(wheel.cone_angle_rad,
+                     wheel.parabola_coefficient_per_mm,
+                     wheel.parabola_vertex_mm);
+}
+
 // T is the type of the unknowns and axes, W that of the wheel profile (double
 // when the profile is held: Newton needs no derivative of it).
 template <typename T, typename W>
@@ -130,18 +150,17 @@ void LocalSurface(const T& u,
                   const T& phi_w,
                   const T* value,
                   const T* rate,
-                  const W* wheel,
+                  const Profile<W>& wheel,
                   const ChainConstants& c,
                   Vec3<T>* r1,
                   T* f,
                   LocalTerms* terms = nullptr) {
   using std::cos;
   using std::sin;
-  const W& cone = wheel[0];
-  const W& parabola = wheel[1];
-  const W& vertex = wheel[2];
-  const W cos_cone = cos(cone);
-  const W sin_cone = sin(cone);
+  const W& parabola = wheel.parabola;
+  const W& vertex = wheel.vertex;
+  const W& cos_cone = wheel.cos_cone;
+  const W& sin_cone = wheel.sin_cone;
   const T du = u - vertex;
   const T delta = parabola * du * du;
   const T delta_u = 2.0 * parabola * du;
@@ -228,6 +247,7 @@ ChainConstants MakeChainConstants(const GrindingSetup& setup) {
 // Jacobian.
 void SystemAndJacobian(const MachineSettings& settings,
                        const ChainConstants& c,
+                       const Profile<double>& wheel,
                        const FlankGridPoint& point,
                        const Eigen::Vector4d& x,
                        Eigen::Vector4d* g,
@@ -247,11 +267,6 @@ void SystemAndJacobian(const MachineSettings& settings,
     rate[i] = Jet3(rate1[i].a);
     rate[i].v(2) = rate1[i].v(0);
   }
-  // The profile is held: plain numbers (the same values and derivatives as
-  // constant Jets, without their arithmetic).
-  const double wheel[3] = {settings.wheel.cone_angle_rad,
-                           settings.wheel.parabola_coefficient_per_mm,
-                           settings.wheel.parabola_vertex_mm};
   Vec3<Jet3> r1;
   Jet3 f;
   LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
@@ -286,10 +301,10 @@ Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
         i < 3 ? JetN(value_d[i]) : JetN(value_d[i], kJetRotation + i - 3);
     rate[i] = JetN(rate_d[i]);
   }
-  const JetN wheel[3] = {
-      JetN(profile.cone_angle_rad, kJetWheel),
-      JetN(profile.parabola_coefficient_per_mm, kJetWheel + 1),
-      JetN(profile.parabola_vertex_mm, kJetWheel + 2)};
+  const Profile<JetN> wheel =
+      MakeProfile(JetN(profile.cone_angle_rad, kJetWheel),
+                  JetN(profile.parabola_coefficient_per_mm, kJetWheel + 1),
+                  JetN(profile.parabola_vertex_mm, kJetWheel + 2));
   Vec3<JetN> r1;
   JetN f;
   LocalTerms t;
@@ -324,6 +339,111 @@ Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
 }
 
 double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
+
+// What the contacts of one set of settings share: the chain constants, the
+// held wheel profile, the pitch radius and the direction of the wheel-plane
+// normal n_w = M(A0, B0) F e_z in the y-z plane (for the first guesses).
+struct ContactFrame {
+  ChainConstants c;
+  Profile<double> wheel;
+  double pitch_radius_mm = 0.0;
+  double wheel_normal_angle_rad = 0.0;  // atan2(n_w.z, n_w.y)
+};
+
+ContactFrame MakeContactFrame(const GrindingSetup& setup,
+                              const MachineSettings& settings) {
+  ContactFrame frame;
+  frame.c = MakeChainConstants(setup);
+  frame.wheel = MakeProfile(settings.wheel);
+  frame.pitch_radius_mm = setup.gear.PitchRadiusMm();
+  const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
+  const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
+  Vec3<double> n_w;
+  RotateWheel<double>(Vec3<double>{0.0, 0.0, frame.c.mirror_z},
+                      std::cos(a0),
+                      std::sin(a0),
+                      std::cos(b0),
+                      std::sin(b0),
+                      &n_w,
+                      nullptr,
+                      nullptr);
+  frame.wheel_normal_angle_rad = std::atan2(n_w.z, n_w.y);
+  return frame;
+}
+
+// FlatWheelGrinder::SolveContact in a frame made once for all grid points.
+EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
+                                    const EnvelopeOptions& options,
+                                    const MachineSettings& settings,
+                                    const FlankGridPoint& point) {
+  const ChainConstants& c = frame.c;
+  EnvelopeContact contact;
+
+  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
+  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
+  // carried into the wheel frame, gives u_w and phi_w.
+  const Eigen::Vector3d& n = point.normal;
+  double roll =
+      WrapAngle(frame.wheel_normal_angle_rad - std::atan2(n.z(), n.y()));
+  {
+    double value[kNumAxes], rate[kNumAxes];
+    AxisState(settings, roll, value, rate);
+    // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
+    const double cc = std::cos(value[5]), sc = std::sin(value[5]);
+    const Eigen::Vector3d& p = point.position_mm;
+    const Eigen::Vector3d qf(p.x() + value[0],
+                             cc * p.y() - sc * p.z() - value[1],
+                             sc * p.y() + cc * p.z() + value[2]);
+    // M^T = Rot_z(pi)^T Rot_x(-A)^T Rot_y(B)^T.
+    const double ca = std::cos(value[3]), sa = std::sin(value[3]);
+    const double cb = std::cos(value[4]), sb = std::sin(value[4]);
+    const double x1 = cb * qf.x() - sb * qf.z();
+    const double z1 = sb * qf.x() + cb * qf.z();
+    const double y2 = ca * qf.y() - sa * z1;
+    const double z2 = sa * qf.y() + ca * z1;
+    (void)z2;
+    const double wx = -x1 - c.offset_x_mm;
+    const double wy = -y2;
+    contact.wheel_u_mm = c.wheel_radius_mm - std::hypot(wx, wy);
+    contact.wheel_phi_rad = std::atan2(wx, wy);
+  }
+
+  const double roll_guess = roll;
+  Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
+  const double r_j = frame.pitch_radius_mm;
+  const Eigen::Vector4d step_scale(
+      1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
+  const engine_internal::DampedNewtonSummary newton =
+      engine_internal::DampedNewton<4>(
+          engine_internal::DampedNewtonOptions{options.max_iterations,
+                                               options.step_tolerance_mm,
+                                               options.max_step_mm},
+          step_scale,
+          [&](const Eigen::Vector4d& x,
+              Eigen::Vector4d* g,
+              Eigen::Matrix4d* jacobian) {
+            SystemAndJacobian(settings, c, frame.wheel, point, x, g, jacobian);
+          },
+          &x);
+  const bool converged = newton.converged;
+  contact.iterations = newton.num_iterations;
+  contact.wheel_u_mm = x(0);
+  contact.wheel_phi_rad = x(1);
+  contact.roll_rad = x(2);
+  contact.deviation_mm = x(3);
+  if (!converged || !x.allFinite() ||
+      std::abs(x(2) - roll_guess) > options.max_roll_excursion_rad ||
+      std::abs(x(3)) > options.max_deviation_mm) {
+    contact.status = PointStatus::kNotConverged;
+  } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
+    // The contact lies beyond the rim (or past the wheel centre): the real
+    // wheel does not reach it.
+    contact.status = PointStatus::kNotReached;
+  } else {
+    contact.status = PointStatus::kOk;
+  }
+  return contact;
+}
 
 }  // namespace
 
@@ -412,16 +532,13 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                                                double* meshing) const {
   double value[kNumAxes], rate[kNumAxes];
   AxisState(settings, roll_rad, value, rate);
-  const double wheel[3] = {settings.wheel.cone_angle_rad,
-                           settings.wheel.parabola_coefficient_per_mm,
-                           settings.wheel.parabola_vertex_mm};
   Vec3<double> r1;
   double f = 0.0;
   LocalSurface(wheel_u_mm,
                wheel_phi_rad,
                value,
                rate,
-               wheel,
+               MakeProfile(settings.wheel),
                MakeChainConstants(setup_),
                &r1,
                &f);
@@ -431,83 +548,8 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
 
 EnvelopeContact FlatWheelGrinder::SolveContact(
     const MachineSettings& settings, const FlankGridPoint& point) const {
-  const ChainConstants c = MakeChainConstants(setup_);
-  EnvelopeContact contact;
-
-  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
-  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
-  // carried into the wheel frame, gives u_w and phi_w.
-  const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
-  const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
-  Vec3<double> n_w;
-  RotateWheel<double>(Vec3<double>{0.0, 0.0, c.mirror_z},
-                      std::cos(a0),
-                      std::sin(a0),
-                      std::cos(b0),
-                      std::sin(b0),
-                      &n_w,
-                      nullptr,
-                      nullptr);
-  const Eigen::Vector3d& n = point.normal;
-  double roll = WrapAngle(std::atan2(n_w.z, n_w.y) - std::atan2(n.z(), n.y()));
-  {
-    double value[kNumAxes], rate[kNumAxes];
-    AxisState(settings, roll, value, rate);
-    // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
-    const double cc = std::cos(value[5]), sc = std::sin(value[5]);
-    const Eigen::Vector3d& p = point.position_mm;
-    const Eigen::Vector3d qf(p.x() + value[0],
-                             cc * p.y() - sc * p.z() - value[1],
-                             sc * p.y() + cc * p.z() + value[2]);
-    // M^T = Rot_z(pi)^T Rot_x(-A)^T Rot_y(B)^T.
-    const double ca = std::cos(value[3]), sa = std::sin(value[3]);
-    const double cb = std::cos(value[4]), sb = std::sin(value[4]);
-    const double x1 = cb * qf.x() - sb * qf.z();
-    const double z1 = sb * qf.x() + cb * qf.z();
-    const double y2 = ca * qf.y() - sa * z1;
-    const double z2 = sa * qf.y() + ca * z1;
-    (void)z2;
-    const double wx = -x1 - c.offset_x_mm;
-    const double wy = -y2;
-    contact.wheel_u_mm = c.wheel_radius_mm - std::hypot(wx, wy);
-    contact.wheel_phi_rad = std::atan2(wx, wy);
-  }
-
-  const double roll_guess = roll;
-  Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
-  const double r_j = setup_.gear.PitchRadiusMm();
-  const Eigen::Vector4d step_scale(
-      1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
-  const engine_internal::DampedNewtonSummary newton =
-      engine_internal::DampedNewton<4>(
-          engine_internal::DampedNewtonOptions{options_.max_iterations,
-                                               options_.step_tolerance_mm,
-                                               options_.max_step_mm},
-          step_scale,
-          [&](const Eigen::Vector4d& x,
-              Eigen::Vector4d* g,
-              Eigen::Matrix4d* jacobian) {
-            SystemAndJacobian(settings, c, point, x, g, jacobian);
-          },
-          &x);
-  const bool converged = newton.converged;
-  contact.iterations = newton.num_iterations;
-  contact.wheel_u_mm = x(0);
-  contact.wheel_phi_rad = x(1);
-  contact.roll_rad = x(2);
-  contact.deviation_mm = x(3);
-  if (!converged || !x.allFinite() ||
-      std::abs(x(2) - roll_guess) > options_.max_roll_excursion_rad ||
-      std::abs(x(3)) > options_.max_deviation_mm) {
-    contact.status = PointStatus::kNotConverged;
-  } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
-    // The contact lies beyond the rim (or past the wheel centre): the real
-    // wheel does not reach it.
-    contact.status = PointStatus::kNotReached;
-  } else {
-    contact.status = PointStatus::kOk;
-  }
-  return contact;
+  return SolveContactInFrame(
+      MakeContactFrame(setup_, settings), options_, settings, point);
 }
 
 Eigen::Matrix<double, 1, kNumGrinderParameters>
@@ -577,7 +619,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
                                       std::numeric_limits<double>::quiet_NaN());
   evaluation->contact_margin_mm.assign(
       n, std::numeric_limits<double>::quiet_NaN());
-  const double wheel_radius_mm = MakeChainConstants(setup_).wheel_radius_mm;
+  const ContactFrame frame = MakeContactFrame(setup_, settings);
+  const double wheel_radius_mm = frame.c.wheel_radius_mm;
   if (with_jacobian) {
     evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
   } else {
@@ -585,7 +628,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
   }
   for (int i = 0; i < n; ++i) {
     const FlankGridPoint& point = grid_.points[i];
-    const EnvelopeContact contact = SolveContact(settings, point);
+    const EnvelopeContact contact =
+        SolveContactInFrame(frame, options_, settings, point);
     evaluation->status[i] = contact.status;
     if (contact.status != PointStatus::kNotConverged) {
       evaluation->contact_margin_mm[i] =
