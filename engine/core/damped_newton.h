@@ -20,6 +20,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/LU>
+#include <cmath>
+#include <utility>
 
 namespace gearloop {
 namespace engine_internal {
@@ -46,6 +48,63 @@ struct DampedNewtonSummary {
   int num_iterations = 0;
 };
 
+// The sum of p[0..length) as Eigen's unrolled reductions add it: the first
+// half's sum plus the second half's, recursively.
+inline double HalvingSum(const double* p, int length) {
+  if (length == 1) return p[0];
+  const int half = length / 2;
+  return HalvingSum(p, half) + HalvingSum(p + half, length - half);
+}
+
+// Solves a * x = b by Gaussian elimination with partial pivoting, written out
+// for a small fixed N: the same operations in the same order as Eigen's
+// a.partialPivLu().solve(b) for N <= 8 (pivot: the first largest |entry| of
+// the column; the column below it divided by it; rank-1 update of the rest;
+// then row by row L y = P b and U x = y, each row's products summed by
+// halves), so the same numbers, without the dynamic loops, the permutation
+// objects and the L1 norm Eigen also computes. An exactly zero pivot gives a
+// non-finite x, as Eigen's does.
+template <int N>
+Eigen::Matrix<double, N, 1> SolveByPartialPivoting(
+    Eigen::Matrix<double, N, N> a, Eigen::Matrix<double, N, 1> b) {
+  static_assert(N >= 1 && N <= 8, "Eigen unrolls its solve up to 8");
+  for (int k = 0; k + 1 < N; ++k) {
+    int pivot = k;
+    double biggest = std::abs(a(k, k));
+    for (int i = k + 1; i < N; ++i) {
+      if (std::abs(a(i, k)) > biggest) {
+        biggest = std::abs(a(i, k));
+        pivot = i;
+      }
+    }
+    if (biggest != 0.0) {
+      if (pivot != k) {
+        a.row(k).swap(a.row(pivot));
+        std::swap(b(k), b(pivot));
+      }
+      for (int i = k + 1; i < N; ++i) a(i, k) /= a(k, k);
+    }
+    for (int j = k + 1; j < N; ++j) {
+      for (int i = k + 1; i < N; ++i) a(i, j) -= a(i, k) * a(k, j);
+    }
+  }
+  double products[N];
+  for (int i = 1; i < N; ++i) {  // L y = P b, L unit lower
+    for (int j = 0; j < i; ++j) products[j] = a(i, j) * b(j);
+    b(i) -= HalvingSum(products, i);
+  }
+  for (int i = N - 1; i >= 0; --i) {  // U x = y
+    const int count = N - 1 - i;
+    if (count > 0) {
+      for (int j = 0; j < count; ++j)
+        products[j] = a(i, i + 1 + j) * b(i + 1 + j);
+      b(i) -= HalvingSum(products, count);
+    }
+    b(i) /= a(i, i);
+  }
+  return b;
+}
+
 // Solves g(x) = 0 for N unknowns by Newton's method from *x, leaving the last
 // iterate in *x. Each iteration calls `system(x, &g, &jacobian)` to fill g(x)
 // and dg/dx at x, solves jacobian * dx = -g by LU with partial pivoting, and
@@ -66,7 +125,8 @@ DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
   int iteration = 0;
   for (; iteration < options.max_iterations; ++iteration) {
     system(*x, &g, &jacobian);
-    const Eigen::Matrix<double, N, 1> dx = jacobian.partialPivLu().solve(-g);
+    const Eigen::Matrix<double, N, 1> dx =
+        SolveByPartialPivoting<N>(jacobian, -g);
     if (!dx.allFinite()) break;
     const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
     const double shrink =

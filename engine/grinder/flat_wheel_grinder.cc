@@ -26,6 +26,16 @@ constexpr int kLocalRate = 8;    // + axis index
 constexpr int kLocalWheel = 14;  // + wheel parameter index
 constexpr int kNumLocal = 17;
 
+// Of these 17, only 8 enter (R1, f) non-linearly: u_w, phi_w, the rotations A,
+// B, C and the wheel profile. The sensitivity carries Jets of these 8
+// (kJet*); the translations X, Y, Z and the six rates enter R1 and f linearly,
+// and their columns are written out from the terms of LocalTerms.
+constexpr int kJetU = 0;
+constexpr int kJetPhiW = 1;
+constexpr int kJetRotation = 2;  // + 0, 1, 2 for A, B, C
+constexpr int kJetWheel = 5;     // + wheel parameter index
+constexpr int kNumJet = 8;
+
 template <typename T>
 struct Vec3 {
   T x, y, z;
@@ -98,22 +108,59 @@ void RotateWheel(const Vec3<T>& v,
 //   cross products) dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B'
 //   dM/dB w) f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B'
 //   dM/dB w)
-template <typename T>
+// The value of a scalar or of a Jet.
+inline double ValueOf(double x) { return x; }
+template <int N>
+double ValueOf(const ceres::Jet<double, N>& x) {
+  return x.a;
+}
+
+// Terms of LocalSurface in which the translations X, Y, Z and the rates enter
+// (R1, f) linearly: the wheel normal N = M (w_u x w_phi), q, dM/dA w, dM/dB w
+// and cos C, sin C (values only).
+struct LocalTerms {
+  Vec3<double> normal_f, q, dm_da_w, dm_db_w;
+  double cos_c = 1.0, sin_c = 0.0;
+};
+
+// The wheel profile of MODEL.md (cone angle theta_w as its cosine and sine,
+// a_w, d_w).
+template <typename W>
+struct Profile {
+  W cos_cone, sin_cone, parabola, vertex;
+};
+
+template <typename W>
+Profile<W> MakeProfile(const W& cone, const W& parabola, const W& vertex) {
+  using std::cos;
+  using std::sin;
+  return {cos(cone), sin(cone), parabola, vertex};
+}
+
+Profile<double> MakeProfile(const WheelProfile& wheel) {
+  return MakeProfile(wheel.cone_angle_rad,
+                     wheel.parabola_coefficient_per_mm,
+                     wheel.parabola_vertex_mm);
+}
+
+// T is the type of the unknowns and axes, W that of the wheel profile (double
+// when the profile is held: Newton needs no derivative of it).
+template <typename T, typename W>
 void LocalSurface(const T& u,
                   const T& phi_w,
                   const T* value,
                   const T* rate,
-                  const T* wheel,
+                  const Profile<W>& wheel,
                   const ChainConstants& c,
                   Vec3<T>* r1,
-                  T* f) {
+                  T* f,
+                  LocalTerms* terms = nullptr) {
   using std::cos;
   using std::sin;
-  const T& cone = wheel[0];
-  const T& parabola = wheel[1];
-  const T& vertex = wheel[2];
-  const T cos_cone = cos(cone);
-  const T sin_cone = sin(cone);
+  const W& parabola = wheel.parabola;
+  const W& vertex = wheel.vertex;
+  const W& cos_cone = wheel.cos_cone;
+  const W& sin_cone = wheel.sin_cone;
   const T du = u - vertex;
   const T delta = parabola * du * du;
   const T delta_u = 2.0 * parabola * du;
@@ -155,6 +202,17 @@ void LocalSurface(const T& u,
   r1->x = q.x;
   r1->y = cos_c * q.y + sin_c * q.z;
   r1->z = -sin_c * q.y + cos_c * q.z;
+  if (terms != nullptr) {
+    const auto values = [](const Vec3<T>& v) {
+      return Vec3<double>{ValueOf(v.x), ValueOf(v.y), ValueOf(v.z)};
+    };
+    terms->normal_f = values(normal_f);
+    terms->q = values(q);
+    terms->dm_da_w = values(dm_da_w);
+    terms->dm_db_w = values(dm_db_w);
+    terms->cos_c = ValueOf(cos_c);
+    terms->sin_c = ValueOf(sin_c);
+  }
 }
 
 // Axis values and rates of `settings` at roll `roll` (any scalar type).
@@ -189,6 +247,7 @@ ChainConstants MakeChainConstants(const GrindingSetup& setup) {
 // Jacobian.
 void SystemAndJacobian(const MachineSettings& settings,
                        const ChainConstants& c,
+                       const Profile<double>& wheel,
                        const FlankGridPoint& point,
                        const Eigen::Vector4d& x,
                        Eigen::Vector4d* g,
@@ -196,12 +255,18 @@ void SystemAndJacobian(const MachineSettings& settings,
   using Jet3 = ceres::Jet<double, 3>;
   const Jet3 u(x(0), 0);
   const Jet3 phi_w(x(1), 1);
-  const Jet3 roll(x(2), 2);
+  // The axes depend on phi1 alone: their polynomials in Jets of phi1 only (the
+  // same numbers as in Jet3, whose other parts stay exact zeros).
+  using Jet1 = ceres::Jet<double, 1>;
+  Jet1 value1[kNumAxes], rate1[kNumAxes];
+  AxisState(settings, Jet1(x(2), 0), value1, rate1);
   Jet3 value[kNumAxes], rate[kNumAxes];
-  AxisState(settings, roll, value, rate);
-  const Jet3 wheel[3] = {Jet3(settings.wheel.cone_angle_rad),
-                         Jet3(settings.wheel.parabola_coefficient_per_mm),
-                         Jet3(settings.wheel.parabola_vertex_mm)};
+  for (int i = 0; i < kNumAxes; ++i) {
+    value[i] = Jet3(value1[i].a);
+    value[i].v(2) = value1[i].v(0);
+    rate[i] = Jet3(rate1[i].a);
+    rate[i].v(2) = rate1[i].v(0);
+  }
   Vec3<Jet3> r1;
   Jet3 f;
   LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
@@ -217,7 +282,168 @@ void SystemAndJacobian(const MachineSettings& settings,
   }
 }
 
+// d(R1, f) / d(the 17 local variables) at a contact: Jets of the 8 that enter
+// non-linearly; the columns of X, Y, Z and of the six rates from LocalTerms
+// (q = D [X, Y, Z] + M w, so dq/dX = -e_x, dq/dY = e_y, dq/dZ = -e_z; f =
+// N . v with v linear in the rates and in q through -C' e_x x q).
+Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
+    const WheelProfile& profile,
+    const ChainConstants& c,
+    const EnvelopeContact& contact,
+    const double* value_d,
+    const double* rate_d) {
+  using JetN = ceres::Jet<double, kNumJet>;
+  const JetN u(contact.wheel_u_mm, kJetU);
+  const JetN phi_w(contact.wheel_phi_rad, kJetPhiW);
+  JetN value[kNumAxes], rate[kNumAxes];
+  for (int i = 0; i < kNumAxes; ++i) {
+    value[i] =
+        i < 3 ? JetN(value_d[i]) : JetN(value_d[i], kJetRotation + i - 3);
+    rate[i] = JetN(rate_d[i]);
+  }
+  const Profile<JetN> wheel =
+      MakeProfile(JetN(profile.cone_angle_rad, kJetWheel),
+                  JetN(profile.parabola_coefficient_per_mm, kJetWheel + 1),
+                  JetN(profile.parabola_vertex_mm, kJetWheel + 2));
+  Vec3<JetN> r1;
+  JetN f;
+  LocalTerms t;
+  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f, &t);
+  const JetN* rows[4] = {&r1.x, &r1.y, &r1.z, &f};
+  Eigen::Matrix<double, 4, kNumLocal> local;
+  local.setZero();
+  for (int r = 0; r < 4; ++r) {
+    local(r, kLocalU) = rows[r]->v(kJetU);
+    local(r, kLocalPhiW) = rows[r]->v(kJetPhiW);
+    for (int i = 0; i < 3; ++i) {
+      local(r, kLocalValue + 3 + i) = rows[r]->v(kJetRotation + i);
+      local(r, kLocalWheel + i) = rows[r]->v(kJetWheel + i);
+    }
+  }
+  const Vec3<double>& n = t.normal_f;
+  // R1 = Rot_x(-C) q: dR1/dX = (-1, 0, 0), dR1/dY = (0, cos C, -sin C),
+  // dR1/dZ = (0, -sin C, -cos C). f through q: dv/dY = (0, 0, -C'), dv/dZ =
+  // (0, -C', 0).
+  local.col(kLocalValue + 0) << -1.0, 0.0, 0.0, 0.0;
+  local.col(kLocalValue + 1) << 0.0, t.cos_c, -t.sin_c, -rate_d[5] * n.z;
+  local.col(kLocalValue + 2) << 0.0, -t.sin_c, -t.cos_c, -rate_d[5] * n.y;
+  // f = N . v, v = (-X' + A' dM/dA w_x + B' dM/dB w_x, C' q_z + Y' + ...,
+  // -C' q_y - Z' + ...); R1 does not depend on the rates.
+  local(3, kLocalRate + 0) = -n.x;
+  local(3, kLocalRate + 1) = n.y;
+  local(3, kLocalRate + 2) = -n.z;
+  local(3, kLocalRate + 3) = Dot(n, t.dm_da_w);
+  local(3, kLocalRate + 4) = Dot(n, t.dm_db_w);
+  local(3, kLocalRate + 5) = n.y * t.q.z - n.z * t.q.y;
+  return local;
+}
+
 double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
+
+// What the contacts of one set of settings share: the chain constants, the
+// held wheel profile, the pitch radius and the direction of the wheel-plane
+// normal n_w = M(A0, B0) F e_z in the y-z plane (for the first guesses).
+struct ContactFrame {
+  ChainConstants c;
+  Profile<double> wheel;
+  double pitch_radius_mm = 0.0;
+  double wheel_normal_angle_rad = 0.0;  // atan2(n_w.z, n_w.y)
+};
+
+ContactFrame MakeContactFrame(const GrindingSetup& setup,
+                              const MachineSettings& settings) {
+  ContactFrame frame;
+  frame.c = MakeChainConstants(setup);
+  frame.wheel = MakeProfile(settings.wheel);
+  frame.pitch_radius_mm = setup.gear.PitchRadiusMm();
+  const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
+  const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
+  Vec3<double> n_w;
+  RotateWheel<double>(Vec3<double>{0.0, 0.0, frame.c.mirror_z},
+                      std::cos(a0),
+                      std::sin(a0),
+                      std::cos(b0),
+                      std::sin(b0),
+                      &n_w,
+                      nullptr,
+                      nullptr);
+  frame.wheel_normal_angle_rad = std::atan2(n_w.z, n_w.y);
+  return frame;
+}
+
+// FlatWheelGrinder::SolveContact in a frame made once for all grid points.
+EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
+                                    const EnvelopeOptions& options,
+                                    const MachineSettings& settings,
+                                    const FlankGridPoint& point) {
+  const ChainConstants& c = frame.c;
+  EnvelopeContact contact;
+
+  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
+  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
+  // carried into the wheel frame, gives u_w and phi_w.
+  const Eigen::Vector3d& n = point.normal;
+  double roll =
+      WrapAngle(frame.wheel_normal_angle_rad - std::atan2(n.z(), n.y()));
+  {
+    double value[kNumAxes], rate[kNumAxes];
+    AxisState(settings, roll, value, rate);
+    // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
+    const double cc = std::cos(value[5]), sc = std::sin(value[5]);
+    const Eigen::Vector3d& p = point.position_mm;
+    const Eigen::Vector3d qf(p.x() + value[0],
+                             cc * p.y() - sc * p.z() - value[1],
+                             sc * p.y() + cc * p.z() + value[2]);
+    // M^T = Rot_z(pi)^T Rot_x(-A)^T Rot_y(B)^T.
+    const double ca = std::cos(value[3]), sa = std::sin(value[3]);
+    const double cb = std::cos(value[4]), sb = std::sin(value[4]);
+    const double x1 = cb * qf.x() - sb * qf.z();
+    const double z1 = sb * qf.x() + cb * qf.z();
+    const double y2 = ca * qf.y() - sa * z1;
+    const double z2 = sa * qf.y() + ca * z1;
+    (void)z2;
+    const double wx = -x1 - c.offset_x_mm;
+    const double wy = -y2;
+    contact.wheel_u_mm = c.wheel_radius_mm - std::hypot(wx, wy);
+    contact.wheel_phi_rad = std::atan2(wx, wy);
+  }
+
+  const double roll_guess = roll;
+  Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
+  const double r_j = frame.pitch_radius_mm;
+  const Eigen::Vector4d step_scale(
+      1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
+  const engine_internal::DampedNewtonSummary newton =
+      engine_internal::DampedNewton<4>(
+          engine_internal::DampedNewtonOptions{options.max_iterations,
+                                               options.step_tolerance_mm,
+                                               options.max_step_mm},
+          step_scale,
+          [&](const Eigen::Vector4d& x,
+              Eigen::Vector4d* g,
+              Eigen::Matrix4d* jacobian) {
+            SystemAndJacobian(settings, c, frame.wheel, point, x, g, jacobian);
+          },
+          &x);
+  const bool converged = newton.converged;
+  contact.iterations = newton.num_iterations;
+  contact.wheel_u_mm = x(0);
+  contact.wheel_phi_rad = x(1);
+  contact.roll_rad = x(2);
+  contact.deviation_mm = x(3);
+  if (!converged || !x.allFinite() ||
+      std::abs(x(2) - roll_guess) > options.max_roll_excursion_rad ||
+      std::abs(x(3)) > options.max_deviation_mm) {
+    contact.status = PointStatus::kNotConverged;
+  } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
+    // The contact lies beyond the rim (or past the wheel centre): the real
+    // wheel does not reach it.
+    contact.status = PointStatus::kNotReached;
+  } else {
+    contact.status = PointStatus::kOk;
+  }
+  return contact;
+}
 
 }  // namespace
 
@@ -306,16 +532,13 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                                                double* meshing) const {
   double value[kNumAxes], rate[kNumAxes];
   AxisState(settings, roll_rad, value, rate);
-  const double wheel[3] = {settings.wheel.cone_angle_rad,
-                           settings.wheel.parabola_coefficient_per_mm,
-                           settings.wheel.parabola_vertex_mm};
   Vec3<double> r1;
   double f = 0.0;
   LocalSurface(wheel_u_mm,
                wheel_phi_rad,
                value,
                rate,
-               wheel,
+               MakeProfile(settings.wheel),
                MakeChainConstants(setup_),
                &r1,
                &f);
@@ -325,90 +548,14 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
 
 EnvelopeContact FlatWheelGrinder::SolveContact(
     const MachineSettings& settings, const FlankGridPoint& point) const {
-  const ChainConstants c = MakeChainConstants(setup_);
-  EnvelopeContact contact;
-
-  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
-  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
-  // carried into the wheel frame, gives u_w and phi_w.
-  const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
-  const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
-  Vec3<double> n_w;
-  RotateWheel<double>(Vec3<double>{0.0, 0.0, c.mirror_z},
-                      std::cos(a0),
-                      std::sin(a0),
-                      std::cos(b0),
-                      std::sin(b0),
-                      &n_w,
-                      nullptr,
-                      nullptr);
-  const Eigen::Vector3d& n = point.normal;
-  double roll = WrapAngle(std::atan2(n_w.z, n_w.y) - std::atan2(n.z(), n.y()));
-  {
-    double value[kNumAxes], rate[kNumAxes];
-    AxisState(settings, roll, value, rate);
-    // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
-    const double cc = std::cos(value[5]), sc = std::sin(value[5]);
-    const Eigen::Vector3d& p = point.position_mm;
-    const Eigen::Vector3d qf(p.x() + value[0],
-                             cc * p.y() - sc * p.z() - value[1],
-                             sc * p.y() + cc * p.z() + value[2]);
-    // M^T = Rot_z(pi)^T Rot_x(-A)^T Rot_y(B)^T.
-    const double ca = std::cos(value[3]), sa = std::sin(value[3]);
-    const double cb = std::cos(value[4]), sb = std::sin(value[4]);
-    const double x1 = cb * qf.x() - sb * qf.z();
-    const double z1 = sb * qf.x() + cb * qf.z();
-    const double y2 = ca * qf.y() - sa * z1;
-    const double z2 = sa * qf.y() + ca * z1;
-    (void)z2;
-    const double wx = -x1 - c.offset_x_mm;
-    const double wy = -y2;
-    contact.wheel_u_mm = c.wheel_radius_mm - std::hypot(wx, wy);
-    contact.wheel_phi_rad = std::atan2(wx, wy);
-  }
-
-  const double roll_guess = roll;
-  Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
-  const double r_j = setup_.gear.PitchRadiusMm();
-  const Eigen::Vector4d step_scale(
-      1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
-  const engine_internal::DampedNewtonSummary newton =
-      engine_internal::DampedNewton<4>(
-          engine_internal::DampedNewtonOptions{options_.max_iterations,
-                                               options_.step_tolerance_mm,
-                                               options_.max_step_mm},
-          step_scale,
-          [&](const Eigen::Vector4d& x,
-              Eigen::Vector4d* g,
-              Eigen::Matrix4d* jacobian) {
-            SystemAndJacobian(settings, c, point, x, g, jacobian);
-          },
-          &x);
-  const bool converged = newton.converged;
-  contact.iterations = newton.num_iterations;
-  contact.wheel_u_mm = x(0);
-  contact.wheel_phi_rad = x(1);
-  contact.roll_rad = x(2);
-  contact.deviation_mm = x(3);
-  if (!converged || !x.allFinite() ||
-      std::abs(x(2) - roll_guess) > options_.max_roll_excursion_rad ||
-      std::abs(x(3)) > options_.max_deviation_mm) {
-    contact.status = PointStatus::kNotConverged;
-  } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
-    // The contact lies beyond the rim (or past the wheel centre): the real
-    // wheel does not reach it.
-    contact.status = PointStatus::kNotReached;
-  } else {
-    contact.status = PointStatus::kOk;
-  }
-  return contact;
+  return SolveContactInFrame(
+      MakeContactFrame(setup_, settings), options_, settings, point);
 }
 
 Eigen::Matrix<double, 1, kNumGrinderParameters>
 FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
                                      const FlankGridPoint& point,
                                      const EnvelopeContact& contact) const {
-  using JetN = ceres::Jet<double, kNumLocal>;
   const ChainConstants c = MakeChainConstants(setup_);
   const double roll = contact.roll_rad;
   double value_d[kNumAxes], rate_d[kNumAxes];
@@ -423,25 +570,8 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
       acc = acc * roll + double(k) * (k - 1) * a[k];
     accel_d[i] = acc;
   }
-  const JetN u(contact.wheel_u_mm, kLocalU);
-  const JetN phi_w(contact.wheel_phi_rad, kLocalPhiW);
-  JetN value[kNumAxes], rate[kNumAxes];
-  for (int i = 0; i < kNumAxes; ++i) {
-    value[i] = JetN(value_d[i], kLocalValue + i);
-    rate[i] = JetN(rate_d[i], kLocalRate + i);
-  }
-  const JetN wheel[3] = {
-      JetN(settings.wheel.cone_angle_rad, kLocalWheel),
-      JetN(settings.wheel.parabola_coefficient_per_mm, kLocalWheel + 1),
-      JetN(settings.wheel.parabola_vertex_mm, kLocalWheel + 2)};
-  Vec3<JetN> r1;
-  JetN f;
-  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
-  Eigen::Matrix<double, 4, kNumLocal> local;
-  local.row(0) = r1.x.v.transpose();
-  local.row(1) = r1.y.v.transpose();
-  local.row(2) = r1.z.v.transpose();
-  local.row(3) = f.v.transpose();
+  const Eigen::Matrix<double, 4, kNumLocal> local =
+      LocalDerivatives(settings.wheel, c, contact, value_d, rate_d);
 
   // d G / d(u_w, phi_w, phi1, lambda).
   Eigen::Matrix4d dg_dx;
@@ -489,7 +619,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
                                       std::numeric_limits<double>::quiet_NaN());
   evaluation->contact_margin_mm.assign(
       n, std::numeric_limits<double>::quiet_NaN());
-  const double wheel_radius_mm = MakeChainConstants(setup_).wheel_radius_mm;
+  const ContactFrame frame = MakeContactFrame(setup_, settings);
+  const double wheel_radius_mm = frame.c.wheel_radius_mm;
   if (with_jacobian) {
     evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
   } else {
@@ -497,7 +628,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
   }
   for (int i = 0; i < n; ++i) {
     const FlankGridPoint& point = grid_.points[i];
-    const EnvelopeContact contact = SolveContact(settings, point);
+    const EnvelopeContact contact =
+        SolveContactInFrame(frame, options_, settings, point);
     evaluation->status[i] = contact.status;
     if (contact.status != PointStatus::kNotConverged) {
       evaluation->contact_margin_mm[i] =

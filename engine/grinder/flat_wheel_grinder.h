@@ -48,7 +48,9 @@
 // rule through the polynomials and rotations; the derivatives of (R1, f) needed
 // by Newton and by the implicit function theorem are taken by forward-mode
 // automatic differentiation of those analytic expressions (exact to rounding,
-// no finite differences inside the model).
+// no finite differences inside the model): Jets of the variables that enter
+// non-linearly, the columns of those that enter linearly (X, Y, Z, the axis
+// rates) written out.
 #ifndef GEARLOOP_ENGINE_GRINDER_FLAT_WHEEL_GRINDER_H_
 #define GEARLOOP_ENGINE_GRINDER_FLAT_WHEEL_GRINDER_H_
 
