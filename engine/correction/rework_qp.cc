@@ -223,19 +223,23 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
                             Eigen::VectorXd* z,
                             Eigen::VectorXd* delta,
                             std::string* not_converged) {
+  // The start is evaluated with its Jacobian once (Evaluate gives the same
+  // deviations with and without it), for its cost and the first pass.
   ModelEvaluation at;
-  double cost = ExactBoundedCost(problem, subspace, *z, false, &at);
+  double cost = ExactBoundedCost(problem, subspace, *z, true, &at);
   if (!std::isfinite(cost)) {
     // The linear answer loses a point: walk out from no change instead.
     z->setZero();
-    cost = ExactBoundedCost(problem, subspace, *z, false, &at);
+    cost = ExactBoundedCost(problem, subspace, *z, true, &at);
   }
   int pass = 0;
   bool settled = false;
+  bool jacobian_at_z = true;
   for (; pass < options.max_num_iterations; ++pass) {
-    // The Jacobian only where a pass starts (the trial points need none; the
-    // start's came with its cost).
-    problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
+    // The Jacobian only where a pass starts (the trial points need none).
+    if (!jacobian_at_z)
+      problem.model->Evaluate(problem.parameters + subspace.tv * *z, true, &at);
+    jacobian_at_z = false;
     Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
     for (int i : problem.used)
       change(i) = at.deviations_um(i) - problem.d0()(i);
