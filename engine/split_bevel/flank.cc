@@ -1,7 +1,9 @@
 #include "engine/split_bevel/flank.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 
 namespace gearloop {
 
@@ -109,9 +111,9 @@ FlankSection SplitBevelFlankSurface::Section(double cone_distance_mm) const {
 //   D'  = -r . F_R                         (envelope: r . g = 0 at h*)
 //   D'' = F_R . F_R + h*' (p' . g) - r . (p'' + h g'') - h*' (r . g'),   h*' =
 //   -p' . g + (X - p) . g'.
-// Each iterate takes p, p', g, g' (and p'', g'') from the anchor section by
-// Taylor expansion in d = R - R_anchor (exact at d = 0); the anchor moves (one
-// exact section) only when |d| exceeds kTaylorRadiusMm. Newton stops after a
+// Each iterate takes p, p', g, g' (and p'', g'') from an anchor section by
+// Taylor expansion in d = R - R_anchor (exact at d = 0), |d| <= kTaylorRadiusMm
+// (FlankAnchors: a section on the station's grid). Newton stops after a
 // step below the tolerance and takes that step to first order (point F + F_R
 // step, normal of the section before it): Newton's error after a step s is
 // about (D''' / 2 D'') s^2, some 1e-13 mm for s = 1e-5 mm here, the first-order
@@ -120,7 +122,7 @@ FlankSection SplitBevelFlankSurface::Section(double cone_distance_mm) const {
 SplitBevelFlankSurface::NearestPoint SplitBevelFlankSurface::Nearest(
     const Eigen::Vector3d& point_mm,
     double guess_mm,
-    FlankSection* anchor,
+    FlankAnchors* anchors,
     double step_tolerance_mm,
     int max_iterations) const {
   NearestPoint out;
@@ -128,11 +130,7 @@ SplitBevelFlankSurface::NearestPoint SplitBevelFlankSurface::Nearest(
   for (int iteration = 0; iteration <= max_iterations; ++iteration) {
     if (!(r > gear_.base_radius_mm))
       break;  // left the involute's domain: not converged
-    if (std::abs(r - anchor->cone_distance_mm) > kTaylorRadiusMm) {
-      *anchor = Section(r);
-      ++out.exact_sections;
-    }
-    const FlankSection& a = *anchor;
+    const FlankSection& a = anchors->Near(r, &out.exact_sections);
     const double d = r - a.cone_distance_mm;
     const Eigen::Vector3d p =
         a.pitch_point_mm + d * (a.d_pitch_point + (0.5 * d) * a.d2_pitch_point);
@@ -170,6 +168,37 @@ SplitBevelFlankSurface::NearestPoint SplitBevelFlankSurface::Nearest(
     r += step;
   }
   return out;
+}
+
+void FlankAnchors::Centre(const FlankSection& centre) {
+  centre_mm_ = centre.cone_distance_mm;
+  std::fill(std::begin(filled_), std::end(filled_), false);
+  grid_[kGridSlots] = centre;
+  filled_[kGridSlots] = true;
+  outside_filled_ = false;
+}
+
+const FlankSection& FlankAnchors::Near(double cone_distance_mm,
+                                       int* exact_sections) {
+  constexpr double kSpacingMm = 2.0 * SplitBevelFlankSurface::kTaylorRadiusMm;
+  const double slot = std::round((cone_distance_mm - centre_mm_) / kSpacingMm);
+  if (std::abs(slot) <= kGridSlots) {
+    const int i = static_cast<int>(slot) + kGridSlots;
+    if (!filled_[i]) {
+      grid_[i] = flank_.Section(centre_mm_ + slot * kSpacingMm);
+      filled_[i] = true;
+      ++*exact_sections;
+    }
+    return grid_[i];
+  }
+  if (!outside_filled_ ||
+      std::abs(cone_distance_mm - outside_.cone_distance_mm) >
+          SplitBevelFlankSurface::kTaylorRadiusMm) {
+    outside_ = flank_.Section(cone_distance_mm);
+    outside_filled_ = true;
+    ++*exact_sections;
+  }
+  return outside_;
 }
 
 }  // namespace gearloop
