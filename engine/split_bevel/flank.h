@@ -108,8 +108,27 @@ class SplitBevelFlankSurface {
                        FlankAnchors* anchors,
                        double step_tolerance_mm = 1e-5,
                        int max_iterations = 30) const;
+  // Nearest(points_mm[i], guesses_mm[i], anchors) into out[i] for i <
+  // count, bit for bit, with the searches' first Newton steps side by side
+  // (independent work the processor overlaps).
+  void NearestOfEach(const Eigen::Vector3d* points_mm,
+                     const double* guesses_mm,
+                     int count,
+                     FlankAnchors* anchors,
+                     NearestPoint* out,
+                     double step_tolerance_mm = 1e-5,
+                     int max_iterations = 30) const;
 
  private:
+  // Nearest's Newton from R = r at iteration `first_iteration` on.
+  void Continue(const Eigen::Vector3d& point_mm,
+                double r,
+                int first_iteration,
+                FlankAnchors* anchors,
+                double step_tolerance_mm,
+                int max_iterations,
+                NearestPoint* out) const;
+
   SplitBevelGearData gear_;
   int slot_ = 0;
   SplitBevelFlank flank_ = SplitBevelFlank::kConvex;
@@ -124,9 +143,9 @@ class SplitBevelFlankSurface {
 // expand from: the grid R_c + 2 i kTaylorRadiusMm (|i| <= kGridSlots) around
 // the station's own section R_c, each computed when a search first needs it and
 // then shared by every height and depth level of that station (the foot points
-// of a station's side line lie within some 0.1 mm of R_c), and beyond the grid
-// one more section, moved as needed. Every R is within kTaylorRadiusMm of the
-// section it is given.
+// of a station's side line lie within some 0.1 mm of R_c), and farther out one
+// more grid point's section, moved as needed. Every R is given the section of
+// its nearest grid point, within kTaylorRadiusMm, whatever was asked before.
 //
 //   FlankAnchors anchors(flank);
 //   anchors.Centre(flank.Section(r_station));   // a new station
@@ -147,7 +166,8 @@ class FlankAnchors {
   double centre_mm_ = 0.0;
   FlankSection grid_[kSlots];
   bool filled_[kSlots] = {};
-  FlankSection outside_;
+  FlankSection outside_;  // the grid point farther out last asked for
+  double outside_slot_ = 0.0;
   bool outside_filled_ = false;
 };
 

@@ -539,10 +539,11 @@ struct SideLine {
 // addendum. The first guess of each foot point: from the second station on,
 // the foot's offset from the station carried over from the stations before
 // (linearly from the third on; it changes by some 1e-5 mm from one station to
-// the next at 2 000 stations, so one Newton step is enough); at the first
-// station, the parabola through the three previous feet of the side line (the
-// line through two at the third height). `feet` holds this pass's offsets
-// (previous, before: kSplitBevelDeviationHeights each).
+// the next at 2 000 stations, so one Newton step is enough), and the heights'
+// searches run side by side (NearestOfEach); at the first station, one after
+// the other from the parabola through the three previous feet of the side line
+// (the line through two at the third height). `previous` and `before` hold this
+// pass's offsets at the two stations before (kSplitBevelDeviationHeights each).
 void AddSideDeviation(const SplitBevelFlankSurface& flank,
                       const SplitBevelPoint& point,
                       const SideLine& line,
@@ -551,33 +552,39 @@ void AddSideDeviation(const SplitBevelFlankSurface& flank,
                       double* before,
                       FlankAnchors* anchors,
                       SplitBevelSideDeviation* deviation) {
+  constexpr int kHeights = kSplitBevelDeviationHeights;
   const double r = point.cone_distance_mm;
-  double foot_previous = r, foot_before = r, foot_third = 0.0;
   const double tip = line.tip_height_mm;
-  for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
-    const double height =
-        tip + (line.addendum_mm - tip) * h / (kSplitBevelDeviationHeights - 1);
-    const Eigen::Vector3d x =
-        point.tool_centre_mm +
-        ((height - tip) / line.cos_alpha) * point.tool_axis;
-    double guess = 0.0;
-    if (station >= 2)
-      guess = r + 2.0 * previous[h] - before[h];
-    else if (station == 1)
-      guess = r + previous[h];
-    else
-      guess = h < 2    ? foot_previous
-              : h == 2 ? 2.0 * foot_previous - foot_before
-                       : 3.0 * (foot_previous - foot_before) + foot_third;
-    const SplitBevelFlankSurface::NearestPoint near =
-        flank.Nearest(x, guess, anchors);
-    foot_third = foot_before;
-    foot_before = foot_previous;
-    foot_previous = near.cone_distance_mm;
+  Eigen::Vector3d x[kHeights];
+  double guess[kHeights];
+  for (int h = 0; h < kHeights; ++h) {
+    const double height = tip + (line.addendum_mm - tip) * h / (kHeights - 1);
+    x[h] = point.tool_centre_mm +
+           ((height - tip) / line.cos_alpha) * point.tool_axis;
+    guess[h] =
+        station >= 2 ? r + 2.0 * previous[h] - before[h] : r + previous[h];
+  }
+  SplitBevelFlankSurface::NearestPoint near[kHeights];
+  if (station >= 1) {
+    flank.NearestOfEach(x, guess, kHeights, anchors, near);
+  } else {
+    double foot_previous = r, foot_before = r, foot_third = 0.0;
+    for (int h = 0; h < kHeights; ++h) {
+      const double first =
+          h < 2    ? foot_previous
+          : h == 2 ? 2.0 * foot_previous - foot_before
+                   : 3.0 * (foot_previous - foot_before) + foot_third;
+      near[h] = flank.Nearest(x[h], first, anchors);
+      foot_third = foot_before;
+      foot_before = foot_previous;
+      foot_previous = near[h].cone_distance_mm;
+    }
+  }
+  for (int h = 0; h < kHeights; ++h) {
     before[h] = previous[h];
-    previous[h] = near.cone_distance_mm - r;
+    previous[h] = near[h].cone_distance_mm - r;
     const double gap =
-        (x - near.point_mm).dot(near.normal) - line.tool_radius_mm;
+        (x[h] - near[h].point_mm).dot(near[h].normal) - line.tool_radius_mm;
     deviation->min_mm = std::min(deviation->min_mm, gap);
     deviation->max_mm = std::max(deviation->max_mm, gap);
   }
