@@ -1,6 +1,7 @@
 #include "engine/split_bevel/trajectory.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -624,6 +625,29 @@ void AddSideDeviations(const SplitBevelFlankSurface& flank,
   }
 }
 
+// The head's two branches for a station's tool axis (machine frame), found at
+// the station's first level and kept for the others (the same section gives
+// the same axis, bit for bit), unless the axis lies along Y where they depend
+// on the previous point's B.
+struct AxisBranches {
+  bool found = false;
+  bool along_y = false;
+  std::array<HeadAngles, 2> angles;
+};
+
+std::array<HeadAngles, 2> StationBranches(const Eigen::Vector3d& axis_m,
+                                          const HeadAngles* previous,
+                                          AxisBranches* kept) {
+  if (!kept->found) {
+    kept->found = true;
+    kept->along_y = HeadAxisAlongY(axis_m);
+    if (!kept->along_y) kept->angles = HeadInverseBranches(axis_m, 0.0);
+  }
+  if (kept->along_y)
+    return HeadInverseBranches(axis_m, previous ? previous->b_rad : 0.0);
+  return kept->angles;
+}
+
 // One pass of `flank_side` at depth `level` and tip height `tip` over the
 // stations, its side deviation still empty (AddSideDeviations); false with
 // *failed set when a point is out of the head's limits.
@@ -636,6 +660,7 @@ bool ComputePass(const SplitBevelRequest& request,
                  const std::vector<double>& arcs,
                  const Eigen::Matrix4d& blank_to_machine,
                  HeadTrack* track,
+                 std::vector<AxisBranches>* branches,
                  SplitBevelPass* pass,
                  SplitBevelResult* failed) {
   const Eigen::Matrix3d rotation = blank_to_machine.block<3, 3>(0, 0);
@@ -658,11 +683,14 @@ bool ComputePass(const SplitBevelRequest& request,
 
     const Eigen::Vector3d axis_m = rotation * point.tool_axis;
     const Eigen::Vector3d centre_m = apex + rotation * point.tool_centre_mm;
+    const HeadAngles* previous =
+        track->have_previous ? &track->previous : nullptr;
     HeadAngles angles;
-    if (!ChooseHeadAngles(axis_m,
-                          track->have_previous ? &track->previous : nullptr,
-                          request.machine.limits,
-                          &angles)) {
+    if (!ChooseHeadAnglesFrom(
+            StationBranches(axis_m, previous, &(*branches)[j]),
+            previous,
+            request.machine.limits,
+            &angles)) {
       *failed = HeadLimitFailure(
           request, gear, s.cone_distance_mm, flank_side, level);
       return false;
@@ -702,6 +730,7 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
     // passes from `group` on, whose side deviations are found together.
     std::vector<FlankSection> sections;
     std::vector<double> arcs;
+    std::vector<AxisBranches> branches;
     size_t group = result.passes.size();
     const auto side_deviations = [&] {
       AddSideDeviations(flank,
@@ -725,6 +754,7 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
       if (static_cast<int>(sections.size()) != n) {
         side_deviations();
         StationSections(flank, gear, cut.from, n, total_arc, &sections, &arcs);
+        branches.assign(n, AxisBranches());
       }
 
       SplitBevelPass pass;
@@ -738,6 +768,7 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
                        arcs,
                        result.blank_to_machine,
                        &track,
+                       &branches,
                        &pass,
                        &failed))
         return failed;
