@@ -328,8 +328,21 @@ char* PutEscaped(char* p, char c) {
   return p;
 }
 
+// The bytes nlohmann-json escapes: '"', '\\' and the control characters.
+struct EscapeTable {
+  bool escape[256] = {};
+};
+constexpr EscapeTable MakeEscapeTable() {
+  EscapeTable table;
+  for (int c = 0; c < 0x20; ++c) table.escape[c] = true;
+  table.escape[static_cast<unsigned char>('"')] = true;
+  table.escape[static_cast<unsigned char>('\\')] = true;
+  return table;
+}
+constexpr EscapeTable kEscapeTable = MakeEscapeTable();
+
 bool NeedsEscape(char c) {
-  return static_cast<unsigned char>(c) < 0x20 || c == '"' || c == '\\';
+  return kEscapeTable.escape[static_cast<unsigned char>(c)];
 }
 
 // A JSON string of `text` as nlohmann-json writes it (escapes '"', '\\' and
