@@ -1,7 +1,9 @@
 #include "engine/split_bevel/flank.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 
 namespace gearloop {
 
@@ -109,67 +111,202 @@ FlankSection SplitBevelFlankSurface::Section(double cone_distance_mm) const {
 //   D'  = -r . F_R                         (envelope: r . g = 0 at h*)
 //   D'' = F_R . F_R + h*' (p' . g) - r . (p'' + h g'') - h*' (r . g'),   h*' =
 //   -p' . g + (X - p) . g'.
-// Each iterate takes p, p', g, g' (and p'', g'') from the anchor section by
-// Taylor expansion in d = R - R_anchor (exact at d = 0); the anchor moves (one
-// exact section) only when |d| exceeds kTaylorRadiusMm. Newton stops after a
+// Each iterate takes p, p', g, g' (and p'', g'') from an anchor section by
+// Taylor expansion in d = R - R_anchor (exact at d = 0), |d| <= kTaylorRadiusMm
+// (FlankAnchors: a section on the station's grid). Newton stops after a
 // step below the tolerance and takes that step to first order (point F + F_R
 // step, normal of the section before it): Newton's error after a step s is
 // about (D''' / 2 D'') s^2, some 1e-13 mm for s = 1e-5 mm here, the first-order
 // point is off by |F_RR| s^2 / 2 (1e-13 mm), and the normal turns by |N_R| s
 // (1e-8 rad), which moves the normal distance (X - F) . N only to second order.
+namespace {
+
+// Three coordinates in plain doubles: the Newton evaluation below is a chain
+// of small dot products that the compiler keeps in registers this way (Eigen's
+// 3-vectors split into a pair and a single and go through memory between).
+struct V3 {
+  double x, y, z;
+};
+inline V3 Of(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+inline V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline V3 operator*(double s, V3 a) { return {s * a.x, s * a.y, s * a.z}; }
+inline double Dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+// One Newton evaluation at R = r on the anchor section `a` (above).
+struct NewtonEvaluation {
+  double step = 0.0;  // dR
+  double u = 0.0;     // h*, length along the ruling
+  V3 f, f_r, g;
+};
+
+__attribute__((always_inline)) inline NewtonEvaluation Evaluate(
+    const FlankSection& a, double r, const V3& x) {
+  const double d = r - a.cone_distance_mm;
+  const V3 dp = Of(a.d_pitch_point), d2p = Of(a.d2_pitch_point);
+  const V3 dg = Of(a.d_ruling), d2g = Of(a.d2_ruling);
+  const V3 p = Of(a.pitch_point_mm) + d * (dp + (0.5 * d) * d2p);
+  const V3 p1 = dp + d * d2p;
+  const V3 g = Of(a.ruling) + d * (dg + (0.5 * d) * d2g);
+  const V3 g1 = dg + d * d2g;
+
+  NewtonEvaluation e;
+  const V3 xp = x - p;
+  e.u = Dot(xp, g);
+  e.f = p + e.u * g;
+  e.f_r = p1 + e.u * g1;
+  e.g = g;
+  const V3 res = x - e.f;
+  const double pg = Dot(p1, g);
+  const double du = -pg + Dot(xp, g1);
+  const double gradient = Dot(res, e.f_r);  // -D'
+  const double f_r2 = Dot(e.f_r, e.f_r);
+  double hessian =
+      f_r2 + du * pg - Dot(res, d2p + e.u * d2g) - du * Dot(res, g1);
+  if (!(hessian > 0.0)) hessian = f_r2;  // not convex here: a gradient step
+  e.step = gradient / hessian;
+  return e;
+}
+
+// The result from the last evaluation, its step taken to first order: F(R +
+// step) = F + F_R step + O(step^2).
+__attribute__((always_inline)) inline void Finish(
+    const NewtonEvaluation& e,
+    const FlankSection& a,
+    double r,
+    double cos_alpha,
+    SplitBevelFlankSurface::NearestPoint* out) {
+  out->cone_distance_mm = r + e.step;
+  out->height_mm = e.u * cos_alpha;
+  const V3 q = e.f + e.step * e.f_r;
+  out->point_mm = Eigen::Vector3d(q.x, q.y, q.z);
+  const V3 c = {e.f_r.y * e.g.z - e.f_r.z * e.g.y,
+                e.f_r.z * e.g.x - e.f_r.x * e.g.z,
+                e.f_r.x * e.g.y - e.f_r.y * e.g.x};
+  // Unit, into the slot.
+  const double scale =
+      (Dot(c, Of(a.slot_side)) < 0.0 ? -1.0 : 1.0) / std::sqrt(Dot(c, c));
+  out->normal = Eigen::Vector3d(scale * c.x, scale * c.y, scale * c.z);
+}
+
+}  // namespace
+
+void SplitBevelFlankSurface::Continue(const Eigen::Vector3d& point_mm,
+                                      double r,
+                                      int first_iteration,
+                                      FlankAnchors* anchors,
+                                      double step_tolerance_mm,
+                                      int max_iterations,
+                                      NearestPoint* out) const {
+  for (int iteration = first_iteration; iteration <= max_iterations;
+       ++iteration) {
+    if (!(r > gear_.base_radius_mm))
+      break;  // left the involute's domain: not converged
+    const FlankSection& a = anchors->Near(r, &out->exact_sections);
+    const NewtonEvaluation e = Evaluate(a, r, Of(point_mm));
+    out->iterations = iteration;
+    if (std::abs(e.step) < step_tolerance_mm || iteration == max_iterations) {
+      out->converged = std::abs(e.step) < step_tolerance_mm;
+      Finish(e, a, r, cos_alpha_, out);
+      break;
+    }
+    r += e.step;
+  }
+}
+
 SplitBevelFlankSurface::NearestPoint SplitBevelFlankSurface::Nearest(
     const Eigen::Vector3d& point_mm,
     double guess_mm,
-    FlankSection* anchor,
+    FlankAnchors* anchors,
     double step_tolerance_mm,
     int max_iterations) const {
   NearestPoint out;
-  double r = guess_mm;
-  for (int iteration = 0; iteration <= max_iterations; ++iteration) {
-    if (!(r > gear_.base_radius_mm))
-      break;  // left the involute's domain: not converged
-    if (std::abs(r - anchor->cone_distance_mm) > kTaylorRadiusMm) {
-      *anchor = Section(r);
-      ++out.exact_sections;
-    }
-    const FlankSection& a = *anchor;
-    const double d = r - a.cone_distance_mm;
-    const Eigen::Vector3d p =
-        a.pitch_point_mm + d * (a.d_pitch_point + (0.5 * d) * a.d2_pitch_point);
-    const Eigen::Vector3d p1 = a.d_pitch_point + d * a.d2_pitch_point;
-    const Eigen::Vector3d g =
-        a.ruling + d * (a.d_ruling + (0.5 * d) * a.d2_ruling);
-    const Eigen::Vector3d g1 = a.d_ruling + d * a.d2_ruling;
-
-    const Eigen::Vector3d xp = point_mm - p;
-    const double u = xp.dot(g);  // h* (length along g)
-    const Eigen::Vector3d f = p + u * g;
-    const Eigen::Vector3d f_r = p1 + u * g1;
-    const Eigen::Vector3d res = point_mm - f;
-    const double pg = p1.dot(g);
-    const double du = -pg + xp.dot(g1);
-    const double gradient = res.dot(f_r);  // -D'
-    double hessian = f_r.squaredNorm() + du * pg -
-                     res.dot(a.d2_pitch_point + u * a.d2_ruling) -
-                     du * res.dot(g1);
-    if (!(hessian > 0.0))
-      hessian = f_r.squaredNorm();  // not convex here: a gradient step
-    const double step = gradient / hessian;
-    out.iterations = iteration;
-    if (std::abs(step) < step_tolerance_mm || iteration == max_iterations) {
-      out.converged = std::abs(step) < step_tolerance_mm;
-      // The last step taken to first order: F(R + step) = F + F_R step +
-      // O(step^2).
-      out.cone_distance_mm = r + step;
-      out.height_mm = u * cos_alpha_;
-      out.point_mm = f + step * f_r;
-      const Eigen::Vector3d n = f_r.cross(g).normalized();
-      out.normal = n.dot(a.slot_side) < 0.0 ? Eigen::Vector3d(-n) : n;
-      break;
-    }
-    r += step;
-  }
+  Continue(
+      point_mm, guess_mm, 0, anchors, step_tolerance_mm, max_iterations, &out);
   return out;
+}
+
+// The first evaluation of every search in one loop: the searches are
+// independent, so the processor overlaps them (one search is a long chain of
+// dependent operations ending in a division and a square root).
+void SplitBevelFlankSurface::NearestOfEach(const Eigen::Vector3d* points_mm,
+                                           const double* guesses_mm,
+                                           int count,
+                                           FlankAnchors* anchors,
+                                           NearestPoint* out,
+                                           double step_tolerance_mm,
+                                           int max_iterations) const {
+  int unfinished = 0;
+  for (int i = 0; i < count; ++i) {
+    out[i] = NearestPoint();
+    const double r = guesses_mm[i];
+    if (!(r > gear_.base_radius_mm) || max_iterations < 1) {
+      ++unfinished;
+      continue;
+    }
+    const FlankSection& a = anchors->Near(r, &out[i].exact_sections);
+    const NewtonEvaluation e = Evaluate(a, r, Of(points_mm[i]));
+    if (std::abs(e.step) < step_tolerance_mm) {
+      out[i].converged = true;
+      Finish(e, a, r, cos_alpha_, &out[i]);
+    } else {
+      out[i].cone_distance_mm = r + e.step;  // where the search goes on
+      ++unfinished;
+    }
+  }
+  if (unfinished == 0) return;
+  for (int i = 0; i < count; ++i) {
+    if (out[i].converged) continue;
+    const double r = guesses_mm[i];
+    if (!(r > gear_.base_radius_mm) || max_iterations < 1) {
+      out[i] =
+          Nearest(points_mm[i], r, anchors, step_tolerance_mm, max_iterations);
+      continue;
+    }
+    const double r_next = out[i].cone_distance_mm;
+    out[i].cone_distance_mm = 0.0;
+    Continue(points_mm[i],
+             r_next,
+             1,
+             anchors,
+             step_tolerance_mm,
+             max_iterations,
+             &out[i]);
+  }
+}
+
+void FlankAnchors::Centre(const FlankSection& centre) {
+  centre_mm_ = centre.cone_distance_mm;
+  std::fill(std::begin(filled_), std::end(filled_), false);
+  grid_[kGridSlots] = centre;
+  filled_[kGridSlots] = true;
+  outside_filled_ = false;
+}
+
+const FlankSection& FlankAnchors::Near(double cone_distance_mm,
+                                       int* exact_sections) {
+  constexpr double kSpacingMm = 2.0 * SplitBevelFlankSurface::kTaylorRadiusMm;
+  // The nearest grid point, R_c + slot kSpacingMm: the section a search is
+  // given depends on its R only, not on the searches before it.
+  const double offset = (cone_distance_mm - centre_mm_) / kSpacingMm;
+  const double shifted = offset + (kGridSlots + 0.5);
+  if (shifted >= 0.0 && shifted < kSlots) {
+    const int i = static_cast<int>(shifted);  // floor: shifted >= 0
+    if (!filled_[i]) {
+      grid_[i] = flank_.Section(centre_mm_ + (i - kGridSlots) * kSpacingMm);
+      filled_[i] = true;
+      ++*exact_sections;
+    }
+    return grid_[i];
+  }
+  const double slot = std::round(offset);
+  if (!outside_filled_ || slot != outside_slot_) {
+    outside_ = flank_.Section(centre_mm_ + slot * kSpacingMm);
+    outside_slot_ = slot;
+    outside_filled_ = true;
+    ++*exact_sections;
+  }
+  return outside_;
 }
 
 }  // namespace gearloop

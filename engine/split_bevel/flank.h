@@ -59,6 +59,8 @@ struct FlankSection {
   Eigen::Vector3d Normal(double height_mm) const;
 };
 
+class FlankAnchors;
+
 class SplitBevelFlankSurface {
  public:
   SplitBevelFlankSurface(const SplitBevelGearData& gear,
@@ -83,13 +85,10 @@ class SplitBevelFlankSurface {
   // R with the height eliminated (for a fixed R the nearest ruling point is h =
   // (X - p_f) . g in closed form), from the first guess `guess_mm`.
   //
-  // `anchor` (in/out) is the last section evaluated exactly; a caller that
-  // solves for many nearby points (the heights of a station) passes the same
-  // anchor on. Within kTaylorRadiusMm of the anchor the section is its
-  // second-order Taylor expansion in R (p, p', p'', g, g', g'' of the anchor);
-  // farther away Newton evaluates the section exactly and moves the anchor
-  // there. The expansion's error is |d3F/dR3| r^3 / 6 for a step r: below 1e-10
-  // mm for the gears of the tests
+  // Each Newton iterate takes its section from `anchors` (below): the
+  // second-order Taylor expansion in R (p, p', p'', g, g', g'') of an exactly
+  // evaluated section at most kTaylorRadiusMm away. The expansion's error is
+  // |d3F/dR3| r^3 / 6 for a step r: below 1e-10 mm for the gears of the tests
   // (|d3F/dR3| < 1e-4 / mm^2 with r = 0.02 mm), far below the micrometres the
   // side deviation reports. Converged when a Newton step in R is below
   // `step_tolerance_mm`; that last step is taken to first order (the result is
@@ -97,7 +96,7 @@ class SplitBevelFlankSurface {
   struct NearestPoint {
     bool converged = false;
     int iterations = 0;
-    int exact_sections = 0;  // sections evaluated exactly (the anchor moved)
+    int exact_sections = 0;  // sections `anchors` evaluated for this search
     double cone_distance_mm = 0.0;
     double height_mm = 0.0;
     Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
@@ -106,11 +105,30 @@ class SplitBevelFlankSurface {
   static constexpr double kTaylorRadiusMm = 0.02;
   NearestPoint Nearest(const Eigen::Vector3d& point_mm,
                        double guess_mm,
-                       FlankSection* anchor,
+                       FlankAnchors* anchors,
                        double step_tolerance_mm = 1e-5,
                        int max_iterations = 30) const;
+  // Nearest(points_mm[i], guesses_mm[i], anchors) into out[i] for i <
+  // count, bit for bit, with the searches' first Newton steps side by side
+  // (independent work the processor overlaps).
+  void NearestOfEach(const Eigen::Vector3d* points_mm,
+                     const double* guesses_mm,
+                     int count,
+                     FlankAnchors* anchors,
+                     NearestPoint* out,
+                     double step_tolerance_mm = 1e-5,
+                     int max_iterations = 30) const;
 
  private:
+  // Nearest's Newton from R = r at iteration `first_iteration` on.
+  void Continue(const Eigen::Vector3d& point_mm,
+                double r,
+                int first_iteration,
+                FlankAnchors* anchors,
+                double step_tolerance_mm,
+                int max_iterations,
+                NearestPoint* out) const;
+
   SplitBevelGearData gear_;
   int slot_ = 0;
   SplitBevelFlank flank_ = SplitBevelFlank::kConvex;
@@ -119,6 +137,38 @@ class SplitBevelFlankSurface {
   // +1 on the concave flank (n_s = +c), -1 on the convex (n_s = -c).
   double slot_sign_ = 1.0;
   double sin_delta_ = 0.0, cos_delta_ = 1.0, sin_alpha_ = 0.0, cos_alpha_ = 1.0;
+};
+
+// The exactly evaluated sections that the nearest-point searches of one station
+// expand from: the grid R_c + 2 i kTaylorRadiusMm (|i| <= kGridSlots) around
+// the station's own section R_c, each computed when a search first needs it and
+// then shared by every height and depth level of that station (the foot points
+// of a station's side line lie within some 0.1 mm of R_c), and farther out one
+// more grid point's section, moved as needed. Every R is given the section of
+// its nearest grid point, within kTaylorRadiusMm, whatever was asked before.
+//
+//   FlankAnchors anchors(flank);
+//   anchors.Centre(flank.Section(r_station));   // a new station
+//   flank.Nearest(x, guess, &anchors);          // any number of searches
+class FlankAnchors {
+ public:
+  static constexpr int kGridSlots = 8;
+  explicit FlankAnchors(const SplitBevelFlankSurface& flank) : flank_(flank) {}
+  // Starts over around `centre` (copied: the grid's middle slot).
+  void Centre(const FlankSection& centre);
+  // A section within kTaylorRadiusMm of `cone_distance_mm`; adds 1 to
+  // `*exact_sections` when it had to be evaluated.
+  const FlankSection& Near(double cone_distance_mm, int* exact_sections);
+
+ private:
+  static constexpr int kSlots = 2 * kGridSlots + 1;
+  const SplitBevelFlankSurface& flank_;
+  double centre_mm_ = 0.0;
+  FlankSection grid_[kSlots];
+  bool filled_[kSlots] = {};
+  FlankSection outside_;  // the grid point farther out last asked for
+  double outside_slot_ = 0.0;
+  bool outside_filled_ = false;
 };
 
 }  // namespace gearloop

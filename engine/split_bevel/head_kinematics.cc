@@ -77,23 +77,35 @@ std::array<HeadAngles, 2> HeadInverseBranches(const Eigen::Vector3d& axis_m,
   return {HeadAngles{a1, b1}, HeadAngles{WrapPi(kPi - a1), b1 + kPi}};
 }
 
+bool HeadAxisAlongY(const Eigen::Vector3d& axis_m) {
+  return std::hypot(axis_m.x(), axis_m.z()) < kVerticalTolerance;
+}
+
 bool ChooseHeadAngles(const Eigen::Vector3d& axis_m,
                       const HeadAngles* previous,
                       const HeadLimits& limits,
                       HeadAngles* chosen) {
+  return ChooseHeadAnglesFrom(
+      HeadInverseBranches(axis_m, previous ? previous->b_rad : 0.0),
+      previous,
+      limits,
+      chosen);
+}
+
+bool ChooseHeadAnglesFrom(const std::array<HeadAngles, 2>& branches,
+                          const HeadAngles* previous,
+                          const HeadLimits& limits,
+                          HeadAngles* chosen) {
   const auto in_limits = [&](const HeadAngles& h) {
     return h.a_rad >= limits.a_min_rad && h.a_rad <= limits.a_max_rad &&
            h.b_rad >= limits.b_min_rad && h.b_rad <= limits.b_max_rad;
   };
   if (previous == nullptr) {
-    const HeadAngles first =
-        HeadInverseBranches(axis_m, 0.0)[0];  // B = atan2 in (-pi, pi]
+    const HeadAngles first = branches[0];  // B = atan2 in (-pi, pi]
     if (!in_limits(first)) return false;
     *chosen = first;
     return true;
   }
-  const std::array<HeadAngles, 2> branches =
-      HeadInverseBranches(axis_m, previous->b_rad);
   bool found = false;
   double best = std::numeric_limits<double>::infinity();
   for (const HeadAngles& branch : branches) {

@@ -74,6 +74,9 @@ HeadAxes HeadPivot(const Eigen::Vector3d& centre_m_mm,
 // `b_when_vertical_rad` is used (the previous point's B).
 std::array<HeadAngles, 2> HeadInverseBranches(const Eigen::Vector3d& axis_m,
                                               double b_when_vertical_rad);
+// True where HeadInverseBranches leaves B undetermined (the tool along Y):
+// only then do its branches depend on `b_when_vertical_rad`.
+bool HeadAxisAlongY(const Eigen::Vector3d& axis_m);
 
 struct HeadLimits {
   double a_min_rad = -1.7453292519943295;  // -100 deg
@@ -93,6 +96,14 @@ bool ChooseHeadAngles(const Eigen::Vector3d& axis_m,
                       const HeadAngles* previous,
                       const HeadLimits& limits,
                       HeadAngles* chosen);
+// The same choice from the axis's branches found already: `branches` =
+// HeadInverseBranches(axis_m, previous ? previous->b_rad : 0) (a caller that
+// meets the same axis again, as the depth levels of a station do, finds them
+// once where the axis is not along Y).
+bool ChooseHeadAnglesFrom(const std::array<HeadAngles, 2>& branches,
+                          const HeadAngles* previous,
+                          const HeadLimits& limits,
+                          HeadAngles* chosen);
 
 }  // namespace gearloop
 

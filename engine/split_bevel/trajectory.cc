@@ -1,6 +1,7 @@
 #include "engine/split_bevel/trajectory.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -517,47 +518,141 @@ void SetPointGeometry(const FlankSection& s,
   point->tool_axis = s.ruling;
 }
 
-// Widens `deviation` by the side deviation along the tool's side line from the
-// tip height up to the addendum.
+// The feet of one station's side lines, as offsets R_foot - R_j per pass and
+// height, at the two stations before: the next station's first guesses.
+struct FootTrack {
+  explicit FootTrack(size_t passes)
+      : previous(passes * kSplitBevelDeviationHeights),
+        before(passes * kSplitBevelDeviationHeights) {}
+  std::vector<double> previous, before;
+};
+
+// The pass geometry the side deviation needs.
+struct SideLine {
+  double tip_height_mm = 0.0;
+  double addendum_mm = 0.0;
+  double cos_alpha = 1.0;
+  double tool_radius_mm = 0.0;
+};
+
+// Widens `deviation` by the side deviation along the tool's side line of
+// `point` (station `station` of its pass) from the tip height up to the
+// addendum. The first guess of each foot point: from the second station on,
+// the foot's offset from the station carried over from the stations before
+// (linearly from the third on; it changes by some 1e-5 mm from one station to
+// the next at 2 000 stations, so one Newton step is enough), and the heights'
+// searches run side by side (NearestOfEach); at the first station, one after
+// the other from the parabola through the three previous feet of the side line
+// (the line through two at the third height). `previous` and `before` hold this
+// pass's offsets at the two stations before (kSplitBevelDeviationHeights each).
 void AddSideDeviation(const SplitBevelFlankSurface& flank,
-                      const FlankSection& s,
                       const SplitBevelPoint& point,
-                      double tip,
-                      double addendum_mm,
-                      double cos_alpha,
-                      double tool_radius_mm,
+                      const SideLine& line,
+                      size_t station,
+                      double* previous,
+                      double* before,
+                      FlankAnchors* anchors,
                       SplitBevelSideDeviation* deviation) {
-  // The foot point moves smoothly with the height: each Newton starts from the
-  // parabola through the three previous feet (the line through two at the
-  // third height), with the last exact section as its anchor.
-  FlankSection anchor = s;
-  double foot_previous = s.cone_distance_mm, foot_before = s.cone_distance_mm,
-         foot_third = 0.0;
-  for (int h = 0; h < kSplitBevelDeviationHeights; ++h) {
-    const double height =
-        tip + (addendum_mm - tip) * h / (kSplitBevelDeviationHeights - 1);
-    const Eigen::Vector3d x =
-        point.tool_centre_mm + ((height - tip) / cos_alpha) * point.tool_axis;
-    const double guess = h < 2 ? foot_previous
-                         : h == 2
-                             ? 2.0 * foot_previous - foot_before
-                             : 3.0 * (foot_previous - foot_before) + foot_third;
-    const SplitBevelFlankSurface::NearestPoint near =
-        flank.Nearest(x, guess, &anchor);
-    foot_third = foot_before;
-    foot_before = foot_previous;
-    foot_previous = near.cone_distance_mm;
-    const double gap = (x - near.point_mm).dot(near.normal) - tool_radius_mm;
+  constexpr int kHeights = kSplitBevelDeviationHeights;
+  const double r = point.cone_distance_mm;
+  const double tip = line.tip_height_mm;
+  Eigen::Vector3d x[kHeights];
+  double guess[kHeights];
+  for (int h = 0; h < kHeights; ++h) {
+    const double height = tip + (line.addendum_mm - tip) * h / (kHeights - 1);
+    x[h] = point.tool_centre_mm +
+           ((height - tip) / line.cos_alpha) * point.tool_axis;
+    guess[h] =
+        station >= 2 ? r + 2.0 * previous[h] - before[h] : r + previous[h];
+  }
+  SplitBevelFlankSurface::NearestPoint near[kHeights];
+  if (station >= 1) {
+    flank.NearestOfEach(x, guess, kHeights, anchors, near);
+  } else {
+    double foot_previous = r, foot_before = r, foot_third = 0.0;
+    for (int h = 0; h < kHeights; ++h) {
+      const double first =
+          h < 2    ? foot_previous
+          : h == 2 ? 2.0 * foot_previous - foot_before
+                   : 3.0 * (foot_previous - foot_before) + foot_third;
+      near[h] = flank.Nearest(x[h], first, anchors);
+      foot_third = foot_before;
+      foot_before = foot_previous;
+      foot_previous = near[h].cone_distance_mm;
+    }
+  }
+  for (int h = 0; h < kHeights; ++h) {
+    before[h] = previous[h];
+    previous[h] = near[h].cone_distance_mm - r;
+    const double gap =
+        (x[h] - near[h].point_mm).dot(near[h].normal) - line.tool_radius_mm;
     deviation->min_mm = std::min(deviation->min_mm, gap);
     deviation->max_mm = std::max(deviation->max_mm, gap);
   }
 }
 
+// The side deviations of `count` passes of one flank that share the stations
+// `sections` (the levels of a flank with the same number of stations), station
+// by station: the exact sections the foot points expand from (FlankAnchors)
+// serve every level of a station.
+void AddSideDeviations(const SplitBevelFlankSurface& flank,
+                       const SplitBevelGearData& gear,
+                       const SplitBevelTool& tool,
+                       const std::vector<FlankSection>& sections,
+                       SplitBevelPass* passes,
+                       size_t count) {
+  SideLine line;
+  line.addendum_mm = gear.addendum_mm;
+  line.cos_alpha = std::cos(gear.pressure_angle_rad);
+  line.tool_radius_mm = tool.radius_mm;
+  if (count == 0) return;
+  FootTrack feet(count);
+  FlankAnchors anchors(flank);
+  for (size_t j = 0; j < sections.size(); ++j) {
+    anchors.Centre(sections[j]);
+    for (size_t p = 0; p < count; ++p) {
+      SplitBevelPass& pass = passes[p];
+      line.tip_height_mm = pass.tip_height_mm;
+      AddSideDeviation(flank,
+                       pass.points[j],
+                       line,
+                       j,
+                       &feet.previous[p * kSplitBevelDeviationHeights],
+                       &feet.before[p * kSplitBevelDeviationHeights],
+                       &anchors,
+                       &pass.side_deviation_mm);
+    }
+  }
+}
+
+// The head's two branches for a station's tool axis (machine frame), found at
+// the station's first level and kept for the others (the same section gives
+// the same axis, bit for bit), unless the axis lies along Y where they depend
+// on the previous point's B.
+struct AxisBranches {
+  bool found = false;
+  bool along_y = false;
+  std::array<HeadAngles, 2> angles;
+};
+
+std::array<HeadAngles, 2> StationBranches(const Eigen::Vector3d& axis_m,
+                                          const HeadAngles* previous,
+                                          AxisBranches* kept) {
+  if (!kept->found) {
+    kept->found = true;
+    kept->along_y = HeadAxisAlongY(axis_m);
+    if (!kept->along_y) kept->angles = HeadInverseBranches(axis_m, 0.0);
+  }
+  if (kept->along_y)
+    return HeadInverseBranches(axis_m, previous ? previous->b_rad : 0.0);
+  return kept->angles;
+}
+
 // One pass of `flank_side` at depth `level` and tip height `tip` over the
-// stations; false with *failed set when a point is out of the head's limits.
+// stations, its side deviation still empty (AddSideDeviations); false with
+// *failed set when a point is out of the head's limits.
 bool ComputePass(const SplitBevelRequest& request,
                  const SplitBevelGearData& gear,
-                 const SplitBevelFlankSurface& flank,
                  SplitBevelFlank flank_side,
                  int level,
                  double tip,
@@ -565,13 +660,13 @@ bool ComputePass(const SplitBevelRequest& request,
                  const std::vector<double>& arcs,
                  const Eigen::Matrix4d& blank_to_machine,
                  HeadTrack* track,
+                 std::vector<AxisBranches>* branches,
                  SplitBevelPass* pass,
                  SplitBevelResult* failed) {
   const Eigen::Matrix3d rotation = blank_to_machine.block<3, 3>(0, 0);
   const Eigen::Vector3d apex = request.setup.apex_mm;
   const SplitBevelTool& tool = request.tool;
   const double offset = tool.radius_mm + tool.stock_mm;
-  const double cos_alpha = std::cos(gear.pressure_angle_rad);
   const double pivot = request.machine.pivot_length_mm;
   const int n = static_cast<int>(sections.size());
   pass->slot = request.cut.slot_index;
@@ -588,11 +683,14 @@ bool ComputePass(const SplitBevelRequest& request,
 
     const Eigen::Vector3d axis_m = rotation * point.tool_axis;
     const Eigen::Vector3d centre_m = apex + rotation * point.tool_centre_mm;
+    const HeadAngles* previous =
+        track->have_previous ? &track->previous : nullptr;
     HeadAngles angles;
-    if (!ChooseHeadAngles(axis_m,
-                          track->have_previous ? &track->previous : nullptr,
-                          request.machine.limits,
-                          &angles)) {
+    if (!ChooseHeadAnglesFrom(
+            StationBranches(axis_m, previous, &(*branches)[j]),
+            previous,
+            request.machine.limits,
+            &angles)) {
       *failed = HeadLimitFailure(
           request, gear, s.cone_distance_mm, flank_side, level);
       return false;
@@ -604,14 +702,6 @@ bool ComputePass(const SplitBevelRequest& request,
     const Eigen::Vector3d pivot_m = centre_m + pivot * axis_m;
     point.axes = HeadAxes{
         pivot_m.x(), pivot_m.y(), pivot_m.z(), angles.a_rad, angles.b_rad};
-    AddSideDeviation(flank,
-                     s,
-                     point,
-                     tip,
-                     gear.addendum_mm,
-                     cos_alpha,
-                     tool.radius_mm,
-                     &pass->side_deviation_mm);
   }
   return true;
 }
@@ -633,11 +723,24 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
   const double depth = gear.addendum_mm + gear.dedendum_mm;
 
   HeadTrack track;
+  result.passes.reserve(cut.flanks.size() * cut.depth_levels);
   for (const SplitBevelFlank flank_side : cut.flanks) {
     const SplitBevelFlankSurface flank(gear, cut.slot_index, flank_side);
-    // Sections at the stations, shared by the levels that use the same n.
+    // Sections at the stations, shared by the levels that use the same n: the
+    // passes from `group` on, whose side deviations are found together.
     std::vector<FlankSection> sections;
     std::vector<double> arcs;
+    std::vector<AxisBranches> branches;
+    size_t group = result.passes.size();
+    const auto side_deviations = [&] {
+      AddSideDeviations(flank,
+                        gear,
+                        tool,
+                        sections,
+                        result.passes.data() + group,
+                        result.passes.size() - group);
+      group = result.passes.size();
+    };
     for (int level = 0; level < cut.depth_levels; ++level) {
       const double tip =
           gear.addendum_mm - (level + 1) * depth / cut.depth_levels;
@@ -648,14 +751,16 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
           return ChordToleranceFailure(
               gear, *cut.chord_tolerance_mm, flank_side, level);
       }
-      if (static_cast<int>(sections.size()) != n)
+      if (static_cast<int>(sections.size()) != n) {
+        side_deviations();
         StationSections(flank, gear, cut.from, n, total_arc, &sections, &arcs);
+        branches.assign(n, AxisBranches());
+      }
 
       SplitBevelPass pass;
       SplitBevelResult failed;
       if (!ComputePass(request,
                        gear,
-                       flank,
                        flank_side,
                        level,
                        tip,
@@ -663,11 +768,13 @@ SplitBevelResult ComputeSplitTrajectory(const SplitBevelRequest& request) {
                        arcs,
                        result.blank_to_machine,
                        &track,
+                       &branches,
                        &pass,
                        &failed))
         return failed;
       result.passes.push_back(std::move(pass));
     }
+    side_deviations();
   }
   result.ok = true;
   if (request.nc_program)

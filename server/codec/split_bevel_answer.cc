@@ -8,6 +8,8 @@
 #include <cstring>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "engine/core/units.h"
 #include "server/codec/decimal17.h"
@@ -39,21 +41,120 @@ char* PutVector(char* p, const Eigen::Vector3d& v) {
   return p;
 }
 
-// {"A_deg",...,"tool_centre_mm"}: SPLIT_BEVEL.md §8's point.
-char* PutPoint(char* p, const SplitBevelPoint& point) {
-  p = WriteDecimal17(RadToDeg(point.axes.a_rad), Put(p, "{\"A_deg\":"));
-  p = WriteDecimal17(RadToDeg(point.axes.b_rad), Put(p, ",\"B_deg\":"));
+// The parts of a point's text that the depth levels of a flank share (the
+// same station gives the same arc length, cone distance, spiral angle, pitch
+// point and tool axis, and A and B follow the tool axis), as offsets into the
+// text: the same point of the next pass copies them when its numbers are the
+// same bits instead of writing them again (about half of the answer's
+// numbers). From, to: {"A_deg":..,"B_deg":..;
+// ,"arc_mm":..,"cone_distance_mm":..;
+// ,"pitch_point_mm":[..],"spiral_angle_deg":..,"tool_axis":[..].
+struct SharedText {
+  size_t angles_from = 0, angles_to = 0;
+  size_t cone_from = 0, cone_to = 0;
+  size_t line_from = 0, line_to = 0;
+};
+
+// The numbers behind each part of SharedText.
+bool SameBits(const double* a, const double* b, size_t n) {
+  return std::memcmp(a, b, n * sizeof(double)) == 0;
+}
+bool SameAngles(const SplitBevelPoint& a, const SplitBevelPoint& b) {
+  return SameBits(&a.axes.a_rad, &b.axes.a_rad, 1) &&
+         SameBits(&a.axes.b_rad, &b.axes.b_rad, 1);
+}
+bool SameCone(const SplitBevelPoint& a, const SplitBevelPoint& b) {
+  return SameBits(&a.arc_mm, &b.arc_mm, 1) &&
+         SameBits(&a.cone_distance_mm, &b.cone_distance_mm, 1);
+}
+bool SameLine(const SplitBevelPoint& a, const SplitBevelPoint& b) {
+  return SameBits(a.pitch_point_mm.data(), b.pitch_point_mm.data(), 3) &&
+         SameBits(&a.spiral_angle_rad, &b.spiral_angle_rad, 1) &&
+         SameBits(a.tool_axis.data(), b.tool_axis.data(), 3);
+}
+
+// The same point of the pass before and where its shared parts are in the
+// text, if there is one.
+struct PointBefore {
+  const SplitBevelPoint* point = nullptr;
+  const SharedText* text = nullptr;
+};
+
+// Copies text [from, to) of `base` to p when `same`, else writes it with
+// `write`; records where it now is.
+template <typename Write>
+char* PutShared(char* base,
+                char* p,
+                bool same,
+                size_t from,
+                size_t to,
+                size_t* now_from,
+                size_t* now_to,
+                Write write) {
+  *now_from = static_cast<size_t>(p - base);
+  if (same) {
+    std::memcpy(p, base + from, to - from);
+    p += to - from;
+  } else {
+    p = write(p);
+  }
+  *now_to = static_cast<size_t>(p - base);
+  return p;
+}
+
+// {"A_deg",...,"tool_centre_mm"}: SPLIT_BEVEL.md §8's point, at p in the text
+// that starts at `base`; `shared` gets where its shared parts are.
+char* PutPoint(char* base,
+               char* p,
+               const SplitBevelPoint& point,
+               const PointBefore& before,
+               SharedText* shared) {
+  const SplitBevelPoint* b = before.point;
+  const SharedText* t = before.text;
+  p = PutShared(base,
+                p,
+                b != nullptr && SameAngles(point, *b),
+                t ? t->angles_from : 0,
+                t ? t->angles_to : 0,
+                &shared->angles_from,
+                &shared->angles_to,
+                [&](char* q) {
+                  q = WriteDecimal17(RadToDeg(point.axes.a_rad),
+                                     Put(q, "{\"A_deg\":"));
+                  return WriteDecimal17(RadToDeg(point.axes.b_rad),
+                                        Put(q, ",\"B_deg\":"));
+                });
   p = WriteDecimal17(point.axes.x_mm, Put(p, ",\"X_mm\":"));
   p = WriteDecimal17(point.axes.y_mm, Put(p, ",\"Y_mm\":"));
   p = WriteDecimal17(point.axes.z_mm, Put(p, ",\"Z_mm\":"));
-  p = WriteDecimal17(point.arc_mm, Put(p, ",\"arc_mm\":"));
-  p = WriteDecimal17(point.cone_distance_mm, Put(p, ",\"cone_distance_mm\":"));
+  p = PutShared(base,
+                p,
+                b != nullptr && SameCone(point, *b),
+                t ? t->cone_from : 0,
+                t ? t->cone_to : 0,
+                &shared->cone_from,
+                &shared->cone_to,
+                [&](char* q) {
+                  q = WriteDecimal17(point.arc_mm, Put(q, ",\"arc_mm\":"));
+                  return WriteDecimal17(point.cone_distance_mm,
+                                        Put(q, ",\"cone_distance_mm\":"));
+                });
   p = PutVector(Put(p, ",\"flank_normal\":"), point.flank_normal);
   p = PutVector(Put(p, ",\"flank_point_mm\":"), point.flank_point_mm);
-  p = PutVector(Put(p, ",\"pitch_point_mm\":"), point.pitch_point_mm);
-  p = WriteDecimal17(RadToDeg(point.spiral_angle_rad),
-                     Put(p, ",\"spiral_angle_deg\":"));
-  p = PutVector(Put(p, ",\"tool_axis\":"), point.tool_axis);
+  p = PutShared(base,
+                p,
+                b != nullptr && SameLine(point, *b),
+                t ? t->line_from : 0,
+                t ? t->line_to : 0,
+                &shared->line_from,
+                &shared->line_to,
+                [&](char* q) {
+                  q = PutVector(Put(q, ",\"pitch_point_mm\":"),
+                                point.pitch_point_mm);
+                  q = WriteDecimal17(RadToDeg(point.spiral_angle_rad),
+                                     Put(q, ",\"spiral_angle_deg\":"));
+                  return PutVector(Put(q, ",\"tool_axis\":"), point.tool_axis);
+                });
   p = PutVector(Put(p, ",\"tool_centre_mm\":"), point.tool_centre_mm);
   *p++ = '}';
   return p;
@@ -96,8 +197,11 @@ class TextWriter {
     Raw(std::to_string(value));
     Raw(",");
   }
-  void Point(const SplitBevelPoint& point) {
-    Advance(PutPoint(Room(kPointMaxChars), point));
+  void Point(const SplitBevelPoint& point,
+             const PointBefore& before,
+             SharedText* shared) {
+    char* p = Room(kPointMaxChars);
+    Advance(PutPoint(text_.data(), p, point, before, shared));
   }
   std::string Finish() {
     text_.resize(size_);
@@ -126,20 +230,42 @@ void WriteDerived(const SplitBevelGearData& d, TextWriter* w) {
   w->Raw("}");
 }
 
+// The passes' shared point texts (SharedText): of the pass before and of this
+// one.
+struct PassTexts {
+  const SplitBevelPass* before = nullptr;
+  std::vector<SharedText> before_text, text;
+};
+
 // {"flank","level","points"|"point_count","side_deviation_mm","slot",
-// "tip_height_mm"}.
-void WritePass(const SplitBevelPass& pass, bool with_points, TextWriter* w) {
+// "tip_height_mm"}. With the points, `texts` has the pass before (its points'
+// shared parts are copied where they are the same) and gets this one.
+void WritePass(const SplitBevelPass& pass,
+               bool with_points,
+               PassTexts* texts,
+               TextWriter* w) {
   w->Raw("{\"flank\":\"");
   w->Raw(SplitBevelFlankName(pass.flank));
   w->Raw("\",");
   w->Integer("level", pass.level);
   if (with_points) {
+    const SplitBevelPass* before = texts->before;
+    const bool aligned = before != nullptr && before->flank == pass.flank &&
+                         before->points.size() == pass.points.size();
+    texts->text.resize(pass.points.size());
     w->Raw("\"points\":[");
     for (size_t i = 0; i < pass.points.size(); ++i) {
       if (i > 0) w->Raw(",");
-      w->Point(pass.points[i]);
+      PointBefore point_before;
+      if (aligned) {
+        point_before.point = &before->points[i];
+        point_before.text = &texts->before_text[i];
+      }
+      w->Point(pass.points[i], point_before, &texts->text[i]);
     }
     w->Raw("],");
+    texts->before = &pass;
+    std::swap(texts->before_text, texts->text);
   } else {
     w->Integer("point_count", static_cast<long long>(pass.points.size()));
   }
@@ -202,8 +328,21 @@ char* PutEscaped(char* p, char c) {
   return p;
 }
 
+// The bytes nlohmann-json escapes: '"', '\\' and the control characters.
+struct EscapeTable {
+  bool escape[256] = {};
+};
+constexpr EscapeTable MakeEscapeTable() {
+  EscapeTable table;
+  for (int c = 0; c < 0x20; ++c) table.escape[c] = true;
+  table.escape[static_cast<unsigned char>('"')] = true;
+  table.escape[static_cast<unsigned char>('\\')] = true;
+  return table;
+}
+constexpr EscapeTable kEscapeTable = MakeEscapeTable();
+
 bool NeedsEscape(char c) {
-  return static_cast<unsigned char>(c) < 0x20 || c == '"' || c == '\\';
+  return kEscapeTable.escape[static_cast<unsigned char>(c)];
 }
 
 // A JSON string of `text` as nlohmann-json writes it (escapes '"', '\\' and
@@ -252,9 +391,10 @@ std::string SplitBevelResultJsonText(const SplitBevelResult& result,
   w.Raw("{\"derived\":");
   WriteDerived(result.derived, &w);
   w.Raw(",\"passes\":[");
+  PassTexts texts;
   for (size_t i = 0; i < result.passes.size(); ++i) {
     if (i > 0) w.Raw(",");
-    WritePass(result.passes[i], options.points, &w);
+    WritePass(result.passes[i], options.points, &texts, &w);
   }
   w.Raw("],\"setup\":");
   WriteSetup(result, &w);

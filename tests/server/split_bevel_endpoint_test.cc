@@ -777,5 +777,42 @@ TEST(SplitBevelResultJsonText, ParsesToTheValuesOfTheJsonTreeAnswer) {
   }
 }
 
+// The depth levels of a flank share each station's arc length, cone distance,
+// spiral angle, pitch point, tool axis and A, B: the text writes them for the
+// first level and copies them for the next when their numbers are the same
+// bits. A later pass whose shared numbers differ is written with its own.
+TEST(SplitBevelResultJsonText, SharedPartsOfAPointAreCopiedOnlyWhenTheSame) {
+  SplitBevelRequest request;
+  ApiError error;
+  ASSERT_TRUE(ParseSplitBevelRequest(WorkedExample(), &request, &error))
+      << error.message;
+  const SplitBevelResult result = ComputeSplitTrajectory(request);
+  ASSERT_TRUE(result.ok) << result.message;
+  ASSERT_GE(result.passes.size(), 3u);
+  ASSERT_EQ(result.passes[1].flank, result.passes[0].flank);
+  ASSERT_GE(result.passes[1].points.size(), 4u);
+  // The levels do share them (otherwise nothing below is tested).
+  const SplitBevelPoint& first = result.passes[0].points[2];
+  const SplitBevelPoint& second = result.passes[1].points[2];
+  EXPECT_EQ(first.pitch_point_mm, second.pitch_point_mm);
+  EXPECT_EQ(first.tool_axis, second.tool_axis);
+  EXPECT_EQ(first.axes.b_rad, second.axes.b_rad);
+  EXPECT_NE(first.tool_centre_mm, second.tool_centre_mm);
+  EXPECT_EQ(nlohmann::json::parse(SplitBevelResultJsonText(result)),
+            TreeAnswer(result));
+
+  SplitBevelResult edited = result;
+  std::vector<SplitBevelPoint>& points = edited.passes[1].points;
+  points[0].axes.b_rad += 2.0 * kPi;  // a turn on: the same axis
+  points[1].pitch_point_mm.y() =
+      std::nextafter(points[1].pitch_point_mm.y(), 1e300);
+  points[2].cone_distance_mm += 1e-9;
+  points[3].tool_axis.z() = std::nextafter(points[3].tool_axis.z(), -1e300);
+  // The pass after the edited one copies from the edited one.
+  edited.passes[2].points[1].pitch_point_mm = points[1].pitch_point_mm;
+  EXPECT_EQ(nlohmann::json::parse(SplitBevelResultJsonText(edited)),
+            TreeAnswer(edited));
+}
+
 }  // namespace
 }  // namespace gearloop
