@@ -22,26 +22,58 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// A linear machine (deviations = J (p - origin) exactly) on a 5 x 9 grid with a
-// seeded Jacobian: one polynomial block "P" of 3 coefficients and two scalar
-// blocks, contacts spread over the roll range [-0.2, 0.3]. Each column moves
-// the flank by about 1 um rms per unit of correction size.
-class LinearModel : public MachineModel {
+// The 5 x 9 grid of the test machines: parameters named p0, p1, ...; a flank
+// linear in the parameters with contacts spread over the roll range
+// [-0.2, 0.3].
+class GridModel : public MachineModel {
  public:
-  explicit LinearModel(unsigned seed) : jacobian_(kRows * kColumns, 5) {
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    const double scales[5] = {1e-3, 1e-3, 1e-3, 1e-5, 1e-3};
-    for (int i = 0; i < jacobian_.rows(); ++i) {
-      for (int j = 0; j < 5; ++j) jacobian_(i, j) = gauss(rng) / scales[j];
-    }
-  }
-  int NumParameters() const override { return 5; }
   int GridRows() const override { return kRows; }
   int GridColumns() const override { return kColumns; }
   std::string ParameterName(int j) const override {
     return "p" + std::to_string(j);
   }
+
+  static constexpr int kRows = 5;
+  static constexpr int kColumns = 9;
+  static constexpr int kPoints = kRows * kColumns;
+
+ protected:
+  // A seeded Gaussian Jacobian, column j divided by scales[j] (0: a zero
+  // column).
+  static Eigen::MatrixXd SeededJacobian(unsigned seed,
+                                        const std::vector<double>& scales) {
+    Eigen::MatrixXd jacobian(kPoints, static_cast<int>(scales.size()));
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int i = 0; i < kPoints; ++i) {
+      for (int j = 0; j < jacobian.cols(); ++j)
+        jacobian(i, j) = scales[j] > 0.0 ? gauss(rng) / scales[j] : 0.0;
+    }
+    return jacobian;
+  }
+  // deviations = J p, every point reached, contacts spread over the range.
+  static void LinearFlank(const Eigen::MatrixXd& jacobian,
+                          const Eigen::VectorXd& parameters,
+                          bool with_jacobian,
+                          ModelEvaluation* e) {
+    e->deviations_um = jacobian * parameters;
+    e->status.assign(kPoints, PointStatus::kOk);
+    e->contact_roll_rad.resize(kPoints);
+    for (int i = 0; i < kPoints; ++i)
+      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (kPoints - 1.0);
+    if (with_jacobian) e->jacobian_um = jacobian;
+  }
+};
+
+// A linear machine (deviations = J (p - origin) exactly) on a 5 x 9 grid with a
+// seeded Jacobian: one polynomial block "P" of 3 coefficients and two scalar
+// blocks, contacts spread over the roll range [-0.2, 0.3]. Each column moves
+// the flank by about 1 um rms per unit of correction size.
+class LinearModel : public GridModel {
+ public:
+  explicit LinearModel(unsigned seed)
+      : jacobian_(SeededJacobian(seed, {1e-3, 1e-3, 1e-3, 1e-5, 1e-3})) {}
+  int NumParameters() const override { return 5; }
   std::vector<ParameterBlock> ParameterBlocks() const override {
     return {{"P", "mm", 0, 3, true, 1e-3},
             {"s1", "rad", 3, 1, false, 1e-5},
@@ -50,17 +82,8 @@ class LinearModel : public MachineModel {
   void Evaluate(const Eigen::VectorXd& parameters,
                 bool with_jacobian,
                 ModelEvaluation* e) const override {
-    const int n = kRows * kColumns;
-    e->deviations_um = jacobian_ * parameters;
-    e->status.assign(n, PointStatus::kOk);
-    e->contact_roll_rad.resize(n);
-    for (int i = 0; i < n; ++i)
-      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (n - 1.0);
-    if (with_jacobian) e->jacobian_um = jacobian_;
+    LinearFlank(jacobian_, parameters, with_jacobian, e);
   }
-
-  static constexpr int kRows = 5;
-  static constexpr int kColumns = 9;
 
  private:
   Eigen::MatrixXd jacobian_;
@@ -525,12 +548,14 @@ namespace {
 
 // The problem of a part whose error the linear model removes exactly with
 // `best` (e = -J best).
-CorrectionProblem SafeStepProblem(const LinearModel& model,
-                                  const Eigen::VectorXd& best) {
+CorrectionProblem SafeStepProblem(
+    const MachineModel& model,
+    const Eigen::VectorXd& best,
+    const CorrectionOptions& options = CorrectionOptions()) {
   const int n = model.NumPoints();
   CorrectionInput input;
   input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.current_parameters = Eigen::VectorXd::Zero(model.NumParameters());
   ModelEvaluation eval;
   model.Evaluate(best, false, &eval);
   input.measured_um = -eval.deviations_um;
@@ -538,8 +563,8 @@ CorrectionProblem SafeStepProblem(const LinearModel& model,
   CorrectionProblem problem;
   CorrectionSummary summary;
   std::string error;
-  EXPECT_TRUE(PrepareCorrectionProblem(
-      CorrectionOptions(), input, &problem, &summary, &error))
+  EXPECT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
       << error;
   return problem;
 }
@@ -701,36 +726,20 @@ TEST(ChooseSafeStep, RefusesAGainThatRestsOnAFewPoints) {
 // whose last grid point's contact rolls 0.7 rad further per 1e-3 of s: a
 // step can carry a contact out of the roll range [-0.2, 0.3] its motion
 // bound was held over.
-class RollingContactModel : public MachineModel {
+class RollingContactModel : public GridModel {
  public:
-  RollingContactModel() : jacobian_(kPoints, kParameters) {
-    std::mt19937_64 rng(18);
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    for (int i = 0; i < kPoints; ++i)
-      for (int j = 0; j < kParameters; ++j) jacobian_(i, j) = 1e3 * gauss(rng);
-  }
-  int NumParameters() const override { return kParameters; }
-  int GridRows() const override { return 5; }
-  int GridColumns() const override { return 9; }
-  std::string ParameterName(int j) const override {
-    return "p" + std::to_string(j);
-  }
+  RollingContactModel()
+      : jacobian_(SeededJacobian(18, std::vector<double>(8, 1e-3))) {}
+  int NumParameters() const override { return 8; }
   std::vector<ParameterBlock> ParameterBlocks() const override {
     return {{"P", "mm", 0, 7, true, 1e-3}, {"s", "mm", 7, 1, false, 1e-3}};
   }
   void Evaluate(const Eigen::VectorXd& parameters,
                 bool with_jacobian,
                 ModelEvaluation* e) const override {
-    e->deviations_um = jacobian_ * parameters;
-    e->status.assign(kPoints, PointStatus::kOk);
-    e->contact_roll_rad.resize(kPoints);
-    for (int i = 0; i < kPoints; ++i)
-      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (kPoints - 1.0);
+    LinearFlank(jacobian_, parameters, with_jacobian, e);
     e->contact_roll_rad.back() += 700.0 * parameters(7);
-    if (with_jacobian) e->jacobian_um = jacobian_;
   }
-  static constexpr int kPoints = 45;
-  static constexpr int kParameters = 8;
 
  private:
   Eigen::MatrixXd jacobian_;
@@ -746,23 +755,10 @@ TEST(ChooseSafeStep, HoldsTheMotionBoundWhereTheStepMovesTheContacts) {
   CorrectionOptions options;
   options.default_max_order = 6;
   for (const bool rolls : {true, false}) {
-    Eigen::VectorXd step =
-        Eigen::VectorXd::Zero(RollingContactModel::kParameters);
+    Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
     step(5) = 1.0;
     if (rolls) step(7) = 1e-3;
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(step.size());
-    ModelEvaluation eval;
-    model.Evaluate(step, false, &eval);
-    input.measured_um = -eval.deviations_um;
-    input.target_um = Eigen::VectorXd::Zero(RollingContactModel::kPoints);
-    CorrectionProblem problem;
-    CorrectionSummary summary;
-    std::string error;
-    ASSERT_TRUE(
-        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-        << error;
+    const CorrectionProblem problem = SafeStepProblem(model, step, options);
     ASSERT_NEAR(problem.roll_max_rad, 0.3, 1e-12);
     SafeStepOutcome outcome;
     const Eigen::VectorXd kept =
@@ -782,21 +778,9 @@ TEST(AcceptMachineState, MayLoseOnlyPointsTheMeasurementLacks) {
   Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
   state(4) = 1e-3;
   for (const bool measured : {true, false}) {
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    ModelEvaluation eval;
-    model.Evaluate(state, false, &eval);
-    input.measured_um = eval.deviations_um;
-    input.measured_um(0) = measured ? 1.0 : kNaN;
-    input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
-    CorrectionProblem problem;
-    CorrectionSummary summary;
-    std::string error;
-    ASSERT_TRUE(PrepareCorrectionProblem(
-        CorrectionOptions(), input, &problem, &summary, &error))
-        << error;
+    CorrectionProblem problem = SafeStepProblem(model, -state);
     ASSERT_EQ(problem.evaluation.status[0], PointStatus::kOk);
+    if (!measured) problem.error_um(0) = kNaN;
     CorrectionResult fit;
     fit.summary.status = CorrectionStatus::kConverged;
     fit.delta = state;
@@ -810,40 +794,25 @@ TEST(AcceptMachineState, MayLoseOnlyPointsTheMeasurementLacks) {
 // (1 + p0): d = (1 + p0) J p with J p0's column zero, so a change that leaves
 // p0 alone makes (1 + p0) J delta, and the models at two settings of p0
 // disagree on every step by the ratio of their (1 + p0).
-class ScaledAxisModel : public MachineModel {
+class ScaledAxisModel : public GridModel {
  public:
-  ScaledAxisModel() : jacobian_(kPoints, kCoefficients) {
-    std::mt19937_64 rng(17);
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    jacobian_.setZero();
-    for (int i = 0; i < kPoints; ++i)
-      for (int j = 1; j < kCoefficients; ++j)
-        jacobian_(i, j) = 1e3 * gauss(rng);
-  }
-  int NumParameters() const override { return kCoefficients; }
-  int GridRows() const override { return 5; }
-  int GridColumns() const override { return 9; }
-  std::string ParameterName(int j) const override {
-    return "P" + std::to_string(j);
-  }
+  ScaledAxisModel()
+      : jacobian_(
+            SeededJacobian(17, {0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3})) {}
+  int NumParameters() const override { return 7; }
   std::vector<ParameterBlock> ParameterBlocks() const override {
-    return {{"P", "mm", 0, kCoefficients, true, 1e-3}};
+    return {{"P", "mm", 0, 7, true, 1e-3}};
   }
   void Evaluate(const Eigen::VectorXd& parameters,
                 bool with_jacobian,
                 ModelEvaluation* e) const override {
-    e->deviations_um = (1.0 + parameters(0)) * (jacobian_ * parameters);
-    e->status.assign(kPoints, PointStatus::kOk);
-    e->contact_roll_rad.resize(kPoints);
-    for (int i = 0; i < kPoints; ++i)
-      e->contact_roll_rad[i] = -0.2 + 0.5 * i / (kPoints - 1.0);
+    LinearFlank(jacobian_, parameters, with_jacobian, e);
+    e->deviations_um *= 1.0 + parameters(0);
     if (with_jacobian) {
-      e->jacobian_um = (1.0 + parameters(0)) * jacobian_;
+      e->jacobian_um *= 1.0 + parameters(0);
       e->jacobian_um.col(0) = jacobian_ * parameters;
     }
   }
-  static constexpr int kPoints = 45;
-  static constexpr int kCoefficients = 7;
 
  private:
   Eigen::MatrixXd jacobian_;
@@ -856,28 +825,17 @@ class ScaledAxisModel : public MachineModel {
 // the commanded settings, and no fraction of it does.
 TEST(ChooseSafeStep, AsksTheCommandedSettingsOnlyOfOrdersAboveCubic) {
   const ScaledAxisModel model;
-  Eigen::VectorXd state = Eigen::VectorXd::Zero(ScaledAxisModel::kCoefficients);
+  CorrectionOptions options;
+  options.default_max_order = 6;
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(model.NumParameters());
   state(0) = -3.0;
   for (const bool order_five : {false, true}) {
-    Eigen::VectorXd step =
-        Eigen::VectorXd::Zero(ScaledAxisModel::kCoefficients);
+    Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
     step(1) = 1e-3;
     step(3) = -2e-3;
     if (order_five) step(5) = 1e-3;
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(step.size());
-    input.target_um = Eigen::VectorXd::Zero(ScaledAxisModel::kPoints);
-    input.measured_um = Eigen::VectorXd::Zero(ScaledAxisModel::kPoints);
-    CorrectionOptions options;
-    options.default_max_order = 6;
-    CorrectionProblem problem;
-    CorrectionSummary summary;
-    std::string error;
-    ASSERT_TRUE(
-        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-        << error;
-    CorrectionProblem at_state = RelinearisedAt(problem, state);
+    CorrectionProblem at_state =
+        RelinearisedAt(SafeStepProblem(model, step, options), state);
     // The part the state's step removes exactly: e = -(-2 J step).
     ModelEvaluation after;
     model.Evaluate(state + step, false, &after);
