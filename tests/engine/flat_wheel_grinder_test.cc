@@ -407,16 +407,21 @@ TEST(FlatWheelGrinder, MirroredAxisMotionsGiveTheSameGrid) {
   }
 }
 
-TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
-  // A wide spur gear on a small fixed wheel: the rim rises toward the face ends
-  // by about s^2 / (2 R_w), so the root corners are lost, the middle column is
-  // not.
+// A wide spur gear on a small fixed wheel: the rim rises toward the face ends
+// by about s^2 / (2 R_w), so the root corners are lost, the middle column is
+// not.
+GrindingSetup WideGearOnASmallWheel() {
   GrindingSetup setup = SpurSetup();
   setup.gear.face_width_mm = 160.0;
   setup.wheel.radius_mm = 60.0;
   setup.grid.profile_begin = 0.0;
   setup.grid.lead_begin = -0.5;
   setup.grid.lead_end = 0.5;
+  return setup;
+}
+
+TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
+  const GrindingSetup setup = WideGearOnASmallWheel();
   ValidationIssue issue;
   ASSERT_TRUE(ValidateSetup(setup, &issue)) << issue.message;
   const FlatWheelGrinder grinder(setup);
@@ -442,12 +447,7 @@ TEST(FlatWheelGrinder, PointsBeyondTheRimAreNotReachedNeverNumbers) {
 // nearer of the rim (u_w = 0) and the wheel centre (u_w = R), from the same
 // contact SolveContact finds; negative exactly where the rim does not reach.
 TEST(FlatWheelGrinder, ContactMarginIsTheDistanceInsideTheWheel) {
-  GrindingSetup setup = SpurSetup();
-  setup.gear.face_width_mm = 160.0;
-  setup.wheel.radius_mm = 60.0;
-  setup.grid.profile_begin = 0.0;
-  setup.grid.lead_begin = -0.5;
-  setup.grid.lead_end = 0.5;
+  const GrindingSetup setup = WideGearOnASmallWheel();
   ValidationIssue issue;
   ASSERT_TRUE(ValidateSetup(setup, &issue)) << issue.message;
   const FlatWheelGrinder grinder(setup);
