@@ -312,6 +312,17 @@ void ReportProblem(const CorrectionProblem& problem,
   summary->num_points_used = static_cast<int>(problem.used.size());
 }
 
+bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta) {
+  constexpr int kHighestDefaultOrder = 3;
+  for (const ParameterBlock& block : problem.blocks) {
+    if (!block.is_polynomial) continue;
+    for (int k = kHighestDefaultOrder + 1; k < block.num_coefficients; ++k)
+      if (delta(block.first_index + k) != 0.0) return true;
+  }
+  return false;
+}
+
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx) {
   if (idx.empty()) return 0.0;
   double s = 0.0;

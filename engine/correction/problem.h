@@ -169,6 +169,12 @@ void ReportProblem(const CorrectionProblem& problem,
 // Root mean square and largest magnitude of r over the indices idx (0 when
 // empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
+
+// Whether `delta` moves any axis polynomial coefficient of order 4-6 (the
+// orders the default freedom leaves fixed; the safe step asks more of such
+// steps, docs/correction-safety.md).
+bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
 }  // namespace correction_internal

@@ -30,19 +30,6 @@ constexpr int kMotionSamples = 41;
 // best + noise 192 -> 195 and 190 -> 194 of 200.
 constexpr double kModelAgreement = 1.0;
 
-// Whether `delta` moves any axis polynomial coefficient of order 4-6 (the
-// orders the default freedom leaves fixed).
-bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
-                          const Eigen::VectorXd& delta) {
-  constexpr int kHighestDefaultOrder = 3;
-  for (const ParameterBlock& block : problem.blocks) {
-    if (!block.is_polynomial) continue;
-    for (int k = kHighestDefaultOrder + 1; k < block.num_coefficients; ++k)
-      if (delta(block.first_index + k) != 0.0) return true;
-  }
-  return false;
-}
-
 // A used point is nearing the edge of the wheel when the step leaves less
 // than this share of its contact margin (ModelEvaluation::contact_margin_mm)
 // at the estimated state. Such a point, lost at the commanded end as well, is
