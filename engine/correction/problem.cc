@@ -270,19 +270,16 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   return true;
 }
 
-Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem,
-                                   int samples) {
+Eigen::MatrixXd MotionRowsAt(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const std::vector<double>& rolls_rad) {
   std::vector<Eigen::RowVectorXd> rows;
   for (const ParameterBlock& block : problem.blocks) {
     const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
                          : block.unit == "rad" ? options.max_axis_motion_rad
                                                : 0.0;
     if (!block.is_polynomial || !(bound > 0.0)) continue;
-    for (int s = 0; s < samples; ++s) {
-      const double phi =
-          problem.roll_min_rad +
-          (problem.roll_max_rad - problem.roll_min_rad) * s / (samples - 1.0);
+    for (const double phi : rolls_rad) {
       Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(problem.num_parameters);
       double power = 1.0;
       for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
@@ -293,6 +290,18 @@ Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
   Eigen::MatrixXd m(static_cast<int>(rows.size()), problem.num_parameters);
   for (size_t r = 0; r < rows.size(); ++r) m.row(static_cast<int>(r)) = rows[r];
   return m;
+}
+
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem,
+                                   int samples) {
+  std::vector<double> rolls_rad(samples);
+  for (int s = 0; s < samples; ++s) {
+    rolls_rad[s] =
+        problem.roll_min_rad +
+        (problem.roll_max_rad - problem.roll_min_rad) * s / (samples - 1.0);
+  }
+  return MotionRowsAt(options, problem, rolls_rad);
 }
 
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,

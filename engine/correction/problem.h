@@ -137,6 +137,14 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
                               CorrectionSummary* summary,
                               std::string* error);
 
+// The axis motion dC(phi) / bound of every polynomial block with a bound
+// (options.max_axis_motion_mm / _rad) at each of `rolls_rad`, per unit of the
+// parameter change (blocks x rolls rows, num_parameters columns; no rows
+// without a bound).
+Eigen::MatrixXd MotionRowsAt(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const std::vector<double>& rolls_rad);
+
 // The axis motion dC(phi_s) / bound of every polynomial block with a bound
 // (options.max_axis_motion_mm / _rad) at `samples` roll angles evenly over
 // `problem`'s roll range, per unit of the parameter change (rows x

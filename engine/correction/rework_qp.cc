@@ -196,15 +196,14 @@ namespace {
 
 constexpr int kBoundedHalvings = 4;
 // Walking out from no change (the linear answer lost a point) the walk may
-// halve further at every pass:
-// a step whose linearisation is poor far out (the wheel parabola's vertex and
-// coefficient enter as a product) can still fall near the start. Seed: the
-// guide's 37-tooth gear with a 10 um tip relief and the parabola freed, where
-// 1/16 of the QP step was still worse and the answer a zero correction at
-// 6.6 um (1/256: 0.72 um predicted, best reachable 0.77 um). Not for a
-// step in orders 4-6: there a far-out poor linearisation is what the safe
-// step guards against (robustness benchmark, every order open: 7 -> 8 and
-// 7 -> 10 rounds worse on seeds 2026 and 7 with it).
+// halve further at every pass: a step whose linearisation is poor far out
+// (the wheel parabola's vertex and coefficient enter as a product) can still
+// fall near the start. Case: the guide's 37-tooth gear with a 10 um tip relief
+// and the parabola freed, where 1/16 of the QP step was still worse and the
+// answer a zero correction at 6.6 um (1/256: 0.72 um predicted, best reachable
+// 0.77 um). Not for a step in orders 4-6: there a far-out poor linearisation is
+// what the safe step guards against (robustness benchmark, every order open: 7
+// -> 8 and 7 -> 10 rounds worse on seeds 2026 and 7 with it).
 constexpr int kHalvingsFromNoChange = 8;
 constexpr double kBoundedStopRelative = 1e-4;
 
@@ -239,9 +238,9 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
   // deviations with and without it), for its cost and the first pass.
   ModelEvaluation at;
   double cost = ExactBoundedCost(problem, subspace, *z, true, &at);
-  const bool from_no_change = !std::isfinite(cost) || z->isZero(0.0);
-  const bool linear_moves = !z->isZero(0.0);
-  if (!std::isfinite(cost)) {
+  const bool linear_loses_a_point = !std::isfinite(cost);
+  const bool from_no_change = linear_loses_a_point || z->isZero(0.0);
+  if (linear_loses_a_point) {
     // The linear answer loses a point: walk out from no change instead.
     z->setZero();
     cost = ExactBoundedCost(problem, subspace, *z, true, &at);
@@ -299,7 +298,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
   }
   if (!settled && pass == options.max_num_iterations && not_converged->empty())
     *not_converged = "the exact-model refinement reached max_num_iterations";
-  if (linear_moves && z->isZero(0.0) && not_converged->empty()) {
+  if (linear_loses_a_point && z->isZero(0.0) && not_converged->empty()) {
     *not_converged =
         "the linear answer loses grid points on the exact model and no "
         "fraction of a step toward it (down to 1/" +

@@ -88,31 +88,24 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
                                       const Eigen::VectorXd& delta,
                                       double lo,
                                       double hi) {
-  std::vector<double> phis;
+  std::vector<double> rolls_rad;
   for (int s = 0; s < kOutsideSamples; ++s) {
     const double t = (s + 1.0) / kOutsideSamples;
     if (lo < problem.roll_min_rad)
-      phis.push_back(problem.roll_min_rad - t * (problem.roll_min_rad - lo));
+      rolls_rad.push_back(problem.roll_min_rad -
+                          t * (problem.roll_min_rad - lo));
     if (hi > problem.roll_max_rad)
-      phis.push_back(problem.roll_max_rad + t * (hi - problem.roll_max_rad));
+      rolls_rad.push_back(problem.roll_max_rad +
+                          t * (hi - problem.roll_max_rad));
   }
-  for (const ParameterBlock& block : problem.blocks) {
-    const double bound = block.unit == "mm"    ? options.max_axis_motion_mm
-                         : block.unit == "rad" ? options.max_axis_motion_rad
-                                               : 0.0;
-    if (!block.is_polynomial || !(bound > 0.0)) continue;
-    for (double phi : phis) {
-      double motion = 0.0, power = 1.0;
-      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
-        motion += delta(block.first_index + k) * power;
-      if (std::abs(motion) > (1.0 + kOutsideMotionTolerance) * bound)
-        return true;
-    }
-  }
-  return false;
+  if (rolls_rad.empty()) return false;
+  const Eigen::MatrixXd rows = MotionRowsAt(options, problem, rolls_rad);
+  return rows.rows() > 0 &&
+         (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
 }
 
-// Linearised at an estimated machine state: whether the exact change `delta`
+// Linearised at an estimated machine state (`high_orders`: `delta` moves
+// orders 4-6): whether the exact change `delta`
 // makes at the commanded parameters differs from `change` (the change at the
 // state, on the used points) by more than kModelAgreement times the rms of
 // `change`. The state is an estimate and the commanded point the other end of
@@ -125,6 +118,7 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
 // [*roll_lo, *roll_hi]. Why they disagree, or null.
 const char* ModelsDisagree(const CorrectionProblem& problem,
                            const Eigen::VectorXd& delta,
+                           bool high_orders,
                            const Eigen::VectorXd& change,
                            const std::vector<bool>& nearing,
                            double* roll_lo,
@@ -132,7 +126,6 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
   if (problem.commanded_parameters.size() != problem.parameters.size() ||
       problem.commanded_parameters == problem.parameters)
     return nullptr;
-  const bool high_orders = UsesOrdersAboveCubic(problem, delta);
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   JoinContactRolls(problem, after, roll_lo, roll_hi);
@@ -197,13 +190,15 @@ double ExactPredictionRms(const CorrectionOptions& options,
   }
   double roll_lo = problem.roll_min_rad, roll_hi = problem.roll_max_rad;
   JoinContactRolls(problem, eval, &roll_lo, &roll_hi);
+  const bool high_orders = UsesOrdersAboveCubic(problem, delta);
   *refusal = ModelsDisagree(problem,
                             delta,
+                            high_orders,
                             change,
                             PointsNearingTheEdge(problem, eval),
                             &roll_lo,
                             &roll_hi);
-  if (*refusal == nullptr && UsesOrdersAboveCubic(problem, delta) &&
+  if (*refusal == nullptr && high_orders &&
       MovesBeyondBoundOutsideRollRange(
           options, problem, delta, roll_lo, roll_hi)) {
     *refusal =
