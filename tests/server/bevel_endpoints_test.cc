@@ -17,8 +17,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
-using testing_util::RunningServer;
-using testing_util::TempPath;
+using testing_util::ServerFixture;
 
 struct Answer {
   int status = 0;
@@ -42,16 +41,8 @@ double GridRms(const nlohmann::json& grid) {
   return n ? std::sqrt(sum / n) : NAN;
 }
 
-class BevelEndpointsTest : public ::testing::Test {
+class BevelEndpointsTest : public ServerFixture {
  protected:
-  void SetUp() override {
-    ServerOptions options;
-    options.database_path = db_.path();
-    server_ = std::make_unique<RunningServer>(options);
-    ASSERT_GT(server_->port(), 0);
-    client_ = server_->Client();
-  }
-
   Answer Post(const std::string& path, const nlohmann::json& body) {
     auto result = client_->Post(path.c_str(), body.dump(), "application/json");
     Answer answer;
@@ -79,10 +70,6 @@ class BevelEndpointsTest : public ::testing::Test {
     motion["Z_mm"][0] = motion["Z_mm"][0].get<double>() + 0.005;
     return motion;
   }
-
-  TempPath db_;
-  std::unique_ptr<RunningServer> server_;
-  std::unique_ptr<httplib::Client> client_;
 };
 
 TEST_F(BevelEndpointsTest,

@@ -16,8 +16,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
-using testing_util::RunningServer;
-using testing_util::TempPath;
+using testing_util::ServerFixture;
 
 // Shares computed twice through the same engine agree to rounding.
 constexpr double kSameShareTolerance = 1e-9;
@@ -50,16 +49,8 @@ nlohmann::json ZeroGrid() {
   return zero;
 }
 
-class ReachRemedyTest : public ::testing::Test {
+class ReachRemedyTest : public ServerFixture {
  protected:
-  void SetUp() override {
-    ServerOptions options;
-    options.database_path = db_.path();
-    server_ = std::make_unique<RunningServer>(options);
-    ASSERT_GT(server_->port(), 0);
-    client_ = server_->Client();
-  }
-
   nlohmann::json Post(const std::string& path,
                       const nlohmann::json& body,
                       int expected_status) {
@@ -95,10 +86,6 @@ class ReachRemedyTest : public ::testing::Test {
     setup["target"] = {{"modifications", modifications}};
     return Post("/api/v1/targets/reach", setup, 200);
   }
-
-  TempPath db_;
-  std::unique_ptr<RunningServer> server_;
-  std::unique_ptr<httplib::Client> client_;
 };
 
 // (a) With every axis at order 1, a 10 um profile crowning is far from made;

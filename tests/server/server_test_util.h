@@ -4,6 +4,7 @@
 #ifndef GEARLOOP_TESTS_SERVER_SERVER_TEST_UTIL_H_
 #define GEARLOOP_TESTS_SERVER_SERVER_TEST_UTIL_H_
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -95,6 +96,23 @@ class RunningServer {
   std::unique_ptr<GearloopServer> server_;
   std::thread thread_;
   int port_ = -1;
+};
+
+// A test with its own running server on a fresh SQLite file and a client of
+// it (the endpoint tests' common set-up).
+class ServerFixture : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ServerOptions options;
+    options.database_path = db_.path();
+    server_ = std::make_unique<RunningServer>(options);
+    ASSERT_GT(server_->port(), 0);
+    client_ = server_->Client();
+  }
+
+  TempPath db_;
+  std::unique_ptr<RunningServer> server_;
+  std::unique_ptr<httplib::Client> client_;
 };
 
 inline nlohmann::json ParseBody(const httplib::Result& result) {

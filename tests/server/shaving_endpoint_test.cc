@@ -18,8 +18,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
-using testing_util::RunningServer;
-using testing_util::TempPath;
+using testing_util::ServerFixture;
 
 struct Answer {
   int status = 0;
@@ -41,16 +40,8 @@ nlohmann::json PublishedShavingRequest() {
     "wheel_check": {"h_s_mm": 2, "traverse_mm_per_rad": 0}})");
 }
 
-class ShavingEndpointTest : public ::testing::Test {
+class ShavingEndpointTest : public ServerFixture {
  protected:
-  void SetUp() override {
-    ServerOptions options;
-    options.database_path = db_.path();
-    server_ = std::make_unique<RunningServer>(options);
-    ASSERT_GT(server_->port(), 0);
-    client_ = server_->Client();
-  }
-
   Answer Post(const std::string& path, const nlohmann::json& body) {
     auto result = client_->Post(path.c_str(), body.dump(), "application/json");
     Answer answer;
@@ -80,10 +71,6 @@ class ShavingEndpointTest : public ::testing::Test {
           << "row " << row << " col " << c;
     }
   }
-
-  TempPath db_;
-  std::unique_ptr<RunningServer> server_;
-  std::unique_ptr<httplib::Client> client_;
 };
 
 const char* kPath = "/api/v1/shaving/cutter-target";

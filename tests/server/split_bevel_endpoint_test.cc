@@ -25,8 +25,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
-using testing_util::RunningServer;
-using testing_util::TempPath;
+using testing_util::ServerFixture;
 
 constexpr const char* kPath = "/api/v1/bevel/split-trajectory";
 
@@ -88,16 +87,8 @@ std::vector<std::vector<std::vector<std::string>>> ParseNcMoves(
   return passes;
 }
 
-class SplitBevelEndpointTest : public ::testing::Test {
+class SplitBevelEndpointTest : public ServerFixture {
  protected:
-  void SetUp() override {
-    ServerOptions options;
-    options.database_path = db_.path();
-    server_ = std::make_unique<RunningServer>(options);
-    ASSERT_GT(server_->port(), 0);
-    client_ = server_->Client();
-  }
-
   Answer Keep(const httplib::Result& result) {
     Answer answer;
     if (!result) return answer;
@@ -124,10 +115,6 @@ class SplitBevelEndpointTest : public ::testing::Test {
     const Answer list = Get("/api/v1/corrections?kind=split_trajectory");
     EXPECT_EQ(list.body["total"], 0) << field << ": a refusal stored a job";
   }
-
-  TempPath db_;
-  std::unique_ptr<RunningServer> server_;
-  std::unique_ptr<httplib::Client> client_;
 };
 
 TEST_F(SplitBevelEndpointTest, AnswersTheWorkedExampleInDegrees) {

@@ -13,8 +13,7 @@ namespace gearloop {
 namespace {
 
 using testing_util::ParseBody;
-using testing_util::RunningServer;
-using testing_util::TempPath;
+using testing_util::ServerFixture;
 
 // What zero_correction.h calls no correction (size in 1 um of axis motion).
 constexpr double kNegligibleSize = 1e-3;
@@ -42,16 +41,8 @@ nlohmann::json Request(const nlohmann::json& measured) {
   return request;
 }
 
-class ZeroCorrectionTest : public ::testing::Test {
+class ZeroCorrectionTest : public ServerFixture {
  protected:
-  void SetUp() override {
-    ServerOptions options;
-    options.database_path = db_.path();
-    server_ = std::make_unique<RunningServer>(options);
-    ASSERT_GT(server_->port(), 0);
-    client_ = server_->Client();
-  }
-
   nlohmann::json Correct(const nlohmann::json& request) {
     const httplib::Result result = client_->Post(
         "/api/v1/corrections", request.dump(), "application/json");
@@ -60,10 +51,6 @@ class ZeroCorrectionTest : public ::testing::Test {
     EXPECT_EQ(result->status, 201) << result->body.substr(0, 300);
     return ParseBody(result)["result"];
   }
-
-  TempPath db_;
-  std::unique_ptr<RunningServer> server_;
-  std::unique_ptr<httplib::Client> client_;
 };
 
 bool Says(const nlohmann::json& result, const std::string& words) {
