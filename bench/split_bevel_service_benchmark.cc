@@ -45,6 +45,25 @@ std::string RequestBody(bool nc) {
   return body.dump();
 }
 
+// The service context of the benchmarks: `repository` as the history, no
+// solve log.
+gearloop::ServiceContext BenchContext(gearloop::JobRepository* repository) {
+  gearloop::ServiceContext context;
+  context.repository = repository;
+  context.server_version = "bench";
+  context.log_solves = false;
+  return context;
+}
+
+// POST /api/v1/bevel/split-trajectory with the benchmark's request.
+httplib::Request SplitRequest(bool nc) {
+  httplib::Request req;
+  req.method = "POST";
+  req.path = "/api/v1/bevel/split-trajectory";
+  req.body = RequestBody(nc);
+  return req;
+}
+
 // The whole handler: parse, validate, engine (always with the listing: the job
 // keeps it), answer dumped once, job written to a ":memory:" history.
 void ServiceBenchmark(benchmark::State& state,
@@ -52,14 +71,8 @@ void ServiceBenchmark(benchmark::State& state,
                       const std::string& database = ":memory:") {
   std::unique_ptr<gearloop::JobRepository> repository =
       gearloop::OpenJobRepository(database);
-  gearloop::ServiceContext context;
-  context.repository = repository.get();
-  context.server_version = "bench";
-  context.log_solves = false;
-  httplib::Request req;
-  req.method = "POST";
-  req.path = "/api/v1/bevel/split-trajectory";
-  req.body = RequestBody(nc);
+  const gearloop::ServiceContext context = BenchContext(repository.get());
+  const httplib::Request req = SplitRequest(nc);
   size_t bytes = 0;
   for (auto _ : state) {
     httplib::Response res;
@@ -139,14 +152,8 @@ class Worker {
 void BM_SplitTrajectoryService2000x10x2OnWorkerThread(benchmark::State& state) {
   std::unique_ptr<gearloop::JobRepository> repository =
       gearloop::OpenJobRepository(":memory:");
-  gearloop::ServiceContext context;
-  context.repository = repository.get();
-  context.server_version = "bench";
-  context.log_solves = false;
-  httplib::Request req;
-  req.method = "POST";
-  req.path = "/api/v1/bevel/split-trajectory";
-  req.body = RequestBody(false);
+  const gearloop::ServiceContext context = BenchContext(repository.get());
+  const httplib::Request req = SplitRequest(false);
   Worker worker;
   for (auto _ : state) {
     int status = 0;
@@ -260,10 +267,7 @@ BENCHMARK(BM_SplitTrajectoryStoreJobFileDb)->Unit(benchmark::kMillisecond);
 void BM_SplitTrajectoryShowStoredJob(benchmark::State& state) {
   std::unique_ptr<gearloop::JobRepository> repository =
       gearloop::OpenJobRepository(":memory:");
-  gearloop::ServiceContext context;
-  context.repository = repository.get();
-  context.server_version = "bench";
-  context.log_solves = false;
+  const gearloop::ServiceContext context = BenchContext(repository.get());
   httplib::Request req;
   req.body = RequestBody(false);
   httplib::Response posted;
