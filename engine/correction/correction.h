@@ -446,6 +446,20 @@ struct CorrectionSummary {
   double safe_step_current_rms_um = 0.0;
   double safe_step_predicted_rms_um = 0.0;
 
+  // The orders used (correction.cc, CorrectWithOrderChoice; regularised
+  // solver): when the options free an axis order above 3, the correction is
+  // computed held to the cubic terms and with every order asked, and the
+  // higher orders are used only when their exact prediction is better by
+  // max(0.1 um, 20 % of the cubic one). order_choice says which and why (""
+  // when no order above 3 was free); the two predicted rms [um] (NaN when not
+  // computed or not usable). highest_order_moved: the highest polynomial
+  // order the correction changes on any axis (-1: none).
+  std::string order_choice;
+  double cubic_orders_predicted_rms_um =
+      std::numeric_limits<double>::quiet_NaN();
+  double all_orders_predicted_rms_um = std::numeric_limits<double>::quiet_NaN();
+  int highest_order_moved = -1;
+
   int iterations = 0;  // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;
 

@@ -160,6 +160,7 @@ std::string CorrectionSummary::BriefReport() const {
         << (machine_state_estimated ? "estimated" : "commanded");
     if (!machine_state_reason.empty())
       out << " (" << machine_state_reason << ")";
+    if (!order_choice.empty()) out << ", " << order_choice;
     if (safe_step_checked) {
       out << ", safe step: motion x" << motion_scale << ", fraction "
           << step_fraction << " (exact rms " << safe_step_current_rms_um

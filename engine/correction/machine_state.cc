@@ -23,6 +23,7 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
   }
   state->measured_um = own_um;
   state->error_um = own_um - commanded.measured_um;
+  state->target_um = commanded.measured_um;
   // Several teeth: the mean is as noisy as one grid with sigma / sqrt(mean
   // count); the shares per point are not kept (mean_teeth_averaged is 1 for a
   // single grid: no change).

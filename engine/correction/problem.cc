@@ -51,17 +51,22 @@ void ChooseRollRange(const CorrectionInput& input,
 // The coefficients that may change: orders 0..max order of each block
 // (max_order, else default_max_order clamped to the block's degree; scalar
 // blocks free unless named -1, or fixed unless named when fixed_by_default).
+int FreeOrder(const CorrectionOptions& options, const ParameterBlock& b) {
+  int order = b.is_polynomial
+                  ? std::min(options.default_max_order, b.num_coefficients - 1)
+                  : (b.fixed_by_default ? -1 : 0);
+  const auto it = options.max_order.find(b.name);
+  if (it != options.max_order.end())
+    order = std::min(it->second, b.num_coefficients - 1);
+  return order;
+}
+
 bool SelectFreeParameters(const CorrectionOptions& options,
                           const std::vector<ParameterBlock>& blocks,
                           std::vector<int>* free,
                           std::string* error) {
   for (const ParameterBlock& b : blocks) {
-    int order = b.is_polynomial ? std::min(options.default_max_order,
-                                           b.num_coefficients - 1)
-                                : (b.fixed_by_default ? -1 : 0);
-    const auto it = options.max_order.find(b.name);
-    if (it != options.max_order.end())
-      order = std::min(it->second, b.num_coefficients - 1);
+    const int order = FreeOrder(options, b);
     for (int k = 0; k <= order; ++k) free->push_back(b.first_index + k);
   }
   for (const auto& [name, order] : options.max_order) {
@@ -238,6 +243,7 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   const MeasuredFlank flank = AverageMeasurement(options, input);
   p->measured_um = flank.measured_um;
   p->error_um = flank.measured_um - input.target_um;  // NaN where missing
+  p->target_um = input.target_um;
   p->noise_share = flank.noise_share;
   p->mean_teeth_averaged = flank.mean_teeth_averaged;
   p->tooth_outliers = flank.tooth_outliers;
@@ -319,6 +325,13 @@ void ReportProblem(const CorrectionProblem& problem,
   summary->tooth_outlier_indices = problem.tooth_outliers;
   summary->num_free_parameters = problem.NumFree();
   summary->num_points_used = static_cast<int>(problem.used.size());
+}
+
+bool OpensOrdersAboveCubic(const CorrectionOptions& options,
+                           const std::vector<ParameterBlock>& blocks) {
+  for (const ParameterBlock& b : blocks)
+    if (b.is_polynomial && FreeOrder(options, b) > 3) return true;
+  return false;
 }
 
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,

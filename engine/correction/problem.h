@@ -67,6 +67,9 @@ struct CorrectionProblem {
   // weights w and noise shares per point.
   Eigen::VectorXd measured_um;
   Eigen::VectorXd error_um;
+  // The target t [um] (NaN where the problem has none: the machine-state
+  // fit's "target" is the measurement).
+  Eigen::VectorXd target_um;
   Eigen::VectorXd weights;
   Eigen::VectorXd noise_share;
   double mean_teeth_averaged = 1.0;
@@ -184,6 +187,11 @@ double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
+
+// Whether `options` free an order above the cubic term of any polynomial
+// block of `blocks`.
+bool OpensOrdersAboveCubic(const CorrectionOptions& options,
+                           const std::vector<ParameterBlock>& blocks);
 
 }  // namespace correction_internal
 }  // namespace gearloop

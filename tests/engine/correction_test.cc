@@ -590,11 +590,17 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
                        {"parabola_vertex", -1}};
   const CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
-  EXPECT_EQ(result.summary.num_free_parameters, 5 + 7);
+  // The hidden errors are of order <= 2: orders 4-6 of C do not earn their
+  // place, the answer is the one held to C's cubic term.
+  EXPECT_EQ(result.summary.order_choice.rfind("orders 0-3 used", 0), 0u)
+      << result.summary.order_choice;
+  EXPECT_EQ(result.summary.num_free_parameters, 5 + 4);
+  EXPECT_LE(result.summary.highest_order_moved, 3);
+  EXPECT_TRUE(std::isfinite(result.summary.all_orders_predicted_rms_um));
   for (int j = 0; j < kNumGrinderParameters; ++j) {
     const bool free =
         (j < kNumAxisCoefficients && j % kCoefficientsPerAxis == 0) ||
-        (j >= ParameterIndex(Axis::kC, 0) && j <= ParameterIndex(Axis::kC, 6));
+        (j >= ParameterIndex(Axis::kC, 0) && j <= ParameterIndex(Axis::kC, 3));
     if (!free) {
       EXPECT_EQ(result.delta(j), 0.0) << GrinderParameterName(j);
     }
@@ -605,6 +611,50 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
   options.max_order = {{"W", 2}};
   EXPECT_EQ(ComputeCorrection(options, input).summary.status,
             CorrectionStatus::kInvalidInput);
+}
+
+// Orders 4-6 where they earn their place: a target that only C's 5th order
+// makes (the flank change of 3 units of size along C's 5th Legendre term, no
+// machine error, no noise) is followed with orders 4-6 when they are open and
+// approximated by the cubic terms otherwise; with the default orders nothing
+// is chosen.
+TEST(ComputeCorrection, OrdersAboveCubicAnswerOnlyWhereTheyEarnTheirPlace) {
+  const GrindingSetup setup = testing::CutterSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const std::vector<ParameterBlock> blocks = grinder.ParameterBlocks();
+  Eigen::VectorXd coordinates = Eigen::VectorXd::Zero(nominal.size());
+  coordinates(ParameterIndex(Axis::kC, 5)) = 3.0;
+  const Eigen::VectorXd fifth = DeltaFromCorrectionCoordinates(
+      blocks, coordinates, grinder.roll_min_rad(), grinder.roll_max_rad());
+  ModelEvaluation before, after;
+  grinder.Evaluate(nominal, false, &before);
+  grinder.Evaluate(nominal + fifth, false, &after);
+  CorrectionInput input;
+  input.model = &grinder;
+  input.current_parameters = nominal;
+  input.measured_um = before.deviations_um;
+  input.target_um = after.deviations_um;
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  const CorrectionResult cubic = ComputeCorrection(options, input);
+  ASSERT_TRUE(cubic.summary.IsSolutionUsable()) << cubic.summary.message;
+  EXPECT_EQ(cubic.summary.order_choice, "");
+  EXPECT_LE(cubic.summary.highest_order_moved, 3);
+  options.default_max_order = 6;
+  const CorrectionResult open = ComputeCorrection(options, input);
+  ASSERT_TRUE(open.summary.IsSolutionUsable()) << open.summary.message;
+  EXPECT_EQ(open.summary.order_choice.rfind("orders 4-6 used", 0), 0u)
+      << open.summary.order_choice;
+  EXPECT_GE(open.summary.highest_order_moved, 4);
+  EXPECT_NEAR(open.summary.cubic_orders_predicted_rms_um,
+              cubic.summary.residual_rms_um,
+              /*same solve, tol_um=*/1e-9);
+  EXPECT_LT(open.summary.residual_rms_um,
+            0.8 * cubic.summary.residual_rms_um - 0.1)
+      << open.summary.BriefReport();
+  EXPECT_EQ(open.summary.all_orders_predicted_rms_um,
+            open.summary.residual_rms_um);
 }
 
 // The wheel parabola is fixed unless named: by default 6 axes x 4 orders and
