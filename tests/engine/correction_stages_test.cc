@@ -669,6 +669,64 @@ TEST(ChooseSafeStep, HalvesAStepThatTakesAPointToTheWheelsEdge) {
   }
 }
 
+// The linear machine whose point 0 has two branches of the envelope: above
+// `jump_above` of parameter 4 its contact lies 1 rad further along the roll,
+// above `lost_above` it is not found at all.
+class BranchModel : public LinearModel {
+ public:
+  BranchModel(double lost_above, double jump_above)
+      : LinearModel(18), lost_above_(lost_above), jump_above_(jump_above) {}
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    LinearModel::Evaluate(parameters, with_jacobian, e);
+    if (parameters(4) > jump_above_) e->contact_roll_rad[0] += 1.0;
+    if (parameters(4) > lost_above_) {
+      e->status[0] = PointStatus::kNotConverged;
+      e->deviations_um(0) = 0.0;
+      e->contact_roll_rad[0] = std::numeric_limits<double>::quiet_NaN();
+      if (with_jacobian) e->jacobian_um.row(0).setZero();
+    }
+  }
+
+ private:
+  double lost_above_, jump_above_;
+};
+
+// The estimated state 1e-3 below the commanded settings in parameter 4, the
+// step 1e-3 up. Point 0 lost at the commanded end of the step (1e-3) and
+// halfway there from the state (0.5e-3, lost above 0.25e-3): the step is
+// halved (lost at the commanded end, found halfway). Lost only at the
+// commanded end (above 0.75e-3): the whole step is kept. The contact on
+// another branch at the commanded end (above 0.75e-3): halved; not (above
+// 1.5e-3): kept. Seed 1 of the robustness benchmark, scenarios 114 and 146.
+TEST(ChooseSafeStep, HalvesAStepWhoseContactsTheRealMachineMayLose) {
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
+  state(4) = -1e-3;
+  constexpr double kNever = 1.0;
+  struct Case {
+    double lost_above, jump_above, fraction;
+  };
+  for (const Case& c : {Case{0.25e-3, kNever, 0.5},
+                        Case{0.75e-3, kNever, 1.0},
+                        Case{kNever, 0.75e-3, 0.5},
+                        Case{kNever, 1.5e-3, 1.0}}) {
+    const BranchModel model(c.lost_above, c.jump_above);
+    const CorrectionProblem at_state =
+        RelinearisedAt(SafeStepProblem(model, best), state);
+    ASSERT_EQ(at_state.commanded_status[0], PointStatus::kOk);
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd step =
+        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
+    EXPECT_TRUE(outcome.improved);
+    EXPECT_EQ(outcome.step_fraction, c.fraction)
+        << "lost above " << c.lost_above << ", other branch above "
+        << c.jump_above;
+    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
+  }
+}
+
 // The linear machine whose last grid row moves `steepness` times as much as
 // the rest of the flank.
 class SteepRowModel : public LinearModel {
@@ -706,6 +764,7 @@ TEST(ChooseSafeStep, CountsThePointsTheMeasurementLacksAtTheModelsFlank) {
     for (int i = GridModel::kPoints - GridModel::kColumns;
          i < GridModel::kPoints;
          ++i) {
+      problem.measured_um(i) = std::numeric_limits<double>::quiet_NaN();
       problem.error_um(i) = std::numeric_limits<double>::quiet_NaN();
       row_um2 += after.deviations_um(i) * after.deviations_um(i);
     }
@@ -717,9 +776,9 @@ TEST(ChooseSafeStep, CountsThePointsTheMeasurementLacksAtTheModelsFlank) {
     double measured_um2 = 0.0;
     for (int i : problem.used)
       measured_um2 += problem.error_um(i) * problem.error_um(i);
-    // At no change the row lies on its target (the model's flank is 0 there).
+    // The current part is known where it was measured.
     EXPECT_NEAR(outcome.current_rms_um,
-                std::sqrt(measured_um2 / GridModel::kPoints),
+                std::sqrt(measured_um2 / problem.used.size()),
                 /*tol_um=*/1e-9);
     if (steepness == 1.0) {
       EXPECT_TRUE(outcome.improved);
