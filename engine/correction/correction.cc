@@ -148,17 +148,23 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
 
 // The exact prediction at the new parameters: change and residual per point,
 // their rms and max over the used points, the correction size, and the status.
+// `at_new_parameters`: the model there when the caller has it (the safe
+// step's kept fraction, or the linearisation point for no change), else null.
 void PredictExactly(const CorrectionOptions& options,
                     const CorrectionProblem& problem,
                     const Eigen::VectorXd& delta,
                     std::string not_converged,
+                    const ModelEvaluation* at_new_parameters,
                     CorrectionResult* result) {
   CorrectionSummary& summary = result->summary;
   const int n = problem.num_points;
   result->delta = delta;
   result->parameters = problem.parameters + delta;
-  ModelEvaluation eval1;
-  problem.model->Evaluate(result->parameters, false, &eval1);
+  ModelEvaluation evaluated;
+  if (at_new_parameters == nullptr)
+    problem.model->Evaluate(result->parameters, false, &evaluated);
+  const ModelEvaluation& eval1 =
+      at_new_parameters != nullptr ? *at_new_parameters : evaluated;
   result->predicted_change_um = Eigen::VectorXd::Constant(n, kNaN);
   result->predicted_residual_um = Eigen::VectorXd::Constant(n, kNaN);
   int lost = 0;
@@ -213,24 +219,24 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
                              const CorrectionProblem& problem,
                              const Eigen::VectorXd& delta,
                              CorrectionSummary* summary,
-                             std::string* no_safe_improvement) {
-  SafeStepOutcome outcome;
-  Eigen::VectorXd step = BoundAxisMotion(options, problem, delta, &outcome);
+                             std::string* no_safe_improvement,
+                             SafeStepOutcome* outcome) {
+  Eigen::VectorXd step = BoundAxisMotion(options, problem, delta, outcome);
   if (delta.isZero(0.0) && summary->truncation_rank > 0) {
     // Directions there were, but nothing above the noise along them: no
     // change asked for, nothing to check (with no direction at all, rank 0,
     // the check below says that no fraction makes a better part).
-    outcome.current_rms_um = Rms(problem.error_um, problem.used);
-    outcome.predicted_rms_um = outcome.current_rms_um;
+    outcome->current_rms_um = Rms(problem.error_um, problem.used);
+    outcome->predicted_rms_um = outcome->current_rms_um;
   } else {
-    step = ChooseSafeStep(options, problem, step, &outcome);
+    step = ChooseSafeStep(options, problem, step, outcome);
   }
   summary->safe_step_checked = true;
-  summary->motion_scale = outcome.motion_scale;
-  summary->step_fraction = outcome.step_fraction;
-  summary->safe_step_current_rms_um = outcome.current_rms_um;
-  summary->safe_step_predicted_rms_um = outcome.predicted_rms_um;
-  if (!outcome.improved) *no_safe_improvement = outcome.message;
+  summary->motion_scale = outcome->motion_scale;
+  summary->step_fraction = outcome->step_fraction;
+  summary->safe_step_current_rms_um = outcome->current_rms_um;
+  summary->safe_step_predicted_rms_um = outcome->predicted_rms_um;
+  if (!outcome->improved) *no_safe_improvement = outcome->message;
   return step;
 }
 
@@ -268,11 +274,17 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
       break;
   }
   std::string no_safe_improvement;
+  SafeStepOutcome outcome;
   if (options.safe_step && options.solver == CorrectionSolver::kRegularised) {
-    delta =
-        MakeStepSafe(options, problem, delta, &summary, &no_safe_improvement);
+    delta = MakeStepSafe(
+        options, problem, delta, &summary, &no_safe_improvement, &outcome);
   }
-  PredictExactly(options, problem, delta, not_converged, &result);
+  const ModelEvaluation* at_new_parameters =
+      outcome.has_evaluation ? &outcome.evaluation
+      : delta.isZero(0.0)    ? &problem.evaluation
+                             : nullptr;
+  PredictExactly(
+      options, problem, delta, not_converged, at_new_parameters, &result);
   if (!no_safe_improvement.empty()) {
     summary.status = CorrectionStatus::kNoSafeImprovement;
     summary.message = no_safe_improvement;

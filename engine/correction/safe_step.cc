@@ -265,8 +265,9 @@ double ExactPredictionRms(const CorrectionOptions& options,
                           const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta,
                           double* robust_gain_um2,
-                          const char** refusal) {
-  ModelEvaluation eval;
+                          const char** refusal,
+                          ModelEvaluation* evaluation) {
+  ModelEvaluation& eval = *evaluation;
   problem.model->Evaluate(problem.parameters + delta, false, &eval);
   Eigen::VectorXd change = Eigen::VectorXd::Zero(problem.num_points);
   for (int i : problem.used) {
@@ -356,11 +357,16 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
     double robust_gain_um2 = 0.0;
     const char* refusal = nullptr;
-    outcome->predicted_rms_um = ExactPredictionRms(
-        options, problem, alpha * delta, &robust_gain_um2, &refusal);
+    outcome->predicted_rms_um = ExactPredictionRms(options,
+                                                   problem,
+                                                   alpha * delta,
+                                                   &robust_gain_um2,
+                                                   &refusal,
+                                                   &outcome->evaluation);
     if (outcome->predicted_rms_um < outcome->current_rms_um &&
         robust_gain_um2 > 0.0) {
       outcome->step_fraction = alpha;
+      outcome->has_evaluation = true;
       return alpha * delta;
     }
     if (halving == 0) {

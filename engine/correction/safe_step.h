@@ -40,6 +40,10 @@ struct SafeStepOutcome {
   double predicted_rms_um = 0.0;  // exact, at the linearisation point
   bool improved = true;           // false: no fraction was safe
   std::string message;            // why not, when !improved
+  // The model at p + the kept step (when one was kept: improved and a step
+  // evaluated), for the exact prediction to reuse.
+  bool has_evaluation = false;
+  ModelEvaluation evaluation;
 };
 
 // The largest axis motion |dC(phi1)| of `delta` over the roll range for each
