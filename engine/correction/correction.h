@@ -186,7 +186,10 @@ struct CorrectionOptions {
   // of correction size), and the linear model does not predict them. With 3
   // every generated case converged monotonically, the spur gear included (15.8
   // -> 1.10 um in one correction; with 6 it did not converge). Raise it where a
-  // target needs the higher orders.
+  // target needs the higher orders: the regularised solver then solves held to
+  // the cubic terms as well and answers with orders 4-6 only where their exact
+  // prediction is better by max(0.1 um, 20 %) (summary.order_choice), at about
+  // twice the CPU.
   int default_max_order = 3;
   std::map<std::string, int> max_order;
 
@@ -450,7 +453,8 @@ struct CorrectionSummary {
   // solver): when the options free an axis order above 3, the correction is
   // computed held to the cubic terms and with every order asked, and the
   // higher orders are used only when their exact prediction is better by
-  // max(0.1 um, 20 % of the cubic one). order_choice says which and why (""
+  // max(0.1 um, 20 % of the cubic one) and they keep every measured point at
+  // the commanded settings. order_choice says which and why (""
   // when no order above 3 was free); the two predicted rms [um] (NaN when not
   // computed or not usable). highest_order_moved: the highest polynomial
   // order the correction changes on any axis (-1: none).
