@@ -454,6 +454,32 @@ bool ParseCorrectionTarget(
   return false;
 }
 
+namespace {
+
+// The answer's prediction_band (docs/correction-safety.md).
+nlohmann::json PredictionBandJson(const PredictionBand& band) {
+  return {{"noise_sigma_um", FiniteOrNull(band.noise_sigma_um)},
+          {"noise_stated", band.noise_stated},
+          {"expected_true_rms_um", FiniteOrNull(band.expected_true_rms_um)},
+          {"true_rms_1sigma_um",
+           {FiniteOrNull(band.true_rms_low_um[0]),
+            FiniteOrNull(band.true_rms_high_um[0])}},
+          {"true_rms_2sigma_um",
+           {FiniteOrNull(band.true_rms_low_um[1]),
+            FiniteOrNull(band.true_rms_high_um[1])}}};
+}
+
+// The answer's orders: which axis orders the correction uses and why.
+nlohmann::json OrdersJson(const CorrectionSummary& s) {
+  return {
+      {"highest_moved", s.highest_order_moved},
+      {"choice", s.order_choice},
+      {"cubic_predicted_rms_um", FiniteOrNull(s.cubic_orders_predicted_rms_um)},
+      {"all_predicted_rms_um", FiniteOrNull(s.all_orders_predicted_rms_um)}};
+}
+
+}  // namespace
+
 nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
                                        int columns) {
   nlohmann::json block_sizes = nlohmann::json::object();
@@ -489,29 +515,14 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
         {"statistic", FiniteOrNull(s.machine_state_statistic)},
         {"threshold", FiniteOrNull(s.machine_state_threshold)},
         {"reason", s.machine_state_reason}}},
-      {"prediction_band",
-       {{"noise_sigma_um", FiniteOrNull(s.prediction_band.noise_sigma_um)},
-        {"noise_stated", s.prediction_band.noise_stated},
-        {"expected_true_rms_um",
-         FiniteOrNull(s.prediction_band.expected_true_rms_um)},
-        {"true_rms_1sigma_um",
-         {FiniteOrNull(s.prediction_band.true_rms_low_um[0]),
-          FiniteOrNull(s.prediction_band.true_rms_high_um[0])}},
-        {"true_rms_2sigma_um",
-         {FiniteOrNull(s.prediction_band.true_rms_low_um[1]),
-          FiniteOrNull(s.prediction_band.true_rms_high_um[1])}}}},
+      {"prediction_band", PredictionBandJson(s.prediction_band)},
       {"safe_step",
        {{"checked", s.safe_step_checked},
         {"motion_scale", FiniteOrNull(s.motion_scale)},
         {"step_fraction", FiniteOrNull(s.step_fraction)},
         {"current_rms_um", FiniteOrNull(s.safe_step_current_rms_um)},
         {"predicted_rms_um", FiniteOrNull(s.safe_step_predicted_rms_um)}}},
-      {"orders",
-       {{"highest_moved", s.highest_order_moved},
-        {"choice", s.order_choice},
-        {"cubic_predicted_rms_um",
-         FiniteOrNull(s.cubic_orders_predicted_rms_um)},
-        {"all_predicted_rms_um", FiniteOrNull(s.all_orders_predicted_rms_um)}}},
+      {"orders", OrdersJson(s)},
       {"solver", CorrectionSolverName(s.solver)},
       {"mode", CorrectionModeName(s.mode)},
       {"iterations", s.iterations},

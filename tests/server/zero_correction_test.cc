@@ -69,6 +69,9 @@ TEST_F(ZeroCorrectionTest, NoiseAloneSaysNothingAboveTheNoise) {
   EXPECT_EQ(result["message"], result["explain"]["message"]);
   EXPECT_TRUE(Says(result, "nothing above the noise")) << result["message"];
   EXPECT_TRUE(Says(result, "gcv")) << result["message"];
+  // Orders 4-6 were open: the answer says which orders it used (none moved).
+  EXPECT_EQ(result["orders"]["choice"], "orders 0-6: no change either way");
+  EXPECT_EQ(result["orders"]["highest_moved"], -1);
 
   nlohmann::json stated = Request(NoiseOnlyGrid());
   stated["options"]["probe_noise_um"] = 0.3;
