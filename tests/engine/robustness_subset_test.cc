@@ -52,5 +52,41 @@ TEST(RobustnessSubset, EveryOrderOpenMakesNoPartWorse) {
   ExpectNoWorsePart(options);
 }
 
+// Scenarios of other seeds where a round made the part worse until a rule of
+// the safe step or the order choice (docs/correction-safety.md) was added;
+// each names the rule it guards.
+struct RegressionScenario {
+  std::uint64_t seed;
+  int index;
+  int default_max_order;
+  const char* rule;
+};
+
+TEST(RobustnessSubset, ScenariosThatOnceMadeAPartWorseNoLongerDo) {
+  const RegressionScenario kScenarios[] = {
+      {11, 70, 3, "points the measurement lacks count in the next part"},
+      {1, 60, 3, "the current part counts only its measured points"},
+      {11, 87, 3, "wheel-edge margin share 0.7"},
+      {1, 114, 3, "a point lost at the commanded end and halfway"},
+      {11, 64, 3, "a point lost at the commanded end and halfway"},
+      {1, 146, 3, "a contact on another branch at the commanded end"},
+      {4, 30, 3, "another branch: half a roll range"},
+      {2, 170, 6, "orders 4-6 keep the measured points at the commanded end"},
+  };
+  for (const RegressionScenario& r : kScenarios) {
+    const bench::Scenario s = bench::DrawGrinderScenario(r.seed, r.index);
+    CorrectionOptions options;
+    options.default_max_order = r.default_max_order;
+    const bench::LoopRecord loop = bench::RunClosedLoop(s, options, kRounds);
+    for (int round = 0; round < kRounds; ++round) {
+      EXPECT_FALSE(loop.rounds[round].worse)
+          << "seed " << r.seed << ", scenario " << r.index << " (" << r.rule
+          << "), round " << round + 1 << ": "
+          << loop.rounds[round].rms_before_um << " -> "
+          << loop.rounds[round].rms_after_um << " um";
+    }
+  }
+}
+
 }  // namespace
 }  // namespace gearloop
