@@ -207,7 +207,9 @@ void SingleLevelFilter(LinearSolve* ls) {
 }
 
 // The per-direction filter at problem.signal_noise_um, never less than the
-// single level ls->lambda keeps over the first level_rank directions.
+// single level ls->lambda keeps over the first level_rank directions, except
+// at the noise floor (kNoiseFloorShare): there only what stands above the
+// noise along each direction is kept.
 //
 // Every part of b is filtered as measured. Keeping the model's own part,
 // d(p) - t, whole was tried: at an estimated state it carries the state's own
@@ -224,9 +226,11 @@ void PerDirectionFilter(const CorrectionProblem& problem,
   // The filter only adds what the level dropped (weak directions, strong
   // ones the level shrank).
   ls->kept.clear();
+  const bool at_noise_floor = Rms(problem.error_um, problem.used) <=
+                              kNoiseFloorShare * problem.signal_noise_um;
   for (int i = 0; i < ls->k; ++i) {
     const double sg = ls->svd.sigma(i);
-    if (i < level_rank)
+    if (i < level_rank && !at_noise_floor)
       ls->filter(i) =
           std::max(ls->filter(i), sg * sg / (sg * sg + level * level));
     if (!(ls->filter(i) > 0.0)) continue;

@@ -1041,6 +1041,38 @@ TEST(SignalFilter, KeepsTheModelsOwnPartAndTheMeasuredPartAboveTheNoise) {
   EXPECT_EQ(ls.filter, Eigen::VectorXd::Ones(5));
 }
 
+// A part at the noise floor (its error probe noise alone, 0.3 um) keeps only
+// the directions whose coefficient stands above the noise; three times the
+// error (above kNoiseFloorShare x the noise) gets the Tikhonov level's floor
+// as well, which keeps directions at the noise.
+TEST(SolveRegularisedLinear, AtTheNoiseFloorKeepsOnlyWhatStandsAboveTheNoise) {
+  constexpr double kNoiseUm = 0.3;
+  const LinearModel model(23);
+  CorrectionOptions options;
+  options.probe_noise_um = kNoiseUm;
+  CorrectionProblem problem =
+      SafeStepProblem(model, Eigen::VectorXd::Zero(5), options);
+  problem.signal_noise_um = kNoiseUm;
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> noise(0.0, kNoiseUm);
+  for (int i : problem.used) problem.error_um(i) = noise(rng);
+  // Unit weights over orthonormal directions: the noise along each is kNoiseUm.
+  const double above_noise = std::sqrt(kSignalShrink) * kNoiseUm;
+  for (const double scale : {1.0, 3.0}) {
+    CorrectionProblem scaled = problem;
+    scaled.error_um *= scale;
+    const LinearSolve ls = SolveRegularisedLinear(options, scaled, scaled.used);
+    int kept_at_the_noise = 0;
+    for (int i : ls.kept)
+      if (std::abs(ls.beta(i)) <= above_noise) ++kept_at_the_noise;
+    if (scale == 1.0) {
+      EXPECT_EQ(kept_at_the_noise, 0) << ls.kept.size() << " kept";
+    } else {
+      EXPECT_GT(kept_at_the_noise, 0);
+    }
+  }
+}
+
 // A part whose exact answer moves the axis block 3 times beyond its bound:
 // the sequential QPs keep every sampled motion within the bound, hold it on at
 // least one sample, and leave less error than the answer scaled down whole.

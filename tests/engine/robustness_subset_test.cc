@@ -72,6 +72,9 @@ TEST(RobustnessSubset, ScenariosThatOnceMadeAPartWorseNoLongerDo) {
       {1, 146, 3, "a contact on another branch at the commanded end"},
       {4, 30, 3, "another branch: half a roll range"},
       {2, 170, 6, "orders 4-6 keep the measured points at the commanded end"},
+      {1, 156, 3, "at the noise floor only what stands above the noise"},
+      {1, 172, 3, "at the noise floor only what stands above the noise"},
+      {4, 174, 3, "at the noise floor only what stands above the noise"},
   };
   for (const RegressionScenario& r : kScenarios) {
     const bench::Scenario s = bench::DrawGrinderScenario(r.seed, r.index);
