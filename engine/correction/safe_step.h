@@ -7,15 +7,20 @@
 //   2. ChooseSafeStep: the next part is predicted on the exact model,
 //      e + d(p + alpha delta) - d(p), at the linearisation point p (the
 //      solver's estimate of the machine's state, or the commanded parameters);
-//      alpha = 1, 1/2, 1/4, ... is kept at the first value whose prediction has
-//      a lower rms over the used points than keeping the current settings (e)
-//      and loses no used point, and (linearised at an estimated state) whose
-//      change at the commanded parameters agrees with the change at the
-//      state to within the latter's rms. When none is, the change is zero
-//      and the outcome says why. (Asking the commanded point for a better
-//      rms, or for every point still reached, was tried: where the estimated
-//      state earns its place, the commanded point predicts the good step
-//      worse and the spur-crowning loop stalls at 7.9 um instead of 1.10.)
+//      alpha = 1, 1/2, 1/4, ... is kept at the first value whose prediction
+//      (over every point it grinds, the unmeasured ones at the model's flank)
+//      has a lower rms than the current part's measured points (e), even
+//      without its 5 % most improved points, that loses no used point, and
+//      that (linearised at an estimated state) passes the tests at the
+//      commanded parameters: no point near the wheel's edge lost there, no
+//      point lost there and halfway, no contact on another branch, and for
+//      orders 4-6 the same change within the state's rms and the motion
+//      bound where the contacts move (docs/correction-safety.md). When none
+//      is, the change is zero and the outcome says why. (Asking the commanded
+//      point for a better rms, or for every point still reached, was tried:
+//      where the estimated state earns its place, the commanded point predicts
+//      the good step worse and the spur-crowning loop stalls at 7.9 um instead
+//      of 1.10.)
 //
 //   SafeStepOutcome outcome;
 //   delta = BoundAxisMotion(options, problem, delta, &outcome);
