@@ -51,7 +51,6 @@ constexpr double kNegligibleChangeShare = 0.1;
 // and final within 1.2 x best + noise 110 -> 199 of 200, seed 2026; the one
 // left, scenario 147 round 3, predicted 2.52 against 3.20 held to the cubic
 // terms and made 3.93 um).
-constexpr int kHighestDefaultOrder = 3;
 constexpr double kOrderGainMinUm = 0.1;
 constexpr double kOrderGainShare = 0.2;
 
@@ -391,19 +390,6 @@ CorrectionOptions CappedAtCubic(const CorrectionOptions& options) {
   return capped;
 }
 
-// The highest polynomial order `delta` changes on any block (-1: none).
-int HighestOrderMoved(const std::vector<ParameterBlock>& blocks,
-                      const Eigen::VectorXd& delta) {
-  int highest = -1;
-  for (const ParameterBlock& b : blocks) {
-    if (!b.is_polynomial) continue;
-    for (int k = 0; k < b.num_coefficients; ++k)
-      if (delta.size() > b.first_index + k && delta(b.first_index + k) != 0.0)
-        highest = std::max(highest, k);
-  }
-  return highest;
-}
-
 // Whether `delta` at the commanded settings keeps every measured point
 // (weight > 0) they reach. Each answer is linearised at its own estimated
 // state, and orders 4-6 fitted there may follow what that state absorbed:
@@ -495,7 +481,8 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options,
                                    const CorrectionInput& input) {
   const auto start = std::chrono::steady_clock::now();
   CorrectionResult result = CorrectWithOrderChoice(options, input);
-  if (input.model != nullptr && result.delta.size() > 0) {
+  if (input.model != nullptr &&
+      result.delta.size() == input.model->NumParameters()) {
     result.summary.highest_order_moved =
         HighestOrderMoved(input.model->ParameterBlocks(), result.delta);
   }

@@ -46,27 +46,18 @@ bool AcceptMachineState(const CorrectionProblem& commanded,
                         Eigen::VectorXd* state_parameters) {
   if (!state.summary.IsSolutionUsable() ||
       state.delta.size() != commanded.parameters.size() ||
-      !state.delta.allFinite()) {
+      !state.delta.allFinite() ||
+      state.predicted_change_um.size() != commanded.num_points) {
     return false;
   }
   *state_parameters = commanded.parameters + state.delta;
-  // The state fit's exact prediction already evaluated the model there: its
-  // predicted change is NaN exactly where a point the commanded settings
-  // reach is lost.
-  const bool predicted =
-      state.predicted_change_um.size() == commanded.num_points;
-  ModelEvaluation at_state;
-  if (!predicted)
-    commanded.model->Evaluate(*state_parameters, false, &at_state);
   for (int i = 0; i < commanded.num_points; ++i) {
     // A point the measurement lacks may be one the real machine no longer
     // grinds: a state that loses it explains the measurement there too.
     if (!std::isfinite(commanded.error_um(i)) ||
         commanded.evaluation.status[i] != PointStatus::kOk)
       continue;
-    const bool lost = predicted ? std::isnan(state.predicted_change_um(i))
-                                : at_state.status[i] != PointStatus::kOk;
-    if (lost) return false;
+    if (std::isnan(state.predicted_change_um(i))) return false;
   }
   return true;
 }

@@ -38,9 +38,10 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
 
 // Whether the solved state is used: usable, finite, and every measured grid
 // point reached at the commanded parameters still reached at commanded + h^
-// (then `state_parameters`); a point the measurement lacks may be lost (the
-// real machine may no longer grind it). Otherwise the correction is computed at
-// the commanded parameters, as without the option.
+// (then `state_parameters`), read from the state solve's exact prediction
+// (predicted_change_um is NaN where a point is lost); a point the measurement
+// lacks may be lost (the real machine may no longer grind it). Otherwise the
+// correction is computed at the commanded parameters, as without the option.
 bool AcceptMachineState(const CorrectionProblem& commanded,
                         const CorrectionResult& state,
                         Eigen::VectorXd* state_parameters);

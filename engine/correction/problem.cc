@@ -330,19 +330,29 @@ void ReportProblem(const CorrectionProblem& problem,
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks) {
   for (const ParameterBlock& b : blocks)
-    if (b.is_polynomial && FreeOrder(options, b) > 3) return true;
+    if (b.is_polynomial && FreeOrder(options, b) > kHighestDefaultOrder)
+      return true;
   return false;
+}
+
+int HighestOrderMoved(const std::vector<ParameterBlock>& blocks,
+                      const Eigen::VectorXd& delta) {
+  int highest = -1;
+  for (const ParameterBlock& b : blocks) {
+    if (!b.is_polynomial) continue;
+    for (int k = b.num_coefficients - 1; k > highest; --k) {
+      if (delta(b.first_index + k) != 0.0) {
+        highest = k;
+        break;
+      }
+    }
+  }
+  return highest;
 }
 
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta) {
-  constexpr int kHighestDefaultOrder = 3;
-  for (const ParameterBlock& block : problem.blocks) {
-    if (!block.is_polynomial) continue;
-    for (int k = kHighestDefaultOrder + 1; k < block.num_coefficients; ++k)
-      if (delta(block.first_index + k) != 0.0) return true;
-  }
-  return false;
+  return HighestOrderMoved(problem.blocks, delta) > kHighestDefaultOrder;
 }
 
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx) {

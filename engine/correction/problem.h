@@ -181,15 +181,25 @@ void ReportProblem(const CorrectionProblem& problem,
 // empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
-// Whether `delta` moves any axis polynomial coefficient of order 4-6 (the
-// orders the default freedom leaves fixed; the safe step asks more of such
-// steps, docs/correction-safety.md).
+// The highest order the default freedom leaves free on an axis polynomial
+// (CorrectionOptions::default_max_order); orders above it (4-6) answer only
+// where they earn their place and the safe step asks more of them
+// (docs/correction-safety.md).
+constexpr int kHighestDefaultOrder = 3;
+
+// The highest polynomial order `delta` (num_parameters entries) changes on
+// any block of `blocks` (-1: none).
+int HighestOrderMoved(const std::vector<ParameterBlock>& blocks,
+                      const Eigen::VectorXd& delta);
+
+// Whether `delta` moves any axis polynomial coefficient above
+// kHighestDefaultOrder.
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
-// Whether `options` free an order above the cubic term of any polynomial
-// block of `blocks`.
+// Whether `options` free an order above kHighestDefaultOrder on any
+// polynomial block of `blocks`.
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks);
 

@@ -909,6 +909,13 @@ TEST(AcceptMachineState, MayLoseOnlyPointsTheMeasurementLacks) {
     CorrectionResult fit;
     fit.summary.status = CorrectionStatus::kConverged;
     fit.delta = state;
+    // The state solve's exact prediction: NaN where the state loses a point.
+    ModelEvaluation at_fit;
+    model.Evaluate(problem.parameters + state, false, &at_fit);
+    fit.predicted_change_um = at_fit.deviations_um - problem.d0();
+    for (int i = 0; i < problem.num_points; ++i)
+      if (at_fit.status[i] != PointStatus::kOk)
+        fit.predicted_change_um(i) = kNaN;
     Eigen::VectorXd at_state;
     EXPECT_EQ(AcceptMachineState(problem, fit, &at_state), !measured)
         << "point 0 measured: " << measured;
