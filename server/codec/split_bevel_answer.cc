@@ -49,10 +49,11 @@ char* PutVector(char* p, const Eigen::Vector3d& v) {
 // numbers). From, to: {"A_deg":..,"B_deg":..;
 // ,"arc_mm":..,"cone_distance_mm":..;
 // ,"pitch_point_mm":[..],"spiral_angle_deg":..,"tool_axis":[..].
+struct TextSpan {
+  size_t from = 0, to = 0;
+};
 struct SharedText {
-  size_t angles_from = 0, angles_to = 0;
-  size_t cone_from = 0, cone_to = 0;
-  size_t line_from = 0, line_to = 0;
+  TextSpan angles, cone, line;
 };
 
 // The numbers behind each part of SharedText.
@@ -80,25 +81,20 @@ struct PointBefore {
   const SharedText* text = nullptr;
 };
 
-// Copies text [from, to) of `base` to p when `same`, else writes it with
-// `write`; records where it now is.
+// Copies the text `copy` of `base` to p when there is one (the point before
+// had the same numbers), else writes it with `write`; records where it now is
+// in `now`.
 template <typename Write>
-char* PutShared(char* base,
-                char* p,
-                bool same,
-                size_t from,
-                size_t to,
-                size_t* now_from,
-                size_t* now_to,
-                Write write) {
-  *now_from = static_cast<size_t>(p - base);
-  if (same) {
-    std::memcpy(p, base + from, to - from);
-    p += to - from;
+char* PutShared(
+    char* base, char* p, const TextSpan* copy, TextSpan* now, Write write) {
+  now->from = static_cast<size_t>(p - base);
+  if (copy != nullptr) {
+    std::memcpy(p, base + copy->from, copy->to - copy->from);
+    p += copy->to - copy->from;
   } else {
     p = write(p);
   }
-  *now_to = static_cast<size_t>(p - base);
+  now->to = static_cast<size_t>(p - base);
   return p;
 }
 
@@ -113,11 +109,8 @@ char* PutPoint(char* base,
   const SharedText* t = before.text;
   p = PutShared(base,
                 p,
-                b != nullptr && SameAngles(point, *b),
-                t ? t->angles_from : 0,
-                t ? t->angles_to : 0,
-                &shared->angles_from,
-                &shared->angles_to,
+                b != nullptr && SameAngles(point, *b) ? &t->angles : nullptr,
+                &shared->angles,
                 [&](char* q) {
                   q = WriteDecimal17(RadToDeg(point.axes.a_rad),
                                      Put(q, "{\"A_deg\":"));
@@ -129,11 +122,8 @@ char* PutPoint(char* base,
   p = WriteDecimal17(point.axes.z_mm, Put(p, ",\"Z_mm\":"));
   p = PutShared(base,
                 p,
-                b != nullptr && SameCone(point, *b),
-                t ? t->cone_from : 0,
-                t ? t->cone_to : 0,
-                &shared->cone_from,
-                &shared->cone_to,
+                b != nullptr && SameCone(point, *b) ? &t->cone : nullptr,
+                &shared->cone,
                 [&](char* q) {
                   q = WriteDecimal17(point.arc_mm, Put(q, ",\"arc_mm\":"));
                   return WriteDecimal17(point.cone_distance_mm,
@@ -143,11 +133,8 @@ char* PutPoint(char* base,
   p = PutVector(Put(p, ",\"flank_point_mm\":"), point.flank_point_mm);
   p = PutShared(base,
                 p,
-                b != nullptr && SameLine(point, *b),
-                t ? t->line_from : 0,
-                t ? t->line_to : 0,
-                &shared->line_from,
-                &shared->line_to,
+                b != nullptr && SameLine(point, *b) ? &t->line : nullptr,
+                &shared->line,
                 [&](char* q) {
                   q = PutVector(Put(q, ",\"pitch_point_mm\":"),
                                 point.pitch_point_mm);
