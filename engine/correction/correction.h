@@ -188,8 +188,9 @@ struct CorrectionOptions {
   // -> 1.10 um in one correction; with 6 it did not converge). Raise it where a
   // target needs the higher orders: the regularised solver then solves held to
   // the cubic terms as well and answers with orders 4-6 only where their exact
-  // prediction is better by max(0.1 um, 20 %) (summary.order_choice), at about
-  // twice the CPU.
+  // prediction is better by max(0.1 um, 20 %) (summary.order_choice); the
+  // second solve only where orders 4-6 reach enough above the noise from the
+  // cubic answer's predicted part.
   int default_max_order = 3;
   std::map<std::string, int> max_order;
 
@@ -451,7 +452,8 @@ struct CorrectionSummary {
 
   // The orders used (correction.cc, CorrectWithOrderChoice; regularised
   // solver): when the options free an axis order above 3, the correction is
-  // computed held to the cubic terms and with every order asked, and the
+  // computed held to the cubic terms and (where the screen lets it, see
+  // default_max_order) with every order asked, and the
   // higher orders are used only when their exact prediction is better by
   // max(0.1 um, 20 % of the cubic one) and they keep every measured point at
   // the commanded settings. order_choice says which and why (""

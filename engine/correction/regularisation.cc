@@ -308,6 +308,35 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   return ls;
 }
 
+double ReachableSignal2(const CorrectionOptions& options,
+                        const CorrectionProblem& problem,
+                        const std::vector<int>& rows,
+                        double noise_um) {
+  const int nf = problem.NumFree();
+  Eigen::MatrixXd a(rows.size(), nf);
+  Eigen::VectorXd b(rows.size());
+  double weight_sum = 0.0;
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const double sw = std::sqrt(problem.weights(rows[r]));
+    a.row(r) = sw * problem.st.row(rows[r]);
+    b(r) = -sw * problem.error_um(rows[r]);
+    weight_sum += problem.weights(rows[r]);
+  }
+  if (!(weight_sum > 0.0)) return 0.0;
+  const Svd svd =
+      ComputeSvd(a,
+                 kWeakFlankEffectShare * options.min_flank_effect_um *
+                     std::sqrt(weight_sum));
+  const Eigen::VectorXd share = NoiseShareAlong(problem, rows, svd.u, svd.rank);
+  const double noise2 = noise_um > 0.0 ? noise_um * noise_um : 0.0;
+  double signal2 = 0.0;
+  for (int i = 0; i < svd.rank; ++i) {
+    const double beta = svd.u.col(i).dot(b);
+    signal2 += std::max(0.0, beta * beta - noise2 * share(i));
+  }
+  return signal2 / weight_sum;
+}
+
 KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map) {
   KeptSubspace s;
   s.k = static_cast<int>(ls.kept.size());

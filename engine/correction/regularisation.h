@@ -116,6 +116,17 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    const std::vector<int>& rows);
 
+// The part of the flank error e on `rows` that the directions of A = W^1/2 S
+// T (those SolveRegularisedLinear may use) reach above the probe noise
+// noise_um of one grid: sum_i max(0, beta_i^2 - noise_um^2 n_i) / sum w [um^2
+// of rms], n_i the noise share along u_i. An estimate of the squared rms a
+// correction in these coordinates could remove that does not count what it
+// would fit of the noise (noise_um <= 0: sum_i beta_i^2, all of it).
+double ReachableSignal2(const CorrectionOptions& options,
+                        const CorrectionProblem& problem,
+                        const std::vector<int>& rows,
+                        double noise_um);
+
 // The directions a correction may use (steps 3-4): y = V_k z, delta = T V_k z,
 // k the rank.
 struct KeptSubspace {

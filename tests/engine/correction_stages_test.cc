@@ -3,6 +3,7 @@
 // tested in correction_test.cc.
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -1078,6 +1079,54 @@ TEST(SolveRegularisedLinear, AtTheNoiseFloorKeepsOnlyWhatStandsAboveTheNoise) {
       EXPECT_GT(kept_at_the_noise, 0);
     }
   }
+}
+
+// What a correction could remove of an error above the noise (the screen
+// before the every-order solve): an error the free coordinates make is
+// reachable whole without noise; one they cannot make, not at all; with probe
+// noise on a signal well above it, about the signal (the noise the directions
+// would fit is not counted); the noise alone counts for little.
+TEST(ReachableSignal2, CountsTheReachableErrorAboveTheNoise) {
+  constexpr double kNoiseUm = 0.3;
+  const LinearModel model(29);
+  CorrectionOptions options;
+  // About 3 um of flank error (1 um rms per unit of size per column).
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  CorrectionProblem problem = SafeStepProblem(model, best, options);
+  const double reachable2 =
+      problem.error_um.squaredNorm() / problem.error_um.size();
+  EXPECT_NEAR(ReachableSignal2(options, problem, problem.used, 0.0),
+              reachable2,
+              /*tol_um2=*/1e-9 * reachable2);
+  // Off the range of S T: nothing is reachable.
+  const Eigen::MatrixXd st = problem.st;
+  Eigen::VectorXd off = Eigen::VectorXd::LinSpaced(st.rows(), -2.0, 2.0);
+  off -= st * st.colPivHouseholderQr().solve(off);
+  CorrectionProblem unreachable = problem;
+  unreachable.error_um = off;
+  EXPECT_NEAR(ReachableSignal2(options, unreachable, unreachable.used, 0.0),
+              0.0,
+              1e-12);
+  // Noise on the signal: within 5 % of the noise-free figure.
+  std::mt19937_64 rng(29);
+  std::normal_distribution<double> gauss(0.0, kNoiseUm);
+  Eigen::VectorXd noise(problem.error_um.size());
+  for (int i = 0; i < noise.size(); ++i) noise(i) = gauss(rng);
+  CorrectionProblem noisy = problem;
+  noisy.error_um += noise;
+  EXPECT_NEAR(ReachableSignal2(options, noisy, noisy.used, kNoiseUm),
+              reachable2,
+              /*tol_um2=*/0.05 * reachable2);
+  // The noise alone, over 200 seeded draws: less than half of what its
+  // directions would fit (about 0.32 of it: E max(0, chi2_1 - 1)).
+  double counted = 0.0, fitted = 0.0;
+  for (int draw = 0; draw < 200; ++draw) {
+    for (int i = 0; i < noise.size(); ++i) noisy.error_um(i) = gauss(rng);
+    counted += ReachableSignal2(options, noisy, noisy.used, kNoiseUm);
+    fitted += ReachableSignal2(options, noisy, noisy.used, 0.0);
+  }
+  EXPECT_LT(counted, 0.5 * fitted);
+  EXPECT_GT(counted, 0.1 * fitted);
 }
 
 // A part whose exact answer moves the axis block 3 times beyond its bound:
