@@ -9,7 +9,7 @@
 //
 //   build/bench/robustness_benchmark
 //       [--scenarios 200] [--bevel 10] [--seed 2026]
-//       [--orders default|all|both] [--threads 1] [--json FILE] [--verbose]
+//       [--orders default|cubic|both] [--threads 1] [--json FILE] [--verbose]
 //       [--only I] [--bound-wheel] [--reach-iterations 300]
 //       [--fix BLOCK]... [--no-state] [--solver pso] [--compare pso]
 //
@@ -21,9 +21,11 @@
 // --reach-iterations 1 skips most of the reference optimiser's work (its
 // figures are then meaningless) for a quick count of worse rounds (~25 s).
 //
-// --orders default: the solver's default options (default_max_order 3); all:
-// every order 0-6 open (default_max_order 6; the bevel generator's degree 5);
-// both (the default) runs both.
+// --orders default: the solver's default options (default_max_order 6: every
+// order 0-6 open, the bevel generator's degree 5); cubic: every axis held to
+// its cubic term (default_max_order 3, the default before issue 13's order
+// choice); both (the default) runs both. "all" is a second name of
+// "default".
 // --solver NAME runs every configuration with that solver instead of the
 // default ("regularised"; "pso" is the published swarm, MODEL.md §6).
 // --compare NAME runs, beside each configuration, its twin with that solver on
@@ -901,7 +903,7 @@ bool ParseArgs(int argc, char** argv, Args* a) {
     } else {
       std::fprintf(stderr,
                    "usage: robustness_benchmark [--scenarios N] [--bevel N] "
-                   "[--seed S] [--orders default|all|both] "
+                   "[--seed S] [--orders default|cubic|both] "
                    "[--solver NAME] [--compare NAME] "
                    "[--threads N] [--json FILE] [--verbose] [--only I]\n");
       return false;
@@ -926,12 +928,17 @@ bool BuildConfigs(const Args& a, std::vector<Config>* configs) {
         "pso or lsq-plain; --compare with the default solver)\n");
     return false;
   }
-  if (a.orders != "all")
-    configs->push_back({"default options", CorrectionOptions(), 3});
-  if (a.orders != "default") {
-    Config all{"every order 0-6 open", CorrectionOptions(), 6};
-    all.options.default_max_order = 6;
-    configs->push_back(all);
+  // Less freedom first: a configuration's reference starts from those of the
+  // configurations before it with no more freedom (ReferenceFor).
+  if (a.orders == "cubic" || a.orders == "both") {
+    Config cubic{"every axis held to order 3", CorrectionOptions(), 3};
+    cubic.options.default_max_order = 3;
+    configs->push_back(cubic);
+  }
+  if (a.orders != "cubic") {
+    configs->push_back({"default options (orders 0-6)",
+                        CorrectionOptions(),
+                        CorrectionOptions().default_max_order});
   }
   for (Config& c : *configs) {
     for (const std::string& b : a.fixed_blocks) c.options.max_order[b] = -1;
@@ -1012,7 +1019,8 @@ int main(int argc, char** argv) {
   Args a;
   if (!ParseArgs(argc, argv, &a)) return 2;
   if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
-      (a.orders != "default" && a.orders != "all" && a.orders != "both")) {
+      (a.orders != "default" && a.orders != "all" && a.orders != "cubic" &&
+       a.orders != "both")) {
     std::fprintf(stderr,
                  "robustness_benchmark: bad --scenarios, --bevel, --threads or "
                  "--orders\n");

@@ -178,20 +178,22 @@ struct CorrectionOptions {
   // (ParameterBlock::name: "X".."C", "cone_angle", ...). Example, the published
   // cutter case: default_max_order = 0, max_order = {{"C", 6}}.
   //
-  // The default 3 (each axis up to its cubic term): a Legendre term of order k
-  // moves the axis by its amplitude inside the roll range but accelerates it by
-  // ~k^4 / h^2 times that at the ends of the range (210 / h^2 for k = 6, h the
-  // half width). Orders 4-6 of a few um already make the envelope contacts of
-  // the root row singular on the spur gear (Newton finds no contact at 0.35 um
-  // of correction size), and the linear model does not predict them. With 3
-  // every generated case converged monotonically, the spur gear included (15.8
-  // -> 1.10 um in one correction; with 6 it did not converge). Raise it where a
-  // target needs the higher orders: the regularised solver then solves held to
-  // the cubic terms as well and answers with orders 4-6 only where their exact
-  // prediction is better by max(0.1 um, 20 %) (summary.order_choice); the
-  // second solve only where orders 4-6 reach enough above the noise from the
-  // cubic answer's predicted part.
-  int default_max_order = 3;
+  // The default 6 (every order of every axis, issue 13): the regularised
+  // solver first solves held to each axis' cubic term, and answers with orders
+  // 4-6 only where their exact prediction is better by max(0.1 um, 20 %) and
+  // they keep every measured point at the commanded settings
+  // (summary.order_choice); the second solve runs only where orders 4-6 reach
+  // enough above the noise from the cubic answer's predicted part. A Legendre
+  // term of order k moves the axis by its amplitude inside the roll range but
+  // accelerates it by ~k^4 / h^2 times that at the ends of the range (210 / h^2
+  // for k = 6, h the half width); orders 4-6 of a few um once made the
+  // envelope contacts of the spur gear's root row singular, and with them open
+  // unguarded 11 of 24 loops scrapped parts; the order choice, their
+  // smoothness weights and the safe step's commanded-end tests are what make
+  // them safe (docs/correction-safety.md). The other solvers ("pso",
+  // "lsq-plain") use every order asked as it is; 3 holds every axis to its
+  // cubic term.
+  int default_max_order = 6;
   std::map<std::string, int> max_order;
 
   // Per-point weights (row-major, >= 0; empty = all 1). A zero weight ignores

@@ -330,7 +330,7 @@ void ReportProblem(const CorrectionProblem& problem,
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks) {
   for (const ParameterBlock& b : blocks)
-    if (b.is_polynomial && FreeOrder(options, b) > kHighestDefaultOrder)
+    if (b.is_polynomial && FreeOrder(options, b) > kCubicOrder)
       return true;
   return false;
 }
@@ -352,7 +352,7 @@ int HighestOrderMoved(const std::vector<ParameterBlock>& blocks,
 
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta) {
-  return HighestOrderMoved(problem.blocks, delta) > kHighestDefaultOrder;
+  return HighestOrderMoved(problem.blocks, delta) > kCubicOrder;
 }
 
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx) {

@@ -181,11 +181,11 @@ void ReportProblem(const CorrectionProblem& problem,
 // empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
-// The highest order the default freedom leaves free on an axis polynomial
-// (CorrectionOptions::default_max_order); orders above it (4-6) answer only
-// where they earn their place and the safe step asks more of them
+// The cubic term of an axis polynomial: every correction is first computed
+// held to it (correction.cc, CorrectWithOrderChoice); orders above it (4-6)
+// answer only where they earn their place and the safe step asks more of them
 // (docs/correction-safety.md).
-constexpr int kHighestDefaultOrder = 3;
+constexpr int kCubicOrder = 3;
 
 // The highest polynomial order `delta` (num_parameters entries) changes on
 // any block of `blocks` (-1: none).
@@ -193,12 +193,12 @@ int HighestOrderMoved(const std::vector<ParameterBlock>& blocks,
                       const Eigen::VectorXd& delta);
 
 // Whether `delta` moves any axis polynomial coefficient above
-// kHighestDefaultOrder.
+// kCubicOrder.
 bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
-// Whether `options` free an order above kHighestDefaultOrder on any
+// Whether `options` free an order above kCubicOrder on any
 // polynomial block of `blocks`.
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks);

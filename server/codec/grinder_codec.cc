@@ -358,9 +358,14 @@ bool ReadAxes(const nlohmann::json& settings,
                           &s->axes[i][k],
                           error))
         return false;
-      if (std::fabs(s->axes[i][k]) > 1e6) {
+      // A unit mistake, not a motion: more than 1e6 mm (or rad) from the
+      // term at a roll of 0.1 rad. An order-6 correction over a roll range of
+      // a few tenths of a radian has coefficients of 1e5-1e6 per um of motion
+      // in rad^-6 (a plain least-squares job reached 1.3e6 for C's square).
+      if (std::fabs(s->axes[i][k]) > 1e6 * std::pow(10.0, k)) {
         *error = InvalidValue(field + "[" + std::to_string(k) + "]",
-                              "axis coefficient is implausibly large");
+                              "axis coefficient is implausibly large (beyond "
+                              "1e6 x 10^k for the power k)");
         return false;
       }
     }

@@ -92,11 +92,16 @@ bool BuildSettingsListing(const JobRecord& job,
   // The corrected parameters, read as a request would give them.
   nlohmann::json corrected_request = request;
   corrected_request[key] = result[key];
+  // The answer of a solver without bounds (lsq-plain) may be beyond what a
+  // request may carry: refused, named, not an internal error.
   CorrectionProblem corrected;
-  if (!CorrectionProblemFor(corrected_request, &corrected, error))
-    throw std::runtime_error("corrected " + key + " of job " +
-                             std::to_string(job.id) +
-                             " do not parse: " + error->message);
+  if (!CorrectionProblemFor(corrected_request, &corrected, error)) {
+    *error = InvalidValue(error->field,
+                          "the corrected " + key + " of job " +
+                              std::to_string(job.id) +
+                              " cannot be listed: " + error->message);
+    return false;
+  }
   const Eigen::VectorXd delta =
       corrected.current_parameters - commanded.current_parameters;
   const std::vector<ParameterBlock> blocks = commanded.model->ParameterBlocks();

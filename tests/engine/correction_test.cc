@@ -288,50 +288,59 @@ std::vector<LoopCase> LoopCases() {
   };
 }
 
+// Held to the cubic terms the loop ends within 0.05 um of the best the
+// model reaches; with every order (the default) within the order choice's
+// margin, max(0.1 um, 20 %) of the final part, of the best with every order
+// (orders 4-6 answer only where they beat the cubic answer by that much).
 TEST(ComputeCorrection, NoiseFreeLoopReachesTheBestOnFourGears) {
-  for (const LoopCase& c : LoopCases()) {
-    const FlatWheelGrinder grinder(c.setup);
-    const Eigen::VectorXd nominal = grinder.nominal().ToVector();
-    // Hidden machine errors: every axis up to order 2 and the wheel, about 2 um
-    // of axis motion per axis over the roll range.
-    const Eigen::VectorXd hidden = RandomHiddenErrors(grinder,
-                                                      grinder.roll_min_rad(),
-                                                      grinder.roll_max_rad(),
-                                                      2.0,
-                                                      2,
-                                                      0.4,
-                                                      c.hidden_seed);
-    const Eigen::VectorXd target = EvaluateTargetModifications(
-        c.target, grinder.grid(), c.setup.gear, c.setup.flank);
-    ClosedLoopOptions loop;
-    loop.corrections = 3;
-    loop.correction.probe_noise_um = 0.0;  // exact measurements
-    const ClosedLoopResult run =
-        SimulateClosedLoop(grinder, nominal, hidden, target, loop);
-    ASSERT_TRUE(run.completed) << c.name << ": " << run.message;
-    ASSERT_EQ(run.iterations.size(), 4u);
-    // The best the model can still reach for that target, from the last part.
-    const SimulatedMeasurement last = SimulateMeasurement(
-        grinder, run.iterations.back().commanded_parameters, hidden, {});
-    CorrectionInput input;
-    input.model = &grinder;
-    input.current_parameters = run.iterations.back().commanded_parameters;
-    input.measured_um = last.measured_um;
-    input.target_um = target;
-    const CorrectionResult best = ComputeCorrection(loop.correction, input);
-    const double final_rms = run.iterations.back().true_rms_um;
-    EXPECT_LE(final_rms, best.summary.best_reachable_rms_um + /*tol_um=*/0.05)
-        << c.name;
-    EXPECT_LT(final_rms, 0.25 * run.iterations.front().true_rms_um) << c.name;
-    // Never into the null space: every correction moves the axes by tens of um
-    // at most.
-    for (const ClosedLoopIteration& it : run.iterations) {
-      if (it.corrected) {
-        EXPECT_LT(it.correction.correction_size, 100.0)
-            << c.name << " part " << it.part;
+  for (const int max_order : {3, 6})
+    for (const LoopCase& c : LoopCases()) {
+      SCOPED_TRACE("default_max_order " + std::to_string(max_order));
+      const FlatWheelGrinder grinder(c.setup);
+      const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+      // Hidden machine errors: every axis up to order 2 and the wheel, about 2
+      // um of axis motion per axis over the roll range.
+      const Eigen::VectorXd hidden = RandomHiddenErrors(grinder,
+                                                        grinder.roll_min_rad(),
+                                                        grinder.roll_max_rad(),
+                                                        2.0,
+                                                        2,
+                                                        0.4,
+                                                        c.hidden_seed);
+      const Eigen::VectorXd target = EvaluateTargetModifications(
+          c.target, grinder.grid(), c.setup.gear, c.setup.flank);
+      ClosedLoopOptions loop;
+      loop.corrections = 3;
+      loop.correction.probe_noise_um = 0.0;  // exact measurements
+      loop.correction.default_max_order = max_order;
+      const ClosedLoopResult run =
+          SimulateClosedLoop(grinder, nominal, hidden, target, loop);
+      ASSERT_TRUE(run.completed) << c.name << ": " << run.message;
+      ASSERT_EQ(run.iterations.size(), 4u);
+      // The best the model can still reach for that target, from the last part.
+      const SimulatedMeasurement last = SimulateMeasurement(
+          grinder, run.iterations.back().commanded_parameters, hidden, {});
+      CorrectionInput input;
+      input.model = &grinder;
+      input.current_parameters = run.iterations.back().commanded_parameters;
+      input.measured_um = last.measured_um;
+      input.target_um = target;
+      const CorrectionResult best = ComputeCorrection(loop.correction, input);
+      const double final_rms = run.iterations.back().true_rms_um;
+      const double tol_um =
+          max_order == 3 ? 0.05 : std::max(0.1, 0.2 * final_rms);
+      EXPECT_LE(final_rms, best.summary.best_reachable_rms_um + tol_um)
+          << c.name;
+      EXPECT_LT(final_rms, 0.25 * run.iterations.front().true_rms_um) << c.name;
+      // Never into the null space: every correction moves the axes by tens of
+      // um at most.
+      for (const ClosedLoopIteration& it : run.iterations) {
+        if (it.corrected) {
+          EXPECT_LT(it.correction.correction_size, 100.0)
+              << c.name << " part " << it.part;
+        }
       }
     }
-  }
 }
 
 // With probe noise sigma = 0.5 um, after two corrections the true flank error
@@ -622,8 +631,8 @@ TEST(ComputeCorrection, OnlyFreeCoefficientsChange) {
 // Orders 4-6 where they earn their place: a target that only C's 5th order
 // makes (the flank change of 3 units of size along C's 5th Legendre term, no
 // machine error, no noise) is followed with orders 4-6 when they are open and
-// approximated by the cubic terms otherwise; with the default orders nothing
-// is chosen.
+// approximated by the cubic terms when every axis is held to them (then
+// nothing is chosen).
 TEST(ComputeCorrection, OrdersAboveCubicAnswerOnlyWhereTheyEarnTheirPlace) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);
@@ -643,11 +652,13 @@ TEST(ComputeCorrection, OrdersAboveCubicAnswerOnlyWhereTheyEarnTheirPlace) {
   input.target_um = after.deviations_um;
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
+  options.default_max_order = 3;
   const CorrectionResult cubic = ComputeCorrection(options, input);
   ASSERT_TRUE(cubic.summary.IsSolutionUsable()) << cubic.summary.message;
   EXPECT_EQ(cubic.summary.order_choice, "");
   EXPECT_LE(cubic.summary.highest_order_moved, 3);
-  options.default_max_order = 6;
+  options.default_max_order = CorrectionOptions().default_max_order;
+  ASSERT_EQ(options.default_max_order, 6);
   const CorrectionResult open = ComputeCorrection(options, input);
   ASSERT_TRUE(open.summary.IsSolutionUsable()) << open.summary.message;
   EXPECT_EQ(open.summary.order_choice.rfind("orders 4-6 used", 0), 0u)

@@ -260,6 +260,20 @@ TEST(MachineSettingsJson, RoundTripsWithConeAngleInDegrees) {
   bad["axes"]["Q"] = {1.0};
   EXPECT_FALSE(ParseMachineSettings(bad, "settings", &back, &error));
   EXPECT_EQ(error.field, "settings.axes.Q");
+  // A coefficient of power k may reach 1e6 x 10^k (an order-6 correction over
+  // a short roll range has large ones), not beyond (a unit mistake).
+  nlohmann::json large = j;
+  large["axes"]["C"][2] = 9e7;
+  large["axes"]["C"][6] = -9e11;
+  EXPECT_TRUE(ParseMachineSettings(large, "settings", &back, &error))
+      << error.message;
+  large["axes"]["C"][2] = 1.1e8;
+  EXPECT_FALSE(ParseMachineSettings(large, "settings", &back, &error));
+  EXPECT_EQ(error.field, "settings.axes.C[2]");
+  large = j;
+  large["axes"]["X"][0] = 1.1e6;
+  EXPECT_FALSE(ParseMachineSettings(large, "settings", &back, &error));
+  EXPECT_EQ(error.field, "settings.axes.X[0]");
   // Fewer than seven coefficients: the higher orders are zero.
   nlohmann::json short_axes = j;
   short_axes["axes"]["Y"] = {5.0};
