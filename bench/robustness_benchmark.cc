@@ -652,6 +652,32 @@ std::string Spread(const std::vector<double>& v) {
          Num(Quantile(v, 1.0));
 }
 
+// Round 1, scenario by scenario: where the default's correction is larger
+// (against the bound) than the other's, whether its next part is better,
+// equal or worse (the same tolerances as the table).
+void PrintLargerCorrections(const Comparison& c, const std::string& other) {
+  const ComparedFigure& rms = c.figures[0];
+  const ComparedFigure& size = c.figures[1];
+  int larger = 0, counts[3] = {0, 0, 0};  // better, equal, worse
+  for (size_t k = 0; k < size.base.size(); ++k) {
+    if (size.base[k] <= size.other[k] + kSameSizeOfBound) continue;
+    ++larger;
+    const double a = rms.base[k], b = rms.other[k];
+    const double same = std::max(kSameRmsUm, kSameRmsFraction * std::min(a, b));
+    ++counts[std::abs(a - b) <= same ? 1 : a < b ? 0 : 2];
+  }
+  std::printf(
+      "Round 1, where the default's correction is the larger (%d of %d "
+      "scenarios): its next part is better than %s's in %d, equal in %d, "
+      "worse in %d.\n\n",
+      larger,
+      static_cast<int>(size.base.size()),
+      other.c_str(),
+      counts[0],
+      counts[1],
+      counts[2]);
+}
+
 void PrintComparison(const Comparison& c,
                      const std::string& title,
                      const std::string& other) {
@@ -696,6 +722,7 @@ void PrintComparison(const Comparison& c,
   std::printf("| corrections beyond 0.2 mm / 3e-3 rad | %d | %d | |\n\n",
               c.beyond_bound[0],
               c.beyond_bound[1]);
+  PrintLargerCorrections(c, other);
   if (!c.other_worse_list.empty()) {
     std::printf("%s worse rounds (scenario/round, true rms um): ",
                 other.c_str());

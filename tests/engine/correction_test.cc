@@ -674,9 +674,9 @@ TEST(ComputeCorrection, OrdersAboveCubicAnswerOnlyWhereTheyEarnTheirPlace) {
             open.summary.residual_rms_um);
 }
 
-// The wheel parabola is fixed unless named: by default 6 axes x 4 orders and
-// the cone angle are free, and a_w, d_w do not change; named with 0 they are
-// free again.
+// The wheel parabola is fixed unless named: every axis held to its cubic term,
+// 6 axes x 4 orders and the cone angle are free, and a_w, d_w do not change;
+// named with 0 they are free again.
 TEST(ComputeCorrection, TheWheelParabolaIsFixedUnlessNamed) {
   const CutterWithHiddenErrors c(6);
   CorrectionInput input;
@@ -690,6 +690,7 @@ TEST(ComputeCorrection, TheWheelParabolaIsFixedUnlessNamed) {
                                   c.setup.gear,
                                   c.setup.flank);
   CorrectionOptions options;
+  options.default_max_order = 3;  // the count below: 6 axes x 4 orders
   const CorrectionResult fixed = ComputeCorrection(options, input);
   ASSERT_TRUE(fixed.summary.IsSolutionUsable()) << fixed.summary.message;
   EXPECT_EQ(fixed.summary.num_free_parameters, 6 * 4 + 1);
