@@ -330,8 +330,7 @@ void ReportProblem(const CorrectionProblem& problem,
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks) {
   for (const ParameterBlock& b : blocks)
-    if (b.is_polynomial && FreeOrder(options, b) > kCubicOrder)
-      return true;
+    if (b.is_polynomial && FreeOrder(options, b) > kCubicOrder) return true;
   return false;
 }
 
