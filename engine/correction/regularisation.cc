@@ -193,6 +193,24 @@ Eigen::VectorXd NoiseShareAlong(const CorrectionProblem& problem,
   return share;
 }
 
+// A = W^1/2 S T and b = -W^1/2 e over `rows`; returns the sum of their
+// weights.
+double WeightedSystem(const CorrectionProblem& problem,
+                      const std::vector<int>& rows,
+                      Eigen::MatrixXd* a,
+                      Eigen::VectorXd* b) {
+  a->resize(rows.size(), problem.NumFree());
+  b->resize(rows.size());
+  double weight_sum = 0.0;
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const double sw = std::sqrt(problem.weights(rows[r]));
+    a->row(r) = sw * problem.st.row(rows[r]);
+    (*b)(r) = -sw * problem.error_um(rows[r]);
+    weight_sum += problem.weights(rows[r]);
+  }
+  return weight_sum;
+}
+
 // The filter factors of one Tikhonov level over every eligible direction.
 void SingleLevelFilter(LinearSolve* ls) {
   const int rank = ls->k;
@@ -247,15 +265,9 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const std::vector<int>& rows) {
   const int nf = problem.NumFree();
   LinearSolve ls;
-  Eigen::MatrixXd a(rows.size(), nf);
-  Eigen::VectorXd b(rows.size());
-  double weight_sum = 0.0;
-  for (size_t r = 0; r < rows.size(); ++r) {
-    const double sw = std::sqrt(problem.weights(rows[r]));
-    a.row(r) = sw * problem.st.row(rows[r]);
-    b(r) = -sw * problem.error_um(rows[r]);
-    weight_sum += problem.weights(rows[r]);
-  }
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+  const double weight_sum = WeightedSystem(problem, rows, &a, &b);
   // A direction with singular value sigma changes the flank by sigma / sqrt(sum
   // w) um rms per unit of correction size; below min_flank_effect_um (the
   // per-direction filter: kWeakFlankEffectShare of it) it is not counted as
@@ -312,16 +324,9 @@ double ReachableSignal2(const CorrectionOptions& options,
                         const CorrectionProblem& problem,
                         const std::vector<int>& rows,
                         double noise_um) {
-  const int nf = problem.NumFree();
-  Eigen::MatrixXd a(rows.size(), nf);
-  Eigen::VectorXd b(rows.size());
-  double weight_sum = 0.0;
-  for (size_t r = 0; r < rows.size(); ++r) {
-    const double sw = std::sqrt(problem.weights(rows[r]));
-    a.row(r) = sw * problem.st.row(rows[r]);
-    b(r) = -sw * problem.error_um(rows[r]);
-    weight_sum += problem.weights(rows[r]);
-  }
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+  const double weight_sum = WeightedSystem(problem, rows, &a, &b);
   if (!(weight_sum > 0.0)) return 0.0;
   const Svd svd =
       ComputeSvd(a,
