@@ -620,6 +620,11 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options,
     result.summary.highest_order_moved =
         HighestOrderMoved(input.model->ParameterBlocks(), result.delta);
   }
+  if (input.model != nullptr) {
+    result.summary.axis_orders_held_below_highest =
+        HoldsAnAxisBelowItsHighestOrder(options,
+                                        input.model->ParameterBlocks());
+  }
   result.summary.elapsed_ms = std::chrono::duration<double, std::milli>(
                                   std::chrono::steady_clock::now() - start)
                                   .count();

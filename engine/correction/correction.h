@@ -467,6 +467,10 @@ struct CorrectionSummary {
       std::numeric_limits<double>::quiet_NaN();
   double all_orders_predicted_rms_um = std::numeric_limits<double>::quiet_NaN();
   int highest_order_moved = -1;
+  // Whether the options hold an axis that moves below its highest order
+  // (6 on the grinder): only then can "open higher orders" make more of the
+  // target (false with every order 0-6 open, the default).
+  bool axis_orders_held_below_highest = false;
 
   int iterations = 0;  // Ceres iterations, rework passes or PSO generations
   double elapsed_ms = 0.0;

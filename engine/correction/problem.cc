@@ -327,6 +327,17 @@ void ReportProblem(const CorrectionProblem& problem,
   summary->num_points_used = static_cast<int>(problem.used.size());
 }
 
+bool HoldsAnAxisBelowItsHighestOrder(
+    const CorrectionOptions& options,
+    const std::vector<ParameterBlock>& blocks) {
+  for (const ParameterBlock& b : blocks) {
+    if (!b.is_polynomial) continue;
+    const int order = FreeOrder(options, b);
+    if (order >= 0 && order < b.num_coefficients - 1) return true;
+  }
+  return false;
+}
+
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,
                            const std::vector<ParameterBlock>& blocks) {
   for (const ParameterBlock& b : blocks)

@@ -198,6 +198,11 @@ bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
                           const Eigen::VectorXd& delta);
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
+// Whether `options` hold a polynomial block that moves (order >= 0) below its
+// highest order (num_coefficients - 1).
+bool HoldsAnAxisBelowItsHighestOrder(const CorrectionOptions& options,
+                                     const std::vector<ParameterBlock>& blocks);
+
 // Whether `options` free an order above kCubicOrder on any
 // polynomial block of `blocks`.
 bool OpensOrdersAboveCubic(const CorrectionOptions& options,

@@ -39,10 +39,14 @@ double ReachableRmsUm(const CorrectionSummary& s) {
 
 std::string NoiseAdvice(const CorrectionSummary& s) {
   if (s.best_reachable_rms_um >= kMostlyOutOfReach * s.initial_rms_um) {
-    return "Almost all of the error is out of reach of the free axes: free "
-           "higher orders, more axes or the wheel's profile "
-           "(options.max_order; POST /api/v1/targets/reach names which makes "
-           "most of a target), or accept the part";
+    return std::string(
+               "Almost all of the error is out of reach of the free axes: "
+               "free ") +
+           (s.axis_orders_held_below_highest ? "higher orders, more axes"
+                                             : "more axes") +
+           " or the wheel's profile (options.max_order; POST "
+           "/api/v1/targets/reach names which makes most of a target), or "
+           "accept the part";
   }
   return "Measure again (several teeth average the noise out) or state the "
          "probe noise if it is smaller";

@@ -267,10 +267,13 @@ void ApplyTolerance(const Tolerance& tolerance, CorrectionRun* run) {
       "): the solve converged, but this machine configuration reaches at "
       "best " +
       best +
-      " um rms of the target at the allowed orders; allow higher orders, "
-      "more axes or the wheel's profile (options.max_order: for target "
-      "modifications result.reach computes which makes the rest), or relax "
-      "the tolerance";
+      (s.axis_orders_held_below_highest
+           ? " um rms of the target at the allowed orders; allow higher "
+             "orders, more axes or the wheel's profile"
+           : " um rms of the target with every axis order 0-6 open; free more "
+             "axes or the wheel's profile") +
+      " (options.max_order: for target modifications result.reach computes "
+      "which makes the rest), or relax the tolerance";
   run->job.status = "target_partly_reachable";
 }
 

@@ -1408,6 +1408,23 @@ TEST_F(GearloopServerTest,
             std::string::npos);
   EXPECT_NE(result["message"].get<std::string>().find("at best"),
             std::string::npos);
+  // Every axis order 0-6 is open by default: the advice is more axes or the
+  // wheel's profile, not higher orders; held to the cubic terms it is.
+  const std::string every_order = "with every axis order 0-6 open";
+  EXPECT_NE(result["message"].get<std::string>().find(every_order),
+            std::string::npos)
+      << result["message"];
+  EXPECT_EQ(result["message"].get<std::string>().find("higher orders"),
+            std::string::npos)
+      << result["message"];
+  nlohmann::json cubic_request = request;
+  cubic_request["options"] = {{"default_max_order", 3}};
+  const nlohmann::json cubic =
+      Post(*client_, "/api/v1/corrections", cubic_request).body["result"];
+  ASSERT_EQ(cubic["status"], "target_partly_reachable") << cubic.dump();
+  EXPECT_NE(cubic["message"].get<std::string>().find("allow higher orders"),
+            std::string::npos)
+      << cubic["message"];
   EXPECT_GE(residual, best - 1e-9);
   const nlohmann::json& verdict = result["verdict"];
   EXPECT_EQ(verdict["tolerance"], request["tolerance"]);
@@ -1419,7 +1436,7 @@ TEST_F(GearloopServerTest,
       Send(
           *client_, "GET", "/api/v1/corrections?status=target_partly_reachable")
           .body["total"],
-      1);
+      2);
 
   // Loose enough for what the machine makes: converged, the next part passes.
   request["tolerance"] = {{"rms_um", residual + 0.5}};

@@ -105,6 +105,10 @@ TEST_F(ZeroCorrectionTest, AnErrorOutOfReachSaysSo) {
   ASSERT_LE(next["correction_size"].get<double>(), kNegligibleSize);
   EXPECT_EQ(next["explain"]["reason"], "nothing_above_noise");
   EXPECT_TRUE(Says(next, "out of reach of the free axes")) << next["message"];
+  // Every axis order 0-6 is open here (the default): not "higher orders".
+  EXPECT_FALSE(Says(next, "higher orders")) << next["message"];
+  EXPECT_TRUE(Says(next, "free more axes or the wheel's profile"))
+      << next["message"];
   // Noise alone keeps the advice to measure again.
   EXPECT_TRUE(Says(Correct(Request(NoiseOnlyGrid())), "Measure again"));
 }
