@@ -53,6 +53,31 @@ int CurrentOrder(const nlohmann::json& options, const std::string& axis) {
   return std::min(order, kHighestOrder);
 }
 
+}  // namespace
+
+nlohmann::json WithEveryAxisAtHighestOrder(const nlohmann::json& options,
+                                           bool* raised) {
+  *raised = false;
+  nlohmann::json opened =
+      options.is_object() ? options : nlohmann::json::object();
+  for (const char* axis : kAxes) {
+    const int order = CurrentOrder(options, axis);
+    if (order >= 0 && order < kHighestOrder) *raised = true;
+  }
+  opened["default_max_order"] = kHighestOrder;
+  if (opened.contains("max_order") && opened["max_order"].is_object()) {
+    for (const char* axis : kAxes) {
+      nlohmann::json& named = opened["max_order"];
+      if (named.contains(axis) && named[axis].is_number_integer() &&
+          named[axis].get<int>() >= 0)
+        named[axis] = kHighestOrder;
+    }
+  }
+  return opened;
+}
+
+namespace {
+
 // The share of `modification` with each block of `orders` set to its order
 // in options.max_order (the rest as sent); NaN when that solve is refused.
 double ShareWithOrders(const ServiceContext& context,

@@ -88,17 +88,28 @@ bool ComputeReach(const ServiceContext& context,
                         share.is_number() ? share.get<double>() : std::nan(""));
     components.push_back(reach);
   }
-  // What higher orders would make: every axis polynomial free to order 6.
+  // What higher orders would make: every axis polynomial free to order 6
+  // (the combined solve itself where the options already open them all, the
+  // default).
   nlohmann::json all_orders = body;
-  all_orders["options"]["default_max_order"] = kHighestOrder;
+  bool raised = false;
+  all_orders["options"] = WithEveryAxisAtHighestOrder(
+      body.value("options", nlohmann::json()), &raised);
   CorrectionSummary highest;
   nlohmann::json with_highest_orders;
   ApiError ignored;
-  if (SolveReach(
-          context, all_orders, body["target"], zero_grid, &highest, &ignored)) {
+  if (!raised) {
+    with_highest_orders = ReachJson(combined);
+  } else if (SolveReach(context,
+                        all_orders,
+                        body["target"],
+                        zero_grid,
+                        &highest,
+                        &ignored)) {
     with_highest_orders = ReachJson(highest);
-    with_highest_orders["default_max_order"] = kHighestOrder;
   }
+  if (with_highest_orders.is_object())
+    with_highest_orders["default_max_order"] = kHighestOrder;
   *answer = {{"combined", ReachJson(combined)},
              {"components", components},
              {"with_highest_orders", with_highest_orders},

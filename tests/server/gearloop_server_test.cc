@@ -1547,6 +1547,27 @@ TEST_F(GearloopServerTest, ReportsTheShareOfATargetTheMachineCanMake) {
   EXPECT_EQ(highest["default_max_order"], 6);
   EXPECT_GE(highest["rank"].get<int>(),
             reach.body["combined"]["rank"].get<int>());
+  // Every axis order is open by default: with_highest_orders is the combined
+  // reach itself. With every axis held to its constant term by name
+  // (max_order), it lifts each of them to 6: the same figures as the
+  // default's.
+  EXPECT_EQ(highest["unreachable_rms_um"],
+            reach.body["combined"]["unreachable_rms_um"]);
+  EXPECT_EQ(highest["rank"], reach.body["combined"]["rank"]);
+  nlohmann::json held = request;
+  held["options"]["max_order"] = nlohmann::json::object();
+  for (const char* axis : {"X", "Y", "Z", "A", "B", "C"})
+    held["options"]["max_order"][axis] = 0;
+  const Answer held_reach = Post(*client_, "/api/v1/targets/reach", held);
+  ASSERT_EQ(held_reach.status, 200) << held_reach.body.dump();
+  const nlohmann::json& lifted = held_reach.body["with_highest_orders"];
+  ASSERT_TRUE(lifted.is_object());
+  EXPECT_LT(held_reach.body["combined"]["rank"].get<int>(),
+            lifted["rank"].get<int>());
+  EXPECT_EQ(lifted["rank"], highest["rank"]);
+  EXPECT_NEAR(lifted["unreachable_rms_um"].get<double>(),
+              highest["unreachable_rms_um"].get<double>(),
+              1e-9);
 
   Answer bad = Post(*client_, "/api/v1/targets/reach", DefaultSetup());
   EXPECT_EQ(bad.status, 400);
