@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "engine/correction/baseline_solvers.h"
+#include "engine/correction/exact_search.h"
 #include "engine/correction/machine_state.h"
 #include "engine/correction/outliers.h"
 #include "engine/correction/prediction_band.h"
@@ -276,6 +277,7 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
   switch (options.solver) {
     case CorrectionSolver::kRegularised:
       delta = SolveRegularised(options, problem, ls, &summary, &not_converged);
+      delta = SearchOnExactModel(options, problem, ls, delta, &summary);
       break;
     case CorrectionSolver::kPlainLeastSquares:
       delta = SolvePlainLeastSquares(problem);

@@ -446,6 +446,13 @@ struct CorrectionSummary {
   // bounded change kept by the exact-model check (1 = all, 0 = none), the rms
   // the exact model predicts for the kept change at the linearisation point,
   // and the rms of keeping the current settings it was compared with.
+  // The exact-model search (exact_search.h): what it did ("not run: ...",
+  // "taken: ...", "kept the regularised answer: ...", "" when the solver has
+  // none), and the exact predictions at the linearisation point of the
+  // regularised answer and of the search's [um] (NaN when not computed).
+  std::string exact_search;
+  double exact_search_before_rms_um = std::numeric_limits<double>::quiet_NaN();
+  double exact_search_after_rms_um = std::numeric_limits<double>::quiet_NaN();
   bool safe_step_checked = false;
   double motion_scale = 1.0;
   double step_fraction = 1.0;

@@ -161,6 +161,7 @@ std::string CorrectionSummary::BriefReport() const {
     if (!machine_state_reason.empty())
       out << " (" << machine_state_reason << ")";
     if (!order_choice.empty()) out << ", " << order_choice;
+    if (!exact_search.empty()) out << ", exact search " << exact_search;
     if (safe_step_checked) {
       out << ", safe step: motion x" << motion_scale << ", fraction "
           << step_fraction << " (exact rms " << safe_step_current_rms_um

@@ -1,0 +1,41 @@
+// engine/correction/exact_search.h (internal): the exact-model search, a stage
+// between the regularised answer and the safe step.
+//
+// Where the linear model stalls (robustness benchmark, BENCHMARKS.md "Where
+// the narrow gears' reach is": a lead crowning on a narrow gear is made only
+// with axis motions on their bound, by the exact model's curvature, where
+// every linearisation sees a best reachable of 2.4 um), the regularised answer
+// is continued on the exact model at the linearisation point: sequential QPs
+// (RefineWithinMotionBound) over every direction above the weak-flank floor
+// (not only those the filter kept), fitting the noise-filtered error (the
+// measured part of each direction shrunk as the filter did, what no direction
+// reaches kept whole), within the motion bound. Its answer replaces the
+// regularised one only where its exact prediction at the linearisation point
+// is below (1 - kSearchGainShare) x the regularised answer's - kSearchGainMinUm
+// (20 % and 0.1 um lower); either then goes through the safe step. It runs
+// only where the regularised answer's linear and exact predictions both stay
+// above 2 x the filter's noise + 0.1 um.
+//
+//   delta = SearchOnExactModel(options, problem, ls, delta, &summary);
+#ifndef GEARLOOP_ENGINE_CORRECTION_EXACT_SEARCH_H_
+#define GEARLOOP_ENGINE_CORRECTION_EXACT_SEARCH_H_
+
+#include <Eigen/Core>
+
+#include "engine/correction/correction.h"
+#include "engine/correction/problem.h"
+#include "engine/correction/regularisation.h"
+
+namespace gearloop {
+namespace correction_internal {
+
+Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem,
+                                   const LinearSolve& ls,
+                                   const Eigen::VectorXd& delta,
+                                   CorrectionSummary* summary);
+
+}  // namespace correction_internal
+}  // namespace gearloop
+
+#endif  // GEARLOOP_ENGINE_CORRECTION_EXACT_SEARCH_H_
