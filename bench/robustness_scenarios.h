@@ -593,6 +593,11 @@ struct RoundRecord {
   double correction_size = 0.0;
   double cpu_ms = 0.0;  // thread CPU time of ComputeCorrection
   bool worse = false;   // IsWorsePart(rms_before, rms_after)
+  // The exact-model search's outcome (summary exact_search) and its two
+  // predictions [um].
+  std::string exact_search;
+  double exact_search_before_rms_um = 0.0;
+  double exact_search_after_rms_um = 0.0;
 };
 
 struct LoopRecord {
@@ -671,6 +676,10 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
       round.band_high_um[k] = band.true_rms_high_um[k];
     }
     round.correction_size = result.summary.correction_size;
+    round.exact_search = result.summary.exact_search;
+    round.exact_search_before_rms_um =
+        result.summary.exact_search_before_rms_um;
+    round.exact_search_after_rms_um = result.summary.exact_search_after_rms_um;
     if (round.usable) {
       MaxAxisMotion(model,
                     result.delta,

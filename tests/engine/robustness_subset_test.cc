@@ -7,7 +7,6 @@
 // (bench/robustness_benchmark.cc) also measures reach, prediction and CPU.
 #include <gtest/gtest.h>
 
-#include <Eigen/Core>
 #include <string>
 
 #include "bench/robustness_scenarios.h"
@@ -109,49 +108,25 @@ TEST(ExactSearch, MakesTheNarrowGearsCrowningTheLinearAnswerCannot) {
   };
   for (const Case& c : {Case{4, 185, 0.276}, Case{2026, 91, 0.446}}) {
     const bench::Scenario s = bench::DrawGrinderScenario(c.seed, c.index);
-    CorrectionOptions options;
-    options.probe_noise_um = s.noise_told ? s.probe_noise_um : -1.0;
-    Eigen::VectorXd commanded = s.initial_parameters;
-    MeasurementSimulationOptions measurement = s.measurement;
+    const bench::LoopRecord loop =
+        bench::RunClosedLoop(s, CorrectionOptions(), kRounds);
     int taken = 0;
-    double rms = 0.0;
-    for (int round = 0; round <= kRounds; ++round) {
-      const SimulatedMeasurement cmm = SimulateMeasurement(
-          *s.model, commanded, s.hidden_errors, measurement);
-      const double next =
-          bench::FiniteRms(cmm.true_deviations_um - s.target_um);
-      if (round > 0) {
-        EXPECT_FALSE(bench::IsWorsePart(rms, next))
-            << "seed " << c.seed << ", scenario " << c.index << ", round "
-            << round << ": " << rms << " -> " << next << " um";
-      }
-      rms = next;
-      if (round == kRounds) break;
-      CorrectionInput input;
-      input.model = s.model.get();
-      input.current_parameters = commanded;
-      if (measurement.teeth > 1) {
-        input.measured_teeth_um = cmm.teeth_um;
-      } else {
-        input.measured_um = cmm.measured_um;
-      }
-      input.target_um = s.target_um;
-      const CorrectionResult result = ComputeCorrection(options, input);
-      ASSERT_TRUE(result.summary.IsSolutionUsable())
-          << result.summary.BriefReport();
-      const std::string& search = result.summary.exact_search;
-      EXPECT_FALSE(search.empty()) << result.summary.BriefReport();
-      if (search.rfind("taken", 0) == 0) {
+    for (int round = 0; round < kRounds; ++round) {
+      const bench::RoundRecord& r = loop.rounds[round];
+      EXPECT_TRUE(r.usable) << r.status;
+      EXPECT_FALSE(r.worse)
+          << "seed " << c.seed << ", scenario " << c.index << ", round "
+          << round + 1 << ": " << r.rms_before_um << " -> " << r.rms_after_um;
+      EXPECT_FALSE(r.exact_search.empty());
+      if (r.exact_search.rfind("taken", 0) == 0) {
         ++taken;
-        EXPECT_LT(result.summary.exact_search_after_rms_um,
-                  0.8 * result.summary.exact_search_before_rms_um)
-            << search;
+        EXPECT_LT(r.exact_search_after_rms_um,
+                  0.8 * r.exact_search_before_rms_um)
+            << r.exact_search;
       }
-      commanded = result.parameters;
-      ++measurement.seed;
     }
     EXPECT_GE(taken, 1) << "seed " << c.seed << ", scenario " << c.index;
-    EXPECT_LE(rms, 1.2 * c.reference_um + s.probe_noise_um)
+    EXPECT_LE(loop.part_rms_um.back(), 1.2 * c.reference_um + s.probe_noise_um)
         << "seed " << c.seed << ", scenario " << c.index;
   }
 }
