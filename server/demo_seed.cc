@@ -200,7 +200,8 @@ bool PrintReach(DemoClient& client, std::ostream& out) {
   const nlohmann::json& both = reach["combined"];
   out << "     together: " << Fixed(100.0 * Number(both["reachable_share"]), 1)
       << " %";
-  if (reach["with_highest_orders"].is_object()) {
+  if (reach["with_highest_orders"].is_object() &&
+      !reach["with_highest_orders"].value("same_as_combined", false)) {
     out << "; with every axis free to order 6: "
         << Fixed(
                100.0 * Number(reach["with_highest_orders"]["reachable_share"]),

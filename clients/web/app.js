@@ -510,7 +510,7 @@
       ]);
     for (const c of answer.components || []) table.appendChild(row(((c.modification || {}).kind || "?").replace(/_/g, " ") + " " + P.fmt((c.modification || {}).amount_um, 1), c));
     table.appendChild(row("together (" + (answer.status || "?") + ")", answer.combined || {}, "reach-combined"));
-    if (answer.with_highest_orders) table.appendChild(row("together, every axis to order " + (answer.with_highest_orders.default_max_order || 6), answer.with_highest_orders));
+    if (answer.with_highest_orders && !answer.with_highest_orders.same_as_combined) table.appendChild(row("together, every axis to order " + (answer.with_highest_orders.default_max_order || 6), answer.with_highest_orders));
     return table;
   }
 

@@ -108,8 +108,10 @@ bool ComputeReach(const ServiceContext& context,
                         &ignored)) {
     with_highest_orders = ReachJson(highest);
   }
-  if (with_highest_orders.is_object())
+  if (with_highest_orders.is_object()) {
     with_highest_orders["default_max_order"] = kHighestOrder;
+    with_highest_orders["same_as_combined"] = !raised;
+  }
   *answer = {{"combined", ReachJson(combined)},
              {"components", components},
              {"with_highest_orders", with_highest_orders},

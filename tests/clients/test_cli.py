@@ -580,7 +580,14 @@ class CliTest(unittest.TestCase):
         row = next(line for line in done.stdout.splitlines() if line.startswith("lead_crowning 4 um"))
         self.assertEqual(row.split()[-2], "%.1f" % (100 * share))
         self.assertAlmostEqual(float(row.split()[3]), answer["components"][0]["target_rms_um"], delta=0.001)
-        self.assertIn("all together, every axis to order 6", done.stdout)
+        # Every order is open by default: no row of its own for every axis at order 6; held to
+        # the cubic terms, the row is there.
+        self.assertNotIn("every axis to order 6", done.stdout)
+        setup = json.loads((EXAMPLES / "request.json").read_text())
+        setup["options"] = {"default_max_order": 3}
+        held = self.dir / "reach-held.json"
+        held.write_text(json.dumps(setup))
+        self.assertIn("all together, every axis to order 6", self.run_cli("reach", str(held)).stdout)
         # Under the row, the remedy the server computed and what else it tried.
         remedy = answer["components"][0]["remedy"]
         lines = done.stdout.splitlines()

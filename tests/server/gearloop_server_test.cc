@@ -1554,6 +1554,7 @@ TEST_F(GearloopServerTest, ReportsTheShareOfATargetTheMachineCanMake) {
   EXPECT_EQ(highest["unreachable_rms_um"],
             reach.body["combined"]["unreachable_rms_um"]);
   EXPECT_EQ(highest["rank"], reach.body["combined"]["rank"]);
+  EXPECT_EQ(highest["same_as_combined"], true);
   nlohmann::json held = request;
   held["options"]["max_order"] = nlohmann::json::object();
   for (const char* axis : {"X", "Y", "Z", "A", "B", "C"})
@@ -1562,6 +1563,7 @@ TEST_F(GearloopServerTest, ReportsTheShareOfATargetTheMachineCanMake) {
   ASSERT_EQ(held_reach.status, 200) << held_reach.body.dump();
   const nlohmann::json& lifted = held_reach.body["with_highest_orders"];
   ASSERT_TRUE(lifted.is_object());
+  EXPECT_EQ(lifted["same_as_combined"], false);
   EXPECT_LT(held_reach.body["combined"]["rank"].get<int>(),
             lifted["rank"].get<int>());
   EXPECT_EQ(lifted["rank"], highest["rank"]);

@@ -142,15 +142,18 @@ int RunReach(const ParsedArgs& args,
     PrintReachRow(ModificationName(c.value("modification", json())), c);
     PrintRemedy(c.value("remedy", json()));
   }
-  PrintReachRow("all together", answer.body.value("combined", json()));
+  const json combined = answer.body.value("combined", json());
+  PrintReachRow("all together", combined);
+  // Every axis at order 6 is a row of its own only where the options hold an
+  // axis lower (by default every order is open and it is the row above).
   const json highest = answer.body.value("with_highest_orders", json());
-  if (highest.is_object())
+  if (highest.is_object() && !highest.value("same_as_combined", false))
     PrintReachRow("all together, every axis to order 6", highest);
   if (!whole) {
     std::cout << "part of the target is out of reach of this machine "
                  "configuration; the -> lines say\n"
-                 "what would make the rest (computed by the server: each axis "
-                 "one order higher up to 6,\n"
+                 "what would make the rest (computed by the server: an axis "
+                 "held below order 6 opened higher,\n"
                  "the wheel profile freed, the traverse C_s); --json gives "
                  "the remedies in full\n";
   }
