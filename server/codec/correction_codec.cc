@@ -478,6 +478,15 @@ nlohmann::json OrdersJson(const CorrectionSummary& s) {
       {"all_predicted_rms_um", FiniteOrNull(s.all_orders_predicted_rms_um)}};
 }
 
+// The exact-model search's outcome and its two predictions.
+nlohmann::json ExactSearchJson(const CorrectionSummary& s) {
+  return {
+      {"outcome", s.exact_search},
+      {"regularised_predicted_rms_um",
+       FiniteOrNull(s.exact_search_before_rms_um)},
+      {"searched_predicted_rms_um", FiniteOrNull(s.exact_search_after_rms_um)}};
+}
+
 }  // namespace
 
 nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
@@ -523,6 +532,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
         {"current_rms_um", FiniteOrNull(s.safe_step_current_rms_um)},
         {"predicted_rms_um", FiniteOrNull(s.safe_step_predicted_rms_um)}}},
       {"orders", OrdersJson(s)},
+      {"exact_search", ExactSearchJson(s)},
       {"solver", CorrectionSolverName(s.solver)},
       {"mode", CorrectionModeName(s.mode)},
       {"iterations", s.iterations},

@@ -72,6 +72,12 @@ TEST_F(ZeroCorrectionTest, NoiseAloneSaysNothingAboveTheNoise) {
   // Orders 4-6 were open: the answer says which orders it used (none moved).
   EXPECT_EQ(result["orders"]["choice"], "orders 0-6: no change either way");
   EXPECT_EQ(result["orders"]["highest_moved"], -1);
+  // Noise alone: the exact-model search is not run, and says so.
+  EXPECT_EQ(
+      result["exact_search"]["outcome"].get<std::string>().rfind("not run", 0),
+      0u)
+      << result["exact_search"];
+  EXPECT_TRUE(result["exact_search"]["searched_predicted_rms_um"].is_null());
 
   nlohmann::json stated = Request(NoiseOnlyGrid());
   stated["options"]["probe_noise_um"] = 0.3;
