@@ -70,13 +70,6 @@ constexpr double kOrderGainShare = 0.2;
 // terms); median CPU per correction 6.2-6.4 -> 2.5-2.8 ms (two threads).
 constexpr double kOrderScreenShare = 0.75;
 
-// A figure in um for a summary message, three significant digits.
-std::string FormatUm(double um) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3g", um);
-  return text;
-}
-
 // The rms over the used points of the error the linear model predicts after
 // delta, e + S delta.
 double LinearPredictionRms(const CorrectionProblem& problem,
@@ -617,15 +610,13 @@ CorrectionResult ComputeCorrection(const CorrectionOptions& options,
                                    const CorrectionInput& input) {
   const auto start = std::chrono::steady_clock::now();
   CorrectionResult result = CorrectWithOrderChoice(options, input);
-  if (input.model != nullptr &&
-      result.delta.size() == input.model->NumParameters()) {
-    result.summary.highest_order_moved =
-        HighestOrderMoved(input.model->ParameterBlocks(), result.delta);
-  }
   if (input.model != nullptr) {
+    const std::vector<ParameterBlock> blocks = input.model->ParameterBlocks();
+    if (result.delta.size() == input.model->NumParameters())
+      result.summary.highest_order_moved =
+          HighestOrderMoved(blocks, result.delta);
     result.summary.axis_orders_held_below_highest =
-        HoldsAnAxisBelowItsHighestOrder(options,
-                                        input.model->ParameterBlocks());
+        HoldsAnAxisBelowItsHighestOrder(options, blocks);
   }
   result.summary.elapsed_ms = std::chrono::duration<double, std::milli>(
                                   std::chrono::steady_clock::now() - start)

@@ -441,11 +441,6 @@ struct CorrectionSummary {
   // bands [um]. The model's own error is not in it.
   PredictionBand prediction_band;
 
-  // The safe step (CorrectionOptions::safe_step): the factor applied to the
-  // solver's change for the motion bound (1 = within it), the fraction of the
-  // bounded change kept by the exact-model check (1 = all, 0 = none), the rms
-  // the exact model predicts for the kept change at the linearisation point,
-  // and the rms of keeping the current settings it was compared with.
   // The exact-model search (exact_search.h): what it did ("not run: ...",
   // "taken: ...", "kept the regularised answer: ...", "" when the solver has
   // none), and the exact predictions at the linearisation point of the
@@ -453,6 +448,12 @@ struct CorrectionSummary {
   std::string exact_search;
   double exact_search_before_rms_um = std::numeric_limits<double>::quiet_NaN();
   double exact_search_after_rms_um = std::numeric_limits<double>::quiet_NaN();
+
+  // The safe step (CorrectionOptions::safe_step): the factor applied to the
+  // solver's change for the motion bound (1 = within it), the fraction of the
+  // bounded change kept by the exact-model check (1 = all, 0 = none), the rms
+  // the exact model predicts for the kept change at the linearisation point,
+  // and the rms of keeping the current settings it was compared with.
   bool safe_step_checked = false;
   double motion_scale = 1.0;
   double step_fraction = 1.0;

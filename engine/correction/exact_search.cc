@@ -4,7 +4,6 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -18,9 +17,9 @@ namespace {
 // (1 - kSearchGainShare) x the regularised answer's - kSearchGainMinUm.
 constexpr double kSearchGainShare = 0.2;
 constexpr double kSearchGainMinUm = 0.1;
-// The search runs only where the regularised answer's exact prediction is
-// above kSearchNoiseShare x the noise + kSearchGainMinUm: closer to the noise
-// there is little to find.
+// The search runs only where the regularised answer's linear and exact
+// predictions are above kSearchNoiseShare x the noise + kSearchGainMinUm:
+// closer to the noise there is little to find.
 constexpr double kSearchNoiseShare = 2.0;
 // The search's light damping of each direction, a share of its singular value
 // (the penalty |mu z|^2 of the QPs): keeps them definite without holding a
@@ -43,11 +42,9 @@ double ExactRms(const CorrectionProblem& problem,
   return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
 }
 
-std::string FormatRmsUm(double um) {
-  if (!std::isfinite(um)) return "inf (a used point lost)";
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3g", um);
-  return text;
+// An exact prediction for the summary: infinity is a lost point.
+std::string PredictionText(double um) {
+  return std::isfinite(um) ? FormatUm(um) + " um" : "inf (a used point lost)";
 }
 
 }  // namespace
@@ -111,16 +108,15 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
   summary->exact_search_after_rms_um = after;
   if (after < (1.0 - kSearchGainShare) * before - kSearchGainMinUm) {
     summary->exact_search =
-        "taken: the exact model at the linearisation "
-        "point predicts " +
-        FormatRmsUm(after) + " um against " + FormatRmsUm(before) + " um";
+        "taken: the exact model at the linearisation point predicts " +
+        PredictionText(after) + " against " + PredictionText(before);
     return searched;
   }
   summary->exact_search = "kept the regularised answer: the search predicts " +
-                          FormatRmsUm(after) + " um against " +
-                          FormatRmsUm(before) + " um, not lower by " +
-                          FormatRmsUm(100.0 * kSearchGainShare) + " % and " +
-                          FormatRmsUm(kSearchGainMinUm) + " um";
+                          PredictionText(after) + " against " +
+                          PredictionText(before) + ", not lower by " +
+                          FormatUm(100.0 * kSearchGainShare) + " % and " +
+                          FormatUm(kSearchGainMinUm) + " um";
   return delta;
 }
 

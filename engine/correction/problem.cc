@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "engine/correction/legendre_coordinates.h"
 #include "engine/correction/outliers.h"
@@ -370,6 +372,12 @@ double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx) {
   double s = 0.0;
   for (int i : idx) s += r(i) * r(i);
   return std::sqrt(s / idx.size());
+}
+
+std::string FormatUm(double um) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3g", um);
+  return text;
 }
 
 double MaxAbs(const Eigen::VectorXd& r, const std::vector<int>& idx) {

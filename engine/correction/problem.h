@@ -181,6 +181,9 @@ void ReportProblem(const CorrectionProblem& problem,
 // empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
+// A figure for a summary message, three significant digits ("%.3g").
+std::string FormatUm(double um);
+
 // The cubic term of an axis polynomial: every correction is first computed
 // held to it (correction.cc, CorrectWithOrderChoice); orders above it (4-6)
 // answer only where they earn their place and the safe step asks more of them

@@ -98,8 +98,9 @@ bool ComputeReach(const ServiceContext& context,
   CorrectionSummary highest;
   nlohmann::json with_highest_orders;
   ApiError ignored;
+  const nlohmann::json combined_json = ReachJson(combined);
   if (!raised) {
-    with_highest_orders = ReachJson(combined);
+    with_highest_orders = combined_json;
   } else if (SolveReach(context,
                         all_orders,
                         body["target"],
@@ -112,7 +113,7 @@ bool ComputeReach(const ServiceContext& context,
     with_highest_orders["default_max_order"] = kHighestOrder;
     with_highest_orders["same_as_combined"] = !raised;
   }
-  *answer = {{"combined", ReachJson(combined)},
+  *answer = {{"combined", combined_json},
              {"components", components},
              {"with_highest_orders", with_highest_orders},
              {"status", CorrectionStatusName(combined.status)}};
