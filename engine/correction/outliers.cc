@@ -41,10 +41,15 @@ LinearSolve RobustLinearFit(const CorrectionOptions& options,
   // and would fit the very outlier the test looks for.
   weighted.signal_noise_um = 0.0;
   LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
+  // The passes refit along the first fit's directions at its level (one QR
+  // each); the fit at the settled weights is solved whole once at the end.
+  const Eigen::MatrixXd directions = ls.svd.v.leftCols(ls.k);
+  Eigen::VectorXd residual = ls.residual;
+  bool reweighted = false;
   for (int pass = 0; pass < kRobustPasses && !used.empty(); ++pass) {
     std::vector<double> misfit_um(used.size()), size(used.size());
     for (size_t r = 0; r < used.size(); ++r) {
-      misfit_um[r] = ls.residual(r) / std::sqrt(weighted.weights(used[r]));
+      misfit_um[r] = residual(r) / std::sqrt(weighted.weights(used[r]));
       size[r] = std::abs(misfit_um[r]);
     }
     const double scale =
@@ -61,11 +66,15 @@ LinearSolve RobustLinearFit(const CorrectionOptions& options,
                      std::abs(w - weighted.weights(i)) / problem.weights(i));
       weighted.weights(i) = w;
     }
-    // Weights settled: one more solve would not move the fit (each pass is
-    // an SVD, a fifth of the correction's time on the robustness benchmark).
+    reweighted = true;
+    // Weights settled: one more pass would not move the fit.
     if (pass > 0 && largest_change < kRobustWeightTolerance) break;
-    ls = SolveRegularisedLinear(options, weighted, used);
+    residual = TikhonovResidualAlong(weighted, used, directions, ls.lambda);
   }
+  // The settled weights' fit, with its SVD (StandardisedResiduals' hat
+  // matrix). Each pass an SVD instead was 81 % of the correction's SVDs, 4.9
+  // per robust fit, on the robustness benchmark (seed 2026, default options).
+  if (reweighted) ls = SolveRegularisedLinear(options, weighted, used);
   *robust_weights = weighted.weights;
   return ls;
 }

@@ -3,6 +3,7 @@
 // only; the rest reads problem.rule.
 #include "engine/correction/regularisation.h"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -318,6 +319,25 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
     ls.y += ls.filter(i) * ls.beta(i) / ls.svd.sigma(i) * ls.svd.v.col(i);
   ls.residual = a * ls.y - b;
   return ls;
+}
+
+Eigen::VectorXd TikhonovResidualAlong(const CorrectionProblem& problem,
+                                      const std::vector<int>& rows,
+                                      const Eigen::MatrixXd& directions,
+                                      double lambda) {
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+  WeightedSystem(problem, rows, &a, &b);
+  const int k = static_cast<int>(directions.cols());
+  if (k == 0) return -b;
+  const int m = static_cast<int>(a.rows());
+  Eigen::MatrixXd stacked(m + k, k);
+  stacked.topRows(m) = a * directions;
+  stacked.bottomRows(k) = lambda * Eigen::MatrixXd::Identity(k, k);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m + k);
+  rhs.head(m) = b;
+  const Eigen::VectorXd c = stacked.householderQr().solve(rhs);
+  return stacked.topRows(m) * c - b;
 }
 
 double ReachableSignal2(const CorrectionOptions& options,

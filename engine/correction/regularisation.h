@@ -116,6 +116,17 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    const std::vector<int>& rows);
 
+// The weighted residual A y - b on `rows` at problem.weights of one Tikhonov
+// level `lambda` over the directions `directions` (free coordinates, columns)
+// of an earlier solve: min |A D c - b|^2 + lambda^2 |c|^2, y = D c, by a
+// Householder QR of [A D; lambda I]. A reweighted fit without an SVD: where
+// the weights move little, the earlier solve's directions and level are
+// still the fit's (RobustLinearFit's Huber passes).
+Eigen::VectorXd TikhonovResidualAlong(const CorrectionProblem& problem,
+                                      const std::vector<int>& rows,
+                                      const Eigen::MatrixXd& directions,
+                                      double lambda);
+
 // The part of the flank error e on `rows` that the directions of A = W^1/2 S
 // T (those SolveRegularisedLinear may use) reach above the probe noise
 // noise_um of one grid: sum_i max(0, beta_i^2 - noise_um^2 n_i) / sum w [um^2

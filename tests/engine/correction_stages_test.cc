@@ -319,6 +319,82 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
   EXPECT_EQ(summary.outlier_indices, spikes);
 }
 
+// The robust fit's passes refit along the first fit's directions at its level
+// without an SVD (TikhonovResidualAlong): given a solve's own directions and
+// level at its own weights, that refit is the solve's residual.
+TEST(TikhonovResidualAlong, IsTheSolvesResidualAlongItsOwnDirections) {
+  constexpr double kSameFitTolerance = 1e-9;  // of |b|, a QR against an SVD
+  const LinearModel model(17);
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> gauss(0.0, 2.0);
+  input.measured_um.resize(model.NumPoints());
+  for (int i = 0; i < model.NumPoints(); ++i) input.measured_um(i) = gauss(rng);
+  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = 0.5;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  for (int i = 0; i < model.NumPoints(); i += 4) problem.weights(i) = 0.3;
+  const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
+  ASSERT_GT(ls.k, 0);
+  ASSERT_GT(ls.lambda, 0.0);
+  // No direction: the residual is -b, the error at no change.
+  const Eigen::VectorXd none = TikhonovResidualAlong(
+      problem, problem.used, Eigen::MatrixXd(5, 0), ls.lambda);
+  for (size_t r = 0; r < problem.used.size(); ++r) {
+    const int i = problem.used[r];
+    EXPECT_NEAR(
+        none(r), std::sqrt(problem.weights(i)) * problem.error_um(i), 1e-12);
+  }
+  const Eigen::VectorXd refit = TikhonovResidualAlong(
+      problem, problem.used, ls.svd.v.leftCols(ls.k), ls.lambda);
+  EXPECT_LT((refit - ls.residual).norm(), kSameFitTolerance * none.norm());
+  EXPECT_GT((refit - none).norm(), 0.1 * none.norm());  // the fit moved
+}
+
+// The robust fit returns the fit at the weights it reports (the hat matrix of
+// StandardisedResiduals is theirs), with the spikes weighted down.
+TEST(RobustLinearFit, ReturnsTheFitAtTheWeightsItReports) {
+  const LinearModel model(11);
+  const int n = model.NumPoints();
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.37);
+  input.measured_um.resize(n);
+  for (int i = 0; i < n; ++i) input.measured_um(i) = noise(rng);
+  const std::vector<int> spikes = {8, 26, 43};
+  for (int i : spikes) input.measured_um(i) += 29.0;
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.37;
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  Eigen::VectorXd robust_weights;
+  const LinearSolve ls =
+      RobustLinearFit(options, problem, problem.used, &robust_weights);
+  for (int i : spikes) EXPECT_LT(robust_weights(i), 0.1 * problem.weights(i));
+  CorrectionProblem weighted = problem;
+  weighted.weights = robust_weights;
+  weighted.signal_noise_um = 0.0;
+  const LinearSolve at_weights =
+      SolveRegularisedLinear(options, weighted, problem.used);
+  EXPECT_LT((ls.residual - at_weights.residual).norm(),
+            1e-12 * at_weights.residual.norm());
+}
+
 // Several teeth: a value standing out from the other teeth at a point is left
 // out of the mean; two teeth that disagree leave the point out.
 TEST(DropToothOutliers, LeavesOutAValueTheOtherTeethDoNotShare) {
