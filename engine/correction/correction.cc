@@ -259,11 +259,18 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
   summary.solver = options.solver;
   summary.mode = problem.mode;
   ReportProblem(problem, &summary);
+  // The outlier test's first fit on the points it leaves has the SVD the
+  // solve needs (the same A): made once.
+  Svd svd_at_used;
   if (options.outlier_threshold > 0.0 &&
       options.solver == CorrectionSolver::kRegularised) {
-    RemoveGrossOutliers(options, &problem, &summary);
+    RemoveGrossOutliers(options, &problem, &summary, &svd_at_used);
   }
-  const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
+  const LinearSolve ls =
+      SolveRegularisedLinear(options,
+                             problem,
+                             problem.used,
+                             svd_at_used.u.rows() > 0 ? &svd_at_used : nullptr);
   ReportLinearSolve(problem, ls, &summary);
   std::string not_converged;
   Eigen::VectorXd delta;

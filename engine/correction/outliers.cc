@@ -33,7 +33,8 @@ constexpr double kRobustWeightTolerance = 1e-3;
 LinearSolve RobustLinearFit(const CorrectionOptions& options,
                             const CorrectionProblem& problem,
                             const std::vector<int>& used,
-                            Eigen::VectorXd* robust_weights) {
+                            Eigen::VectorXd* robust_weights,
+                            Svd* svd_at_weights) {
   CorrectionProblem weighted = problem;
   // The isolation test looks at the directions a smooth machine error takes,
   // one Tikhonov level over those above min_flank_effect_um: the weak
@@ -41,6 +42,7 @@ LinearSolve RobustLinearFit(const CorrectionOptions& options,
   // and would fit the very outlier the test looks for.
   weighted.signal_noise_um = 0.0;
   LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
+  if (svd_at_weights != nullptr) *svd_at_weights = ls.svd;
   // The passes refit along the first fit's directions at its level (one QR
   // each); the fit at the settled weights is solved whole once at the end.
   const Eigen::MatrixXd directions = ls.svd.v.leftCols(ls.k);
@@ -175,7 +177,8 @@ std::vector<int> DropToothOutliers(const OutlierTest& test,
 
 void RemoveGrossOutliers(const CorrectionOptions& options,
                          CorrectionProblem* problem,
-                         CorrectionSummary* summary) {
+                         CorrectionSummary* summary,
+                         Svd* svd_at_used) {
   std::vector<int>& used = problem->used;
   const OutlierTest test{options.outlier_threshold,
                          options.outlier_min_um,
@@ -184,15 +187,19 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
       static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
   for (int drop = 0; drop < max_drop; ++drop) {
     Eigen::VectorXd robust_weights;
+    Svd at_weights;
     const LinearSolve ls =
-        RobustLinearFit(options, *problem, used, &robust_weights);
+        RobustLinearFit(options, *problem, used, &robust_weights, &at_weights);
     const int worst =
         FindGrossOutlier(StandardisedResiduals(ls, robust_weights, used),
                          used,
                          problem->model->GridRows(),
                          problem->model->GridColumns(),
                          test);
-    if (worst < 0) break;
+    if (worst < 0) {
+      if (svd_at_used != nullptr) *svd_at_used = std::move(at_weights);
+      break;
+    }
     summary->outlier_indices.push_back(used[worst]);
     used.erase(used.begin() + worst);
   }

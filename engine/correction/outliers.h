@@ -22,11 +22,13 @@ namespace correction_internal {
 // reweighting (k = 1.345, scale 1.4826 MAD of the misfits, at least the
 // probe noise), a few passes, so that outliers do not bend the fit toward
 // themselves and inflate the spread the test compares with. The weights the
-// last fit used go to `robust_weights` (for StandardisedResiduals).
+// last fit used go to `robust_weights` (for StandardisedResiduals); the SVD of
+// the first fit, at problem.weights, to `svd_at_weights` when asked.
 LinearSolve RobustLinearFit(const CorrectionOptions& options,
                             const CorrectionProblem& problem,
                             const std::vector<int>& used,
-                            Eigen::VectorXd* robust_weights);
+                            Eigen::VectorXd* robust_weights,
+                            Svd* svd_at_weights = nullptr);
 
 // Per row of `ls` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii), h
 // the hat matrix U diag(f) U' of the Tikhonov fit, so that each has the spread
@@ -57,9 +59,13 @@ int FindGrossOutlier(const std::vector<double>& standardised,
 // Drops gross outliers from problem->used one at a time (at most
 // max_outlier_fraction of them), refitting in between; reports them sorted in
 // summary->outlier_indices and the points left in summary->num_points_used.
+// When asked, `svd_at_used` gets the SVD of A on the points left at
+// problem->weights where a fit made it (the regularised solve on them needs no
+// other), else it is left with no rows.
 void RemoveGrossOutliers(const CorrectionOptions& options,
                          CorrectionProblem* problem,
-                         CorrectionSummary* summary);
+                         CorrectionSummary* summary,
+                         Svd* svd_at_used = nullptr);
 
 // Several measured teeth: at each grid point the values of the teeth are
 // compared with their median; with 3 or more teeth a value farther than

@@ -86,6 +86,14 @@ void SignalFilter(const Eigen::VectorXd& sigma,
   }
 }
 
+int CountRank(const Eigen::VectorXd& sigma, double rank_threshold) {
+  int rank = 0;
+  for (int i = 0; i < sigma.size(); ++i) {
+    if (sigma(i) >= rank_threshold && sigma(i) > 0.0) ++rank;
+  }
+  return rank;
+}
+
 Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   Svd s;
   if (a.rows() == 0 || a.cols() == 0) return s;
@@ -94,9 +102,7 @@ Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   s.u = svd.matrixU();
   s.sigma = svd.singularValues();
   s.v = svd.matrixV();
-  for (int i = 0; i < s.sigma.size(); ++i) {
-    if (s.sigma(i) >= rank_threshold && s.sigma(i) > 0.0) ++s.rank;
-  }
+  s.rank = CountRank(s.sigma, rank_threshold);
   return s;
 }
 
@@ -263,7 +269,8 @@ void PerDirectionFilter(const CorrectionProblem& problem,
 
 LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
-                                   const std::vector<int>& rows) {
+                                   const std::vector<int>& rows,
+                                   const Svd* svd_of_a) {
   const int nf = problem.NumFree();
   LinearSolve ls;
   Eigen::MatrixXd a;
@@ -276,8 +283,14 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   const bool per_direction = problem.signal_noise_um > 0.0;
   const double floor_sigma =
       options.min_flank_effect_um * std::sqrt(weight_sum);
-  ls.svd = ComputeSvd(
-      a, (per_direction ? kWeakFlankEffectShare : 1.0) * floor_sigma);
+  const double rank_threshold =
+      (per_direction ? kWeakFlankEffectShare : 1.0) * floor_sigma;
+  if (svd_of_a != nullptr) {
+    ls.svd = *svd_of_a;
+    ls.svd.rank = CountRank(ls.svd.sigma, rank_threshold);
+  } else {
+    ls.svd = ComputeSvd(a, rank_threshold);
+  }
   const int rank = ls.svd.rank;
   ls.k = rank;
   ls.beta = ls.svd.u.transpose() * b;

@@ -29,6 +29,8 @@ struct Svd {
 // Thin SVD of A; the numerical rank counts singular values >= rank_threshold
 // (and > 0).
 Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold);
+// The singular values at or above rank_threshold (and above 0).
+int CountRank(const Eigen::VectorXd& sigma, double rank_threshold);
 
 // The rule that chooses lambda, from the solver and the probe noise
 // (correction.h, step 3): pso and lsq-plain: kNone; sigma > 0:
@@ -111,10 +113,12 @@ struct LinearSolve {
 
 // Tikhonov in the reachable directions of A = W^1/2 S T on `rows` (grid
 // points), b = -W^1/2 e: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i, lambda by
-// problem.rule.
+// problem.rule. `svd_of_a`, when given, is the SVD of that same A (same rows,
+// same weights) made before (its rank is counted again here).
 LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
-                                   const std::vector<int>& rows);
+                                   const std::vector<int>& rows,
+                                   const Svd* svd_of_a = nullptr);
 
 // The weighted residual A y - b on `rows` at problem.weights of one Tikhonov
 // level `lambda` over the directions `directions` (free coordinates, columns)
