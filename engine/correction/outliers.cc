@@ -30,30 +30,27 @@ constexpr double kRobustWeightTolerance = 1e-3;
 
 }  // namespace
 
-LinearSolve RobustLinearFit(const CorrectionOptions& options,
-                            const CorrectionProblem& problem,
-                            const std::vector<int>& used,
-                            Eigen::VectorXd* robust_weights,
-                            Svd* svd_at_weights) {
+RobustFit RobustLinearFit(const CorrectionOptions& options,
+                          const CorrectionProblem& problem,
+                          const std::vector<int>& used,
+                          Svd* svd_at_weights) {
   CorrectionProblem weighted = problem;
   // The isolation test looks at the directions a smooth machine error takes,
   // one Tikhonov level over those above min_flank_effect_um: the weak
   // directions the per-direction filter may follow have a lone point's shape,
   // and would fit the very outlier the test looks for.
   weighted.signal_noise_um = 0.0;
-  LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
+  const LinearSolve ls = SolveRegularisedLinear(options, weighted, used);
   if (svd_at_weights != nullptr) *svd_at_weights = ls.svd;
-  // The passes refit along the first fit's directions at its level (one QR
-  // each); the fit at the settled weights is solved whole once at the end.
+  // The passes refit along the first fit's directions at its level, a QR each
+  // (an SVD each was 81 % of the correction's SVDs, 4.9 per robust fit, on
+  // the robustness benchmark, seed 2026, default options).
   const Eigen::MatrixXd directions = ls.svd.v.leftCols(ls.k);
   Eigen::VectorXd residual = ls.residual;
-  bool reweighted = false;
   for (int pass = 0; pass < kRobustPasses && !used.empty(); ++pass) {
-    std::vector<double> misfit_um(used.size()), size(used.size());
-    for (size_t r = 0; r < used.size(); ++r) {
-      misfit_um[r] = residual(r) / std::sqrt(weighted.weights(used[r]));
-      size[r] = std::abs(misfit_um[r]);
-    }
+    std::vector<double> size(used.size());
+    for (size_t r = 0; r < used.size(); ++r)
+      size[r] = std::abs(residual(r) / std::sqrt(weighted.weights(used[r])));
     const double scale =
         std::max(1.4826 * Median(size), std::max(problem.probe_noise_um, 1e-3));
     double largest_change = 0.0;
@@ -68,28 +65,25 @@ LinearSolve RobustLinearFit(const CorrectionOptions& options,
                      std::abs(w - weighted.weights(i)) / problem.weights(i));
       weighted.weights(i) = w;
     }
-    reweighted = true;
     // Weights settled: one more pass would not move the fit.
     if (pass > 0 && largest_change < kRobustWeightTolerance) break;
-    residual = TikhonovResidualAlong(weighted, used, directions, ls.lambda);
+    if (pass + 1 < kRobustPasses) {
+      residual =
+          TikhonovFitAlong(weighted, used, directions, ls.lambda).residual;
+    }
   }
-  // The settled weights' fit, with its SVD (StandardisedResiduals' hat
-  // matrix). Each pass an SVD instead was 81 % of the correction's SVDs, 4.9
-  // per robust fit, on the robustness benchmark (seed 2026, default options).
-  if (reweighted) ls = SolveRegularisedLinear(options, weighted, used);
-  *robust_weights = weighted.weights;
-  return ls;
+  // The fit at the last weights, with its hat matrix.
+  const SubspaceFit fit =
+      TikhonovFitAlong(weighted, used, directions, ls.lambda);
+  return RobustFit{fit.residual, fit.leverage, weighted.weights};
 }
 
-std::vector<double> StandardisedResiduals(const LinearSolve& ls,
-                                          const Eigen::VectorXd& weights,
+std::vector<double> StandardisedResiduals(const RobustFit& fit,
                                           const std::vector<int>& used) {
   std::vector<double> loo(used.size());
   for (size_t r = 0; r < used.size(); ++r) {
-    double h = 0.0;
-    for (int i : ls.kept) h += ls.filter(i) * ls.svd.u(r, i) * ls.svd.u(r, i);
-    loo[r] = ls.residual(r) / std::sqrt(weights(used[r])) /
-             std::sqrt(std::max(1.0 - h, 1e-6));
+    loo[r] = fit.residual(r) / std::sqrt(fit.weights(used[r])) /
+             std::sqrt(std::max(1.0 - fit.leverage(r), 1e-6));
   }
   return loo;
 }
@@ -186,16 +180,13 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
   const int max_drop =
       static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
   for (int drop = 0; drop < max_drop; ++drop) {
-    Eigen::VectorXd robust_weights;
     Svd at_weights;
-    const LinearSolve ls =
-        RobustLinearFit(options, *problem, used, &robust_weights, &at_weights);
-    const int worst =
-        FindGrossOutlier(StandardisedResiduals(ls, robust_weights, used),
-                         used,
-                         problem->model->GridRows(),
-                         problem->model->GridColumns(),
-                         test);
+    const RobustFit fit = RobustLinearFit(options, *problem, used, &at_weights);
+    const int worst = FindGrossOutlier(StandardisedResiduals(fit, used),
+                                       used,
+                                       problem->model->GridRows(),
+                                       problem->model->GridColumns(),
+                                       test);
     if (worst < 0) {
       if (svd_at_used != nullptr) *svd_at_used = std::move(at_weights);
       break;

@@ -21,20 +21,25 @@ namespace correction_internal {
 // The regularised linear fit on `used` made robust to gross outliers: Huber
 // reweighting (k = 1.345, scale 1.4826 MAD of the misfits, at least the
 // probe noise), a few passes, so that outliers do not bend the fit toward
-// themselves and inflate the spread the test compares with. The weights the
-// last fit used go to `robust_weights` (for StandardisedResiduals); the SVD of
-// the first fit, at problem.weights, to `svd_at_weights` when asked.
-LinearSolve RobustLinearFit(const CorrectionOptions& options,
-                            const CorrectionProblem& problem,
-                            const std::vector<int>& used,
-                            Eigen::VectorXd* robust_weights,
-                            Svd* svd_at_weights = nullptr);
+// themselves and inflate the spread the test compares with. The first fit is
+// a solve of its own (one Tikhonov level over the directions above
+// min_flank_effect_um); the passes refit along its directions at its level
+// (TikhonovFitAlong). Returns the fit at the last weights and those weights;
+// the SVD of the first fit, at problem.weights, goes to `svd_at_weights` when
+// asked.
+struct RobustFit {
+  Eigen::VectorXd residual;  // weighted, over `used`
+  Eigen::VectorXd leverage;  // the hat matrix's diagonal, over `used`
+  Eigen::VectorXd weights;   // every grid point
+};
+RobustFit RobustLinearFit(const CorrectionOptions& options,
+                          const CorrectionProblem& problem,
+                          const std::vector<int>& used,
+                          Svd* svd_at_weights = nullptr);
 
-// Per row of `ls` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii), h
-// the hat matrix U diag(f) U' of the Tikhonov fit, so that each has the spread
-// of the probe noise [um].
-std::vector<double> StandardisedResiduals(const LinearSolve& ls,
-                                          const Eigen::VectorXd& weights,
+// Per row of `fit` (the grid points `used`): r_i / sqrt(w_i) / sqrt(1 - h_ii),
+// so that each has the spread of the probe noise [um].
+std::vector<double> StandardisedResiduals(const RobustFit& fit,
                                           const std::vector<int>& used);
 
 // The limits of the test (CorrectionOptions outlier_threshold, outlier_min_um;

@@ -334,23 +334,33 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   return ls;
 }
 
-Eigen::VectorXd TikhonovResidualAlong(const CorrectionProblem& problem,
-                                      const std::vector<int>& rows,
-                                      const Eigen::MatrixXd& directions,
-                                      double lambda) {
+SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
+                             const std::vector<int>& rows,
+                             const Eigen::MatrixXd& directions,
+                             double lambda) {
   Eigen::MatrixXd a;
   Eigen::VectorXd b;
   WeightedSystem(problem, rows, &a, &b);
   const int k = static_cast<int>(directions.cols());
-  if (k == 0) return -b;
   const int m = static_cast<int>(a.rows());
+  SubspaceFit fit;
+  if (k == 0) {
+    fit.residual = -b;
+    fit.leverage = Eigen::VectorXd::Zero(m);
+    return fit;
+  }
   Eigen::MatrixXd stacked(m + k, k);
   stacked.topRows(m) = a * directions;
   stacked.bottomRows(k) = lambda * Eigen::MatrixXd::Identity(k, k);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m + k);
   rhs.head(m) = b;
-  const Eigen::VectorXd c = stacked.householderQr().solve(rhs);
-  return stacked.topRows(m) * c - b;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked);
+  const Eigen::VectorXd c = qr.solve(rhs);
+  fit.residual = stacked.topRows(m) * c - b;
+  const Eigen::MatrixXd q =
+      qr.householderQ() * Eigen::MatrixXd::Identity(m + k, k);
+  fit.leverage = q.topRows(m).rowwise().squaredNorm();
+  return fit;
 }
 
 double ReachableSignal2(const CorrectionOptions& options,

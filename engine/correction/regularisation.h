@@ -120,16 +120,20 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const std::vector<int>& rows,
                                    const Svd* svd_of_a = nullptr);
 
-// The weighted residual A y - b on `rows` at problem.weights of one Tikhonov
-// level `lambda` over the directions `directions` (free coordinates, columns)
-// of an earlier solve: min |A D c - b|^2 + lambda^2 |c|^2, y = D c, by a
-// Householder QR of [A D; lambda I]. A reweighted fit without an SVD: where
-// the weights move little, the earlier solve's directions and level are
-// still the fit's (RobustLinearFit's Huber passes).
-Eigen::VectorXd TikhonovResidualAlong(const CorrectionProblem& problem,
-                                      const std::vector<int>& rows,
-                                      const Eigen::MatrixXd& directions,
-                                      double lambda);
+// One Tikhonov level `lambda` over the directions `directions` (free
+// coordinates, columns) of an earlier solve, on `rows` at problem.weights:
+// min |A D c - b|^2 + lambda^2 |c|^2, y = D c, by a Householder QR of
+// [A D; lambda I] = Q R. A reweighted fit without an SVD: where the weights
+// move little, the earlier solve's directions and level are still the fit's
+// (RobustLinearFit's Huber passes).
+struct SubspaceFit {
+  Eigen::VectorXd residual;  // weighted residual A y - b over the rows
+  Eigen::VectorXd leverage;  // diagonal of the hat matrix, |row of Q's top|^2
+};
+SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
+                             const std::vector<int>& rows,
+                             const Eigen::MatrixXd& directions,
+                             double lambda);
 
 // The part of the flank error e on `rows` that the directions of A = W^1/2 S
 // T (those SolveRegularisedLinear may use) reach above the probe noise

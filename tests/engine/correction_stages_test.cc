@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -320,10 +321,11 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
 }
 
 // The robust fit's passes refit along the first fit's directions at its level
-// without an SVD (TikhonovResidualAlong): given a solve's own directions and
-// level at its own weights, that refit is the solve's residual.
-TEST(TikhonovResidualAlong, IsTheSolvesResidualAlongItsOwnDirections) {
-  constexpr double kSameFitTolerance = 1e-9;  // of |b|, a QR against an SVD
+// without an SVD (TikhonovFitAlong): given a solve's own directions and level
+// at its own weights, that refit is the solve's residual, and its leverages
+// the solve's hat matrix diagonal, sum_i f_i u_ri^2.
+TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
+  constexpr double kSameFitTolerance = 1e-9;  // a QR against an SVD
   const LinearModel model(17);
   CorrectionProblem problem;
   CorrectionSummary summary;
@@ -345,54 +347,82 @@ TEST(TikhonovResidualAlong, IsTheSolvesResidualAlongItsOwnDirections) {
   const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
   ASSERT_GT(ls.k, 0);
   ASSERT_GT(ls.lambda, 0.0);
-  // No direction: the residual is -b, the error at no change.
-  const Eigen::VectorXd none = TikhonovResidualAlong(
-      problem, problem.used, Eigen::MatrixXd(5, 0), ls.lambda);
+  // No direction: the residual is -b, the error at no change; no leverage.
+  const SubspaceFit none =
+      TikhonovFitAlong(problem, problem.used, Eigen::MatrixXd(5, 0), ls.lambda);
   for (size_t r = 0; r < problem.used.size(); ++r) {
     const int i = problem.used[r];
-    EXPECT_NEAR(
-        none(r), std::sqrt(problem.weights(i)) * problem.error_um(i), 1e-12);
+    EXPECT_NEAR(none.residual(r),
+                std::sqrt(problem.weights(i)) * problem.error_um(i),
+                1e-12);
+    EXPECT_EQ(none.leverage(r), 0.0);
   }
-  const Eigen::VectorXd refit = TikhonovResidualAlong(
+  const SubspaceFit refit = TikhonovFitAlong(
       problem, problem.used, ls.svd.v.leftCols(ls.k), ls.lambda);
-  EXPECT_LT((refit - ls.residual).norm(), kSameFitTolerance * none.norm());
-  EXPECT_GT((refit - none).norm(), 0.1 * none.norm());  // the fit moved
+  EXPECT_LT((refit.residual - ls.residual).norm(),
+            kSameFitTolerance * none.residual.norm());
+  EXPECT_GT((refit.residual - none.residual).norm(),
+            0.1 * none.residual.norm());  // the fit moved
+  for (size_t r = 0; r < problem.used.size(); ++r) {
+    double h = 0.0;
+    for (int i : ls.kept) h += ls.filter(i) * ls.svd.u(r, i) * ls.svd.u(r, i);
+    EXPECT_NEAR(refit.leverage(r), h, kSameFitTolerance) << "row " << r;
+  }
+  EXPECT_NEAR(refit.leverage.sum(), ls.dof, kSameFitTolerance * ls.k);
 }
 
-// The robust fit returns the fit at the weights it reports (the hat matrix of
-// StandardisedResiduals is theirs), with the spikes weighted down.
-TEST(RobustLinearFit, ReturnsTheFitAtTheWeightsItReports) {
+// The robust fit weights the spikes down, stands them out of the others'
+// standardised residuals, and returns the fit at the weights it reports (the
+// first fit's directions and level, TikhonovFitAlong).
+TEST(RobustLinearFit, StandsTheSpikesOutWithTheFitAtItsWeights) {
+  constexpr double kNoiseUm = 0.37;
   const LinearModel model(11);
   const int n = model.NumPoints();
   CorrectionInput input;
   input.model = &model;
   input.current_parameters = Eigen::VectorXd::Zero(5);
   std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 0.37);
+  std::normal_distribution<double> noise(0.0, kNoiseUm);
   input.measured_um.resize(n);
   for (int i = 0; i < n; ++i) input.measured_um(i) = noise(rng);
   const std::vector<int> spikes = {8, 26, 43};
   for (int i : spikes) input.measured_um(i) += 29.0;
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
-  options.probe_noise_um = 0.37;
+  options.probe_noise_um = kNoiseUm;
   CorrectionProblem problem;
   CorrectionSummary summary;
   std::string error;
   ASSERT_TRUE(
       PrepareCorrectionProblem(options, input, &problem, &summary, &error))
       << error;
-  Eigen::VectorXd robust_weights;
-  const LinearSolve ls =
-      RobustLinearFit(options, problem, problem.used, &robust_weights);
-  for (int i : spikes) EXPECT_LT(robust_weights(i), 0.1 * problem.weights(i));
-  CorrectionProblem weighted = problem;
-  weighted.weights = robust_weights;
-  weighted.signal_noise_um = 0.0;
-  const LinearSolve at_weights =
-      SolveRegularisedLinear(options, weighted, problem.used);
-  EXPECT_LT((ls.residual - at_weights.residual).norm(),
-            1e-12 * at_weights.residual.norm());
+  Svd first_svd;
+  const RobustFit fit =
+      RobustLinearFit(options, problem, problem.used, &first_svd);
+  for (int i : spikes) EXPECT_LT(fit.weights(i), 0.1 * problem.weights(i));
+  const std::vector<double> loo = StandardisedResiduals(fit, problem.used);
+  for (size_t r = 0; r < problem.used.size(); ++r) {
+    const bool spike =
+        std::find(spikes.begin(), spikes.end(), problem.used[r]) !=
+        spikes.end();
+    if (spike) {
+      EXPECT_GT(std::abs(loo[r]), 20.0 * kNoiseUm) << "point " << r;
+    } else {
+      EXPECT_LT(std::abs(loo[r]), 5.0 * kNoiseUm) << "point " << r;
+    }
+    EXPECT_GE(fit.leverage(r), 0.0);
+    EXPECT_LT(fit.leverage(r), 1.0);
+  }
+  CorrectionProblem unit = problem;
+  unit.signal_noise_um = 0.0;
+  const LinearSolve first = SolveRegularisedLinear(options, unit, unit.used);
+  EXPECT_EQ(first_svd.sigma, first.svd.sigma);
+  CorrectionProblem weighted = unit;
+  weighted.weights = fit.weights;
+  const SubspaceFit at_weights = TikhonovFitAlong(
+      weighted, unit.used, first.svd.v.leftCols(first.k), first.lambda);
+  EXPECT_EQ(fit.residual, at_weights.residual);
+  EXPECT_EQ(fit.leverage, at_weights.leverage);
 }
 
 // Several teeth: a value standing out from the other teeth at a point is left

@@ -1425,7 +1425,11 @@ TEST_F(GearloopServerTest,
   EXPECT_NE(cubic["message"].get<std::string>().find("allow higher orders"),
             std::string::npos)
       << cubic["message"];
-  EXPECT_GE(residual, best - 1e-9);
+  // The residual is the exact model's prediction, the best reachable the
+  // linear model's: the exact one may come out a hair under it (2.13282
+  // against 2.13296 um here).
+  constexpr double kExactUnderLinearShare = 1e-3;
+  EXPECT_GE(residual, best * (1.0 - kExactUnderLinearShare));
   const nlohmann::json& verdict = result["verdict"];
   EXPECT_EQ(verdict["tolerance"], request["tolerance"]);
   EXPECT_EQ(verdict["predicted"]["verdict"], "FAIL");
