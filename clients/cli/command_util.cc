@@ -383,6 +383,20 @@ void PrintCorrectionSummary(const json& answer) {
       std::cout << "  linearised at the commanded settings\n";
     }
   }
+  // The exact-model search (absent on jobs stored before it, '' for solvers
+  // without it): what it did and, when it ran, its two exact predictions.
+  const json search = result.value("exact_search", json());
+  const json outcome =
+      search.is_object() ? search.value("outcome", json()) : json();
+  if (outcome.is_string() && !outcome.get<std::string>().empty()) {
+    std::cout << "  exact-model search " << outcome.get<std::string>() << "\n";
+    const json regularised =
+        search.value("regularised_predicted_rms_um", json());
+    const json searched = search.value("searched_predicted_rms_um", json());
+    if (regularised.is_number() || searched.is_number())
+      std::cout << "    exact-model rms " << Fixed(regularised)
+                << " um regularised, " << Fixed(searched) << " um searched\n";
+  }
   if (result.contains("missing") && result["missing"].is_array() &&
       !result["missing"].empty()) {
     std::cout << "  " << result["missing"].size()

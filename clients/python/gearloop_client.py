@@ -197,6 +197,10 @@ class Client:
         """POST /api/v1/corrections: a correction request -> the stored job {"id", "status", "result"}.
 
         A valid request whose solve does not converge is still a job (check result["status"]).
+        result["exact_search"] says what the exact-model search did ("outcome": "not run: ...",
+        "taken: ...", "kept the regularised answer: ...", "" for lsq-plain and pso) with its two
+        exact predictions in um ("regularised_predicted_rms_um", "searched_predicted_rms_um"; None
+        when not computed); a job stored before the field existed has no "exact_search".
         """
         return self._request("POST", "/api/v1/corrections", request)
 

@@ -397,6 +397,17 @@
     ];
   }
 
+  // What the exact-model search did and, when it ran, its two exact predictions; "\u2013" for a
+  // job stored before it (or a solver without it).
+  function exactSearchRows(search) {
+    const s = search || {};
+    const rows = [["exact-model search", s.outcome || "\u2013"]];
+    if (isNum(s.regularised_predicted_rms_um) || isNum(s.searched_predicted_rms_um)) {
+      rows.push(["exact-model rms regularised / searched", fmt(s.regularised_predicted_rms_um, 3) + " / " + fmt(s.searched_predicted_rms_um, 3) + " \u00b5m"]);
+    }
+    return rows;
+  }
+
   function summaryTable(job) {
     const r = job.result || {};
     const req = job.request || {};
@@ -423,6 +434,7 @@
       ["linearised at", !r.machine_state ? "\u2013" : r.machine_state.estimated
         ? "estimated machine state (size " + fmt(r.machine_state.size, 1) + ", misfit rms " + fmt(r.machine_state.misfit_rms_um, 3) + " \u00b5m)"
         : "commanded settings"],
+      ...exactSearchRows(r.exact_search),
       ["iterations, time", (r.iterations === undefined ? "\u2013" : r.iterations) + ", " + fmt(r.elapsed_ms, 1) + " ms"],
     ];
     if (setupRows) rows.splice(2, 2, ...setupRows);

@@ -160,6 +160,32 @@ class CliTest(unittest.TestCase):
         self.assertRegex(shown.stdout, r"(?m)^A \[urad\] ")
         self.assertEqual(self.run_cli("show", "999999").returncode, 3)
 
+    def test_exact_model_search_in_submit_and_show(self) -> None:
+        job = self.submit()
+        outcome = job["result"]["exact_search"]["outcome"]
+        self.assertTrue(outcome)
+        for done in (self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.csv")),
+                     self.run_cli("show", str(job["id"]))):
+            self.assertIn("\n  exact-model search " + outcome + "\n", done.stdout)
+        # The two exact predictions when the search ran (a null one as "-"), and a job stored
+        # before the field existed (nothing said), from a server answering this job so.
+        stored = json.loads(self.run_cli("--json", "show", str(job["id"])).stdout)
+        stored["result"]["exact_search"] = {
+            "outcome": "taken: the exact model at the linearisation point predicts 0.27 um against 9.1 um",
+            "regularised_predicted_rms_um": 9.1, "searched_predicted_rms_um": 0.27}
+        shown = run_against_canned(CannedJobServer, stored, "show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("\n  exact-model search taken: the exact model at the linearisation point predicts 0.27 um "
+                      "against 9.1 um\n    exact-model rms 9.100 um regularised, 0.270 um searched\n", shown.stdout)
+        stored["result"]["exact_search"]["searched_predicted_rms_um"] = None
+        shown = run_against_canned(CannedJobServer, stored, "show", str(job["id"]))
+        self.assertIn("\n    exact-model rms 9.100 um regularised, - um searched\n", shown.stdout)
+        del stored["result"]["exact_search"]
+        shown = run_against_canned(CannedJobServer, stored, "show", str(job["id"]))
+        self.assertEqual(shown.returncode, 0, shown.stderr)
+        self.assertIn("linearised at", shown.stdout)
+        self.assertNotIn("exact-model", shown.stdout)
+
     def test_bevel_pinion_job_in_list_and_show(self) -> None:
         import urllib.request
 
@@ -650,22 +676,38 @@ class CannedLoopServer(BaseHTTPRequestHandler):
         pass
 
 
+class CannedJobServer(CannedLoopServer):
+    """Answers every GET with the job in `answer` (a stored job as an older server kept it)."""
+
+    def do_GET(self) -> None:  # noqa: N802 (http.server's name)
+        body = json.dumps(self.answer).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+
+def run_against_canned(handler: type, answer: dict, *args: str) -> subprocess.CompletedProcess:
+    """Runs the CLI against a server whose handler answers with `answer`."""
+    handler.answer = answer
+    server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        return subprocess.run([CLI, "--server", "http://127.0.0.1:%d" % server.server_address[1], *args],
+                              capture_output=True, text=True, timeout=60)
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
 class CliClosedLoopExitTest(unittest.TestCase):
     def run_loop(self, true_rms: list) -> subprocess.CompletedProcess:
-        CannedLoopServer.answer = {
+        return run_against_canned(CannedLoopServer, {
             "completed": True, "message": "", "hidden_errors": {},
             "iterations": [{"part": i, "true_rms_um": v, "true_max_um": v, "measured_rms_um": v}
-                           for i, v in enumerate(true_rms)]}
-        server = ThreadingHTTPServer(("127.0.0.1", 0), CannedLoopServer)
-        thread = threading.Thread(target=server.serve_forever, daemon=True)
-        thread.start()
-        try:
-            return subprocess.run([CLI, "--server", "http://127.0.0.1:%d" % server.server_address[1],
-                                   "closed-loop", str(EXAMPLES / "scenario.json")],
-                                  capture_output=True, text=True, timeout=60)
-        finally:
-            server.shutdown()
-            server.server_close()
+                           for i, v in enumerate(true_rms)]}, "closed-loop", str(EXAMPLES / "scenario.json"))
 
     def test_a_diverged_loop_exits_5_and_says_so(self) -> None:
         diverged = self.run_loop([4.5, 90.0, 1700.0])

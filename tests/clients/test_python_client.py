@@ -59,10 +59,16 @@ class PythonClientTest(unittest.TestCase):
         self.assertIn(result["status"], ("converged", "not_converged"))
         self.assertEqual(len(result["predicted_residual_um"]), 5)
         self.assertLess(result["residual_rms_um"], result["initial_rms_um"])
+        # The exact-model search: what it did, and its two exact predictions (um, None when not computed).
+        search = result["exact_search"]
+        self.assertRegex(search["outcome"], r"^(not run|taken|kept the regularised answer): ")
+        for key in ("regularised_predicted_rms_um", "searched_predicted_rms_um"):
+            self.assertTrue(search[key] is None or isinstance(search[key], float), key)
 
         stored = self.client.get_correction(job["id"])
         self.assertEqual(stored["id"], job["id"])
         self.assertEqual(stored["request"]["measurement"], self.request["measurement"])
+        self.assertEqual(stored["result"]["exact_search"], search)
         listed = self.client.list_corrections(limit=5)
         self.assertIn(job["id"], [j["id"] for j in listed["jobs"]])
         self.assertEqual(listed["jobs"][0]["id"], max(j["id"] for j in listed["jobs"]))  # newest first
@@ -73,6 +79,7 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(replay["parent_job_id"], job["id"])
         self.assertEqual(replay["kind"], "replay")
         self.assertEqual(replay["result"]["solver"], "lsq-plain")
+        self.assertEqual(replay["result"]["exact_search"]["outcome"], "")  # lsq-plain has no search
         lineage = self.client.lineage(replay["id"])
         self.assertIn(replay["id"], [j["id"] for j in lineage["jobs"]])
 

@@ -150,6 +150,8 @@ async function main() {
     const summary = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent]));
     const linearised = summary.find((row) => row[0] === "linearised at");
     check("summary says where the correction was linearised", linearised !== undefined && /^estimated machine state \(size /.test(linearised[1]), JSON.stringify(linearised));
+    const exactSearch = summary.find((row) => row[0] === "exact-model search");
+    check("summary says what the exact-model search did", exactSearch !== undefined && exactSearch[1] !== "" && exactSearch[1] === job.result.exact_search.outcome, JSON.stringify(exactSearch));
     const motionRows = await page.$$eval("table.axis-motion tr[data-axis]", (trs) =>
       trs.map((tr) => ({ axis: tr.getAttribute("data-axis"), cells: Array.from(tr.querySelectorAll("td")).map((td) => td.textContent) }))
     );
@@ -398,6 +400,36 @@ async function main() {
     await page.waitForSelector("body[data-ready]", { timeout: 30000 });
     const reportTrace = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => tr.querySelector("th").textContent + "=" + tr.querySelector("td").textContent));
     check("the report names part, serial and measuring time", reportTrace.includes("part number=4711-A") && reportTrace.includes("serial=S0042") && reportTrace.includes("measured at=2026-11-22T07:45:00Z"), JSON.stringify(reportTrace));
+
+    // 5b. The exact-model search of a job that ran it (its two exact predictions, a lost one as
+    //     "\u2013") and of a job stored before the field existed ("\u2013"): the stored job answered
+    //     so in flight.
+    const summaryOfStored = async (id, edit) => {
+      const stored = await api(base, "GET", "/api/v1/corrections/" + id);
+      edit(stored.result);
+      const url = base + "/api/v1/corrections/" + id;
+      await page.route(url, (route) => route.fulfill({ status: 200, contentType: "application/json", body: JSON.stringify(stored) }));
+      await page.goto(base + "/#job=" + id, { waitUntil: "load" });
+      await page.waitForSelector("body[data-job-shown='" + id + "']", { timeout: 30000 });
+      const shown = await page.$$eval("table.summary tr", (trs) => trs.map((tr) => [tr.querySelector("th").textContent, tr.querySelector("td").textContent]));
+      await page.unroute(url);
+      return shown;
+    };
+    const taken = "taken: the exact model at the linearisation point predicts 0.27 um against 9.1 um";
+    const ran = await summaryOfStored(chainIds[0], (r) => {
+      r.exact_search = { outcome: taken, regularised_predicted_rms_um: 9.1, searched_predicted_rms_um: null };
+    });
+    const ranRows = ran.filter((row) => row[0].startsWith("exact-model"));
+    check(
+      "a search that ran: its outcome and its two exact predictions",
+      JSON.stringify(ranRows) === JSON.stringify([["exact-model search", taken], ["exact-model rms regularised / searched", "9.100 / \u2013 \u00b5m"]]),
+      JSON.stringify(ranRows)
+    );
+    const older = await summaryOfStored(chainIds[1], (r) => {
+      delete r.exact_search;
+    });
+    const olderRows = older.filter((row) => row[0].startsWith("exact-model"));
+    check("a job stored before the search: not reported", JSON.stringify(olderRows) === JSON.stringify([["exact-model search", "\u2013"]]), JSON.stringify(olderRows));
 
     // 6. The offline report written by `gearloop report` (no server needed to view it).
     if (cliBin) {
