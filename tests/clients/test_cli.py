@@ -665,6 +665,9 @@ class CannedLoopServer(BaseHTTPRequestHandler):
 
     def do_POST(self) -> None:  # noqa: N802 (http.server's name)
         self.rfile.read(int(self.headers.get("Content-Length", "0")))
+        self.send_answer()
+
+    def send_answer(self) -> None:
         body = json.dumps(self.answer).encode()
         self.send_response(200)
         self.send_header("Content-Type", "application/json")
@@ -680,12 +683,7 @@ class CannedJobServer(CannedLoopServer):
     """Answers every GET with the job in `answer` (a stored job as an older server kept it)."""
 
     def do_GET(self) -> None:  # noqa: N802 (http.server's name)
-        body = json.dumps(self.answer).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(body)))
-        self.end_headers()
-        self.wfile.write(body)
+        self.send_answer()
 
 
 def run_against_canned(handler: type, answer: dict, *args: str) -> subprocess.CompletedProcess:

@@ -320,6 +320,40 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
   EXPECT_EQ(summary.outlier_indices, spikes);
 }
 
+// The prepared problem of `input` (expected to be valid).
+CorrectionProblem PreparedProblem(const CorrectionOptions& options,
+                                  const CorrectionInput& input) {
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  EXPECT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  return problem;
+}
+
+// The problem of a measured grid of Gaussian noise of `size_um` (seeded) on a
+// zero target at no change, `spike_um` added at the points `spikes`.
+CorrectionProblem NoiseProblem(const MachineModel& model,
+                               const CorrectionOptions& options,
+                               unsigned seed,
+                               double size_um,
+                               const std::vector<int>& spikes = {},
+                               double spike_um = 0.0) {
+  const int n = model.NumPoints();
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(model.NumParameters());
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(
+      0.0, size_um > 0.0 ? size_um : options.probe_noise_um);
+  input.measured_um.resize(n);
+  for (int i = 0; i < n; ++i) input.measured_um(i) = gauss(rng);
+  for (int i : spikes) input.measured_um(i) += spike_um;
+  input.target_um = Eigen::VectorXd::Zero(n);
+  return PreparedProblem(options, input);
+}
+
 // The robust fit's passes refit along the first fit's directions at its level
 // without an SVD (TikhonovFitAlong): given a solve's own directions and level
 // at its own weights, that refit is the solve's residual, and its leverages
@@ -327,22 +361,9 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
 TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
   constexpr double kSameFitTolerance = 1e-9;  // a QR against an SVD
   const LinearModel model(17);
-  CorrectionProblem problem;
-  CorrectionSummary summary;
-  std::string error;
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
-  std::mt19937_64 rng(17);
-  std::normal_distribution<double> gauss(0.0, 2.0);
-  input.measured_um.resize(model.NumPoints());
-  for (int i = 0; i < model.NumPoints(); ++i) input.measured_um(i) = gauss(rng);
-  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
   CorrectionOptions options;
   options.probe_noise_um = 0.5;
-  ASSERT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
+  CorrectionProblem problem = NoiseProblem(model, options, 17, 2.0);
   for (int i = 0; i < model.NumPoints(); i += 4) problem.weights(i) = 0.3;
   const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
   ASSERT_GT(ls.k, 0);
@@ -377,25 +398,11 @@ TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
 TEST(RobustLinearFit, StandsTheSpikesOutWithTheFitAtItsWeights) {
   constexpr double kNoiseUm = 0.37;
   const LinearModel model(11);
-  const int n = model.NumPoints();
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, kNoiseUm);
-  input.measured_um.resize(n);
-  for (int i = 0; i < n; ++i) input.measured_um(i) = noise(rng);
   const std::vector<int> spikes = {8, 26, 43};
-  for (int i : spikes) input.measured_um(i) += 29.0;
-  input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = kNoiseUm;
-  CorrectionProblem problem;
-  CorrectionSummary summary;
-  std::string error;
-  ASSERT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
+  const CorrectionProblem problem =
+      NoiseProblem(model, options, 5, 0.0, spikes, 29.0);
   Svd first_svd;
   const RobustFit fit =
       RobustLinearFit(options, problem, problem.used, &first_svd);
@@ -667,13 +674,7 @@ CorrectionProblem SafeStepProblem(
   model.Evaluate(best, false, &eval);
   input.measured_um = -eval.deviations_um;
   input.target_um = Eigen::VectorXd::Zero(n);
-  CorrectionProblem problem;
-  CorrectionSummary summary;
-  std::string error;
-  EXPECT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
-  return problem;
+  return PreparedProblem(options, input);
 }
 
 TEST(ChooseSafeStep, KeepsAStepThatImprovesTheExactPrediction) {
