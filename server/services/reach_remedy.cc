@@ -55,15 +55,9 @@ int CurrentOrder(const nlohmann::json& options, const std::string& axis) {
 
 }  // namespace
 
-nlohmann::json WithEveryAxisAtHighestOrder(const nlohmann::json& options,
-                                           bool* raised) {
-  *raised = false;
+nlohmann::json WithEveryAxisAtHighestOrder(const nlohmann::json& options) {
   nlohmann::json opened =
       options.is_object() ? options : nlohmann::json::object();
-  for (const char* axis : kAxes) {
-    const int order = CurrentOrder(options, axis);
-    if (order >= 0 && order < kHighestOrder) *raised = true;
-  }
   opened["default_max_order"] = kHighestOrder;
   if (opened.contains("max_order") && opened["max_order"].is_object()) {
     for (const char* axis : kAxes) {

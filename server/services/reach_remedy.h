@@ -52,9 +52,9 @@ nlohmann::json ReachJson(const CorrectionSummary& summary);
 // `options` (a request's correction options, null or an object) with every
 // axis block X..C that moves opened to order 6: default_max_order 6, and
 // every max_order entry of an axis at 0-5 raised to 6 (an axis held fixed,
-// max_order < 0, stays fixed). `*raised`: whether any axis moved below 6.
-nlohmann::json WithEveryAxisAtHighestOrder(const nlohmann::json& options,
-                                           bool* raised);
+// max_order < 0, stays fixed). Whether that opens anything is the engine's
+// decision (CorrectionSummary::axis_orders_held_below_highest).
+nlohmann::json WithEveryAxisAtHighestOrder(const nlohmann::json& options);
 
 // Solves the correction `body` (a grinder request without measurement) for
 // `target` from a perfect flank (`zero_grid` measured); false with the error.

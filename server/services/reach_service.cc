@@ -92,9 +92,9 @@ bool ComputeReach(const ServiceContext& context,
   // (the combined solve itself where the options already open them all, the
   // default).
   nlohmann::json all_orders = body;
-  bool raised = false;
-  all_orders["options"] = WithEveryAxisAtHighestOrder(
-      body.value("options", nlohmann::json()), &raised);
+  const bool raised = combined.axis_orders_held_below_highest;
+  all_orders["options"] =
+      WithEveryAxisAtHighestOrder(body.value("options", nlohmann::json()));
   CorrectionSummary highest;
   nlohmann::json with_highest_orders;
   ApiError ignored;
