@@ -234,7 +234,7 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
     // Directions there were, but nothing above the noise along them: no
     // change asked for, nothing to check (with no direction at all, rank 0,
     // the check below says that no fraction makes a better part).
-    outcome->current_rms_um = Rms(problem.error_um, problem.used);
+    outcome->current_rms_um = CurrentPartRms(problem);
     outcome->predicted_rms_um = outcome->current_rms_um;
   } else {
     step = ChooseSafeStep(options, problem, step, outcome);

@@ -342,16 +342,20 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
   return delta * outcome->motion_scale;
 }
 
+double CurrentPartRms(const CorrectionProblem& problem) {
+  Eigen::VectorXd residual;
+  return GroundRms(problem,
+                   problem.evaluation,
+                   Eigen::VectorXd::Zero(problem.num_points),
+                   false,
+                   &residual);
+}
+
 Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
                                const CorrectionProblem& problem,
                                const Eigen::VectorXd& delta,
                                SafeStepOutcome* outcome) {
-  Eigen::VectorXd residual;
-  outcome->current_rms_um = GroundRms(problem,
-                                      problem.evaluation,
-                                      Eigen::VectorXd::Zero(problem.num_points),
-                                      false,
-                                      &residual);
+  outcome->current_rms_um = CurrentPartRms(problem);
   double alpha = 1.0;
   std::string whole;  // why the whole step was refused
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {

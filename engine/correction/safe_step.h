@@ -62,6 +62,12 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
                                 const Eigen::VectorXd& delta,
                                 SafeStepOutcome* outcome);
 
+// The exact rms of the part the current settings make, as the safe step
+// compares every fraction with: the used points' e and, where the measurement
+// has a figure but the point is not used (an outlier), the model's flank at
+// the linearisation point against the target.
+double CurrentPartRms(const CorrectionProblem& problem);
+
 Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
                                const CorrectionProblem& problem,
                                const Eigen::VectorXd& delta,
