@@ -86,6 +86,25 @@ bool CheckModificationAmounts(const TargetModification& modification,
   return true;
 }
 
+// The relief's "shape": "linear" (the default) or "parabolic".
+bool ParseReliefShape(const nlohmann::json& value,
+                      const std::string& path,
+                      ReliefShape* shape,
+                      ApiError* error) {
+  std::string name = "linear";
+  if (!ReadString(value, path, "shape", false, &name, error)) return false;
+  if (name == "linear") {
+    *shape = ReliefShape::kLinear;
+  } else if (name == "parabolic") {
+    *shape = ReliefShape::kParabolic;
+  } else {
+    *error = InvalidValue(JoinPath(path, "shape"),
+                          "shape must be \"linear\" or \"parabolic\"");
+    return false;
+  }
+  return true;
+}
+
 bool ParseModification(const nlohmann::json& value,
                        const std::string& path,
                        TargetModification* modification,
@@ -114,51 +133,25 @@ bool ParseModification(const nlohmann::json& value,
                           "unknown modification kind \"" + kind + "\"");
     return false;
   }
-  std::string shape = "linear";
-  if (!ReadNumber(
-          value, path, "amount_um", true, &modification->amount_um, error) ||
-      !ReadNumber(value,
-                  path,
-                  "length_fraction",
-                  false,
-                  &modification->length_fraction,
-                  error) ||
-      !ReadString(value, path, "shape", false, &shape, error) ||
-      !ReadNumber(value,
-                  path,
-                  "second_amount_um",
-                  false,
-                  &modification->second_amount_um,
-                  error) ||
-      !ReadNumber(value,
-                  path,
-                  "second_length_fraction",
-                  false,
-                  &modification->second_length_fraction,
-                  error) ||
-      !ReadNumber(value,
-                  path,
-                  "amount_gradient_um",
-                  false,
-                  &modification->amount_gradient_um,
-                  error) ||
-      !ReadNumber(value,
-                  path,
-                  "second_amount_gradient_um",
-                  false,
-                  &modification->second_amount_gradient_um,
-                  error)) {
-    return false;
+  const struct {
+    const char* key;
+    bool required;
+    double* number;
+  } numbers[] = {
+      {"amount_um", true, &modification->amount_um},
+      {"length_fraction", false, &modification->length_fraction},
+      {"second_amount_um", false, &modification->second_amount_um},
+      {"second_length_fraction", false, &modification->second_length_fraction},
+      {"amount_gradient_um", false, &modification->amount_gradient_um},
+      {"second_amount_gradient_um",
+       false,
+       &modification->second_amount_gradient_um}};
+  for (const auto& number : numbers) {
+    if (!ReadNumber(
+            value, path, number.key, number.required, number.number, error))
+      return false;
   }
-  if (shape == "linear") {
-    modification->shape = ReliefShape::kLinear;
-  } else if (shape == "parabolic") {
-    modification->shape = ReliefShape::kParabolic;
-  } else {
-    *error = InvalidValue(JoinPath(path, "shape"),
-                          "shape must be \"linear\" or \"parabolic\"");
-    return false;
-  }
+  if (!ParseReliefShape(value, path, &modification->shape, error)) return false;
   if (!CheckModificationAmounts(*modification, path, error)) return false;
   ValidationIssue issue;
   if (!ValidateTargetModification(*modification, &issue)) {
