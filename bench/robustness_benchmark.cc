@@ -232,7 +232,8 @@ ScenarioOutcome RunScenario(const Scenario& s,
   return out;
 }
 
-void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
+// What the scenarios drew (PrintDistribution's counts and value lists).
+struct DrawnScenarios {
   int grinder = 0, spur = 0, left_hand = 0, right_hand = 0, left_flank = 0,
       k_offsets = 0, user_grids = 0;
   int told = 0, outliers = 0, missing = 0, teeth = 0, redraws = 0, bevel = 0,
@@ -240,40 +241,49 @@ void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
   std::vector<double> z, module, helix, face, wheel, sigma, errors;
   std::map<std::string, int> blocks, kinds;
   std::map<int, int> orders;
+};
+
+DrawnScenarios CountDrawn(const std::vector<ScenarioOutcome>& outcomes) {
+  DrawnScenarios d;
   for (const ScenarioOutcome& o : outcomes) {
     const Scenario& s = o.scenario;
-    redraws += s.redraws;
+    d.redraws += s.redraws;
     for (const bench::HiddenErrorTerm& t : s.hidden_terms) {
-      ++blocks[t.block];
-      if (t.block.size() == 1) ++orders[t.order];
+      ++d.blocks[t.block];
+      if (t.block.size() == 1) ++d.orders[t.order];
     }
-    errors.push_back(s.hidden_terms.size());
-    sigma.push_back(s.probe_noise_um);
-    told += s.noise_told;
-    outliers += s.measurement.outlier_probability > 0.0;
-    missing += s.measurement.missing_probability > 0.0;
-    teeth += s.measurement.teeth > 1;
+    d.errors.push_back(s.hidden_terms.size());
+    d.sigma.push_back(s.probe_noise_um);
+    d.told += s.noise_told;
+    d.outliers += s.measurement.outlier_probability > 0.0;
+    d.missing += s.measurement.missing_probability > 0.0;
+    d.teeth += s.measurement.teeth > 1;
     if (s.bevel) {
-      ++bevel;
-      perturbed += s.bevel_perturbed;
+      ++d.bevel;
+      d.perturbed += s.bevel_perturbed;
       continue;
     }
-    ++grinder;
+    ++d.grinder;
     const GearData& g = s.setup.gear;
-    z.push_back(g.teeth);
-    module.push_back(g.normal_module_mm);
-    helix.push_back(std::abs(g.helix_angle_rad) / kRadPerDeg);
-    face.push_back(g.face_width_mm / g.normal_module_mm);
-    wheel.push_back(s.setup.wheel.radius_mm);
-    spur += g.helix_angle_rad == 0.0;
-    left_hand += g.helix_angle_rad > 0.0;
-    right_hand += g.helix_angle_rad < 0.0;
-    left_flank += s.setup.flank == Flank::kLeft;
-    k_offsets += s.setup.machine.k1_mm != 0.0;
-    user_grids += s.user_grid;
+    d.z.push_back(g.teeth);
+    d.module.push_back(g.normal_module_mm);
+    d.helix.push_back(std::abs(g.helix_angle_rad) / kRadPerDeg);
+    d.face.push_back(g.face_width_mm / g.normal_module_mm);
+    d.wheel.push_back(s.setup.wheel.radius_mm);
+    d.spur += g.helix_angle_rad == 0.0;
+    d.left_hand += g.helix_angle_rad > 0.0;
+    d.right_hand += g.helix_angle_rad < 0.0;
+    d.left_flank += s.setup.flank == Flank::kLeft;
+    d.k_offsets += s.setup.machine.k1_mm != 0.0;
+    d.user_grids += s.user_grid;
     for (const TargetModification& m : s.target_kinds)
-      ++kinds[ModificationKindName(m.kind)];
+      ++d.kinds[ModificationKindName(m.kind)];
   }
+  return d;
+}
+
+void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
+  const DrawnScenarios d = CountDrawn(outcomes);
   auto range = [](const std::vector<double>& v, const char* format) {
     if (v.empty()) return std::string("-");
     return Num(*std::min_element(v.begin(), v.end()), format) + ".." +
@@ -284,48 +294,48 @@ void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
   std::printf(
       "flat-wheel grinder: %d scenarios (%d redraws refused by validation or "
       "reach, over all)\n",
-      grinder,
-      redraws);
-  if (grinder > 0) {
+      d.grinder,
+      d.redraws);
+  if (d.grinder > 0) {
     std::printf(
         "  spur %d, helical %d (left hand %d, right hand %d), |beta| %s deg\n",
-        spur,
-        grinder - spur,
-        left_hand,
-        right_hand,
-        range(helix, "%.1f").c_str());
+        d.spur,
+        d.grinder - d.spur,
+        d.left_hand,
+        d.right_hand,
+        range(d.helix, "%.1f").c_str());
     std::printf("  right flank %d, left flank %d; K1/K2 offsets %d\n",
-                grinder - left_flank,
-                left_flank,
-                k_offsets);
+                d.grinder - d.left_flank,
+                d.left_flank,
+                d.k_offsets);
     std::printf("  z %s, m_n %s mm, b/m_n %s, R_w %s mm\n",
-                range(z, "%.0f").c_str(),
-                range(module, "%.2f").c_str(),
-                range(face, "%.1f").c_str(),
-                range(wheel, "%.0f").c_str());
-    std::printf("  targets: user grids %d; kinds:", user_grids);
-    for (const auto& k : kinds)
+                range(d.z, "%.0f").c_str(),
+                range(d.module, "%.2f").c_str(),
+                range(d.face, "%.1f").c_str(),
+                range(d.wheel, "%.0f").c_str());
+    std::printf("  targets: user grids %d; kinds:", d.user_grids);
+    for (const auto& k : d.kinds)
       std::printf(" %s %d,", k.first.c_str(), k.second);
     std::printf("\n");
   }
   std::printf("bevel generator: %d scenarios (%d perturbed pinions)\n",
-              bevel,
-              perturbed);
+              d.bevel,
+              d.perturbed);
   std::printf("hidden errors per scenario %s; by block:",
-              range(errors, "%.0f").c_str());
-  for (const auto& b : blocks)
+              range(d.errors, "%.0f").c_str());
+  for (const auto& b : d.blocks)
     std::printf(" %s %d,", b.first.c_str(), b.second);
   std::printf(" axis terms by order:");
-  for (const auto& k : orders) std::printf(" %d: %d,", k.first, k.second);
+  for (const auto& k : d.orders) std::printf(" %d: %d,", k.first, k.second);
   std::printf(
       "\nprobe noise %s um, told %d of %zu; outliers %d, missing points %d, "
       "several teeth %d\n\n",
-      range(sigma, "%.2f").c_str(),
-      told,
+      range(d.sigma, "%.2f").c_str(),
+      d.told,
       outcomes.size(),
-      outliers,
-      missing,
-      teeth);
+      d.outliers,
+      d.missing,
+      d.teeth);
 }
 
 struct Summary {
@@ -765,6 +775,97 @@ void PrintComparisonVerbose(const std::vector<ScenarioOutcome>& outcomes,
   std::printf("\n");
 }
 
+// One configuration's summary over the grinder or the bevel scenarios.
+void WriteSummaryJson(FILE* f,
+                      const std::vector<ScenarioOutcome>& outcomes,
+                      size_t k,
+                      bool bevel) {
+  const Summary s = Summarise(outcomes, k, bevel);
+  std::fprintf(f,
+               "%s\"%s\": {\"scenarios\": %d, \"rounds\": %d, "
+               "\"worse_rounds\": %d, \"unusable\": %d, "
+               "\"lost_points\": %d, \"motion_violations\": %d, "
+               "\"within_1_2_best_plus_noise\": %d, "
+               "\"ratio_median\": %s, \"ratio_p90\": %s, \"ratio_worst\": "
+               "%s, \"coverage_2sigma\": null, "
+               "\"achieved_over_predicted_median\": %s, \"cpu_ms_median\": "
+               "%s, \"cpu_ms_p90\": %s}",
+               bevel ? ", " : "",
+               bevel ? "bevel" : "grinder",
+               s.scenarios,
+               s.rounds,
+               s.worse,
+               s.unusable,
+               s.lost_points,
+               s.motion_violations,
+               s.within,
+               JsonNum(Quantile(s.ratio, 0.5)).c_str(),
+               JsonNum(Quantile(s.ratio, 0.9)).c_str(),
+               JsonNum(Quantile(s.ratio, 1.0)).c_str(),
+               JsonNum(Quantile(s.achieved_over_predicted, 0.5)).c_str(),
+               JsonNum(Quantile(s.cpu, 0.5)).c_str(),
+               JsonNum(Quantile(s.cpu, 0.9)).c_str());
+}
+
+void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
+  std::fprintf(f,
+               "%s{\"rms_before_um\": %s, \"rms_after_um\": %s, "
+               "\"predicted_rms_um\": %s, "
+               "\"linear_predicted_rms_um\": %s, \"status\": %s, "
+               "\"usable\": %s, \"reached_before\": %d, "
+               "\"reached_after\": %d, \"max_linear_motion_mm\": %s, "
+               "\"max_angular_motion_rad\": %s, "
+               "\"motion_within_bounds\": %s, \"correction_size\": %s, "
+               "\"cpu_ms\": %s, \"worse\": %s}",
+               first ? "" : ", ",
+               JsonNum(x.rms_before_um).c_str(),
+               JsonNum(x.rms_after_um).c_str(),
+               JsonNum(x.predicted_rms_um).c_str(),
+               JsonNum(x.linear_predicted_rms_um).c_str(),
+               JsonString(x.status).c_str(),
+               x.usable ? "true" : "false",
+               x.reached_before,
+               x.reached_after,
+               JsonNum(x.max_linear_motion_mm).c_str(),
+               JsonNum(x.max_angular_motion_rad).c_str(),
+               x.motion_within_bounds ? "true" : "false",
+               JsonNum(x.correction_size).c_str(),
+               JsonNum(x.cpu_ms).c_str(),
+               x.worse ? "true" : "false");
+}
+
+// One scenario under configuration k: its parts, rounds and reference.
+void WriteScenarioJson(FILE* f,
+                       const ScenarioOutcome& o,
+                       size_t k,
+                       bool first) {
+  const ConfigOutcome& c = o.configs[k];
+  std::fprintf(f,
+               "%s\n{\"index\": %d, \"bevel\": %s, \"seed\": %llu, "
+               "\"description\": %s, \"probe_noise_um\": %s, "
+               "\"part_rms_um\": [",
+               first ? "" : ",",
+               o.scenario.index,
+               o.scenario.bevel ? "true" : "false",
+               static_cast<unsigned long long>(o.scenario.seed),
+               JsonString(o.scenario.Describe()).c_str(),
+               JsonNum(o.scenario.probe_noise_um).c_str());
+  for (size_t p = 0; p < c.loop.part_rms_um.size(); ++p) {
+    std::fprintf(
+        f, "%s%s", p ? ", " : "", JsonNum(c.loop.part_rms_um[p]).c_str());
+  }
+  std::fprintf(f, "], \"rounds\": [");
+  for (size_t r = 0; r < c.loop.rounds.size(); ++r)
+    WriteRoundJson(f, c.loop.rounds[r], r == 0);
+  std::fprintf(f,
+               "], \"best_reachable_um\": %s, \"best_start\": %s, "
+               "\"final_over_best\": %s, \"within\": %s}",
+               JsonNum(c.reach.rms_um).c_str(),
+               JsonString(c.reach.best_start).c_str(),
+               JsonNum(c.ratio).c_str(),
+               c.within ? "true" : "false");
+}
+
 void WriteJson(const char* path,
                const std::vector<ScenarioOutcome>& outcomes,
                const std::vector<Config>& configs,
@@ -784,87 +885,11 @@ void WriteJson(const char* path,
                  k ? ", " : "",
                  JsonString(configs[k].name).c_str(),
                  configs[k].options.default_max_order);
-    for (int bevel = 0; bevel < 2; ++bevel) {
-      const Summary s = Summarise(outcomes, k, bevel == 1);
-      std::fprintf(f,
-                   "%s\"%s\": {\"scenarios\": %d, \"rounds\": %d, "
-                   "\"worse_rounds\": %d, \"unusable\": %d, "
-                   "\"lost_points\": %d, \"motion_violations\": %d, "
-                   "\"within_1_2_best_plus_noise\": %d, "
-                   "\"ratio_median\": %s, \"ratio_p90\": %s, \"ratio_worst\": "
-                   "%s, \"coverage_2sigma\": null, "
-                   "\"achieved_over_predicted_median\": %s, \"cpu_ms_median\": "
-                   "%s, \"cpu_ms_p90\": %s}",
-                   bevel ? ", " : "",
-                   bevel ? "bevel" : "grinder",
-                   s.scenarios,
-                   s.rounds,
-                   s.worse,
-                   s.unusable,
-                   s.lost_points,
-                   s.motion_violations,
-                   s.within,
-                   JsonNum(Quantile(s.ratio, 0.5)).c_str(),
-                   JsonNum(Quantile(s.ratio, 0.9)).c_str(),
-                   JsonNum(Quantile(s.ratio, 1.0)).c_str(),
-                   JsonNum(Quantile(s.achieved_over_predicted, 0.5)).c_str(),
-                   JsonNum(Quantile(s.cpu, 0.5)).c_str(),
-                   JsonNum(Quantile(s.cpu, 0.9)).c_str());
-    }
+    WriteSummaryJson(f, outcomes, k, false);
+    WriteSummaryJson(f, outcomes, k, true);
     std::fprintf(f, "}, \"scenarios\": [");
-    for (size_t i = 0; i < outcomes.size(); ++i) {
-      const ScenarioOutcome& o = outcomes[i];
-      const ConfigOutcome& c = o.configs[k];
-      std::fprintf(f,
-                   "%s\n{\"index\": %d, \"bevel\": %s, \"seed\": %llu, "
-                   "\"description\": %s, \"probe_noise_um\": %s, "
-                   "\"part_rms_um\": [",
-                   i ? "," : "",
-                   o.scenario.index,
-                   o.scenario.bevel ? "true" : "false",
-                   static_cast<unsigned long long>(o.scenario.seed),
-                   JsonString(o.scenario.Describe()).c_str(),
-                   JsonNum(o.scenario.probe_noise_um).c_str());
-      for (size_t p = 0; p < c.loop.part_rms_um.size(); ++p) {
-        std::fprintf(
-            f, "%s%s", p ? ", " : "", JsonNum(c.loop.part_rms_um[p]).c_str());
-      }
-      std::fprintf(f, "], \"rounds\": [");
-      for (size_t r = 0; r < c.loop.rounds.size(); ++r) {
-        const RoundRecord& x = c.loop.rounds[r];
-        std::fprintf(f,
-                     "%s{\"rms_before_um\": %s, \"rms_after_um\": %s, "
-                     "\"predicted_rms_um\": %s, "
-                     "\"linear_predicted_rms_um\": %s, \"status\": %s, "
-                     "\"usable\": %s, \"reached_before\": %d, "
-                     "\"reached_after\": %d, \"max_linear_motion_mm\": %s, "
-                     "\"max_angular_motion_rad\": %s, "
-                     "\"motion_within_bounds\": %s, \"correction_size\": %s, "
-                     "\"cpu_ms\": %s, \"worse\": %s}",
-                     r ? ", " : "",
-                     JsonNum(x.rms_before_um).c_str(),
-                     JsonNum(x.rms_after_um).c_str(),
-                     JsonNum(x.predicted_rms_um).c_str(),
-                     JsonNum(x.linear_predicted_rms_um).c_str(),
-                     JsonString(x.status).c_str(),
-                     x.usable ? "true" : "false",
-                     x.reached_before,
-                     x.reached_after,
-                     JsonNum(x.max_linear_motion_mm).c_str(),
-                     JsonNum(x.max_angular_motion_rad).c_str(),
-                     x.motion_within_bounds ? "true" : "false",
-                     JsonNum(x.correction_size).c_str(),
-                     JsonNum(x.cpu_ms).c_str(),
-                     x.worse ? "true" : "false");
-      }
-      std::fprintf(f,
-                   "], \"best_reachable_um\": %s, \"best_start\": %s, "
-                   "\"final_over_best\": %s, \"within\": %s}",
-                   JsonNum(c.reach.rms_um).c_str(),
-                   JsonString(c.reach.best_start).c_str(),
-                   JsonNum(c.ratio).c_str(),
-                   c.within ? "true" : "false");
-    }
+    for (size_t i = 0; i < outcomes.size(); ++i)
+      WriteScenarioJson(f, outcomes[i], k, i == 0);
     std::fprintf(f, "]}");
   }
   std::fprintf(f, "]}\n");
