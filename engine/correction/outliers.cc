@@ -68,13 +68,13 @@ RobustFit RobustLinearFit(const CorrectionOptions& options,
     // Weights settled: one more pass would not move the fit.
     if (pass > 0 && largest_change < kRobustWeightTolerance) break;
     if (pass + 1 < kRobustPasses) {
-      residual =
-          TikhonovFitAlong(weighted, used, directions, ls.lambda).residual;
+      residual = TikhonovFitAlong(weighted, used, directions, ls.lambda, false)
+                     .residual;
     }
   }
   // The fit at the last weights, with its hat matrix.
   const SubspaceFit fit =
-      TikhonovFitAlong(weighted, used, directions, ls.lambda);
+      TikhonovFitAlong(weighted, used, directions, ls.lambda, true);
   return RobustFit{fit.residual, fit.leverage, weighted.weights};
 }
 

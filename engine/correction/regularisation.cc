@@ -337,7 +337,8 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
 SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
                              const std::vector<int>& rows,
                              const Eigen::MatrixXd& directions,
-                             double lambda) {
+                             double lambda,
+                             bool with_leverage) {
   Eigen::MatrixXd a;
   Eigen::VectorXd b;
   WeightedSystem(problem, rows, &a, &b);
@@ -346,7 +347,7 @@ SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
   SubspaceFit fit;
   if (k == 0) {
     fit.residual = -b;
-    fit.leverage = Eigen::VectorXd::Zero(m);
+    if (with_leverage) fit.leverage = Eigen::VectorXd::Zero(m);
     return fit;
   }
   Eigen::MatrixXd stacked(m + k, k);
@@ -357,9 +358,11 @@ SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked);
   const Eigen::VectorXd c = qr.solve(rhs);
   fit.residual = stacked.topRows(m) * c - b;
-  const Eigen::MatrixXd q =
-      qr.householderQ() * Eigen::MatrixXd::Identity(m + k, k);
-  fit.leverage = q.topRows(m).rowwise().squaredNorm();
+  if (with_leverage) {
+    const Eigen::MatrixXd q =
+        qr.householderQ() * Eigen::MatrixXd::Identity(m + k, k);
+    fit.leverage = q.topRows(m).rowwise().squaredNorm();
+  }
   return fit;
 }
 

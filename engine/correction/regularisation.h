@@ -125,7 +125,8 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
 // min |A D c - b|^2 + lambda^2 |c|^2, y = D c, by a Householder QR of
 // [A D; lambda I] = Q R. A reweighted fit without an SVD: where the weights
 // move little, the earlier solve's directions and level are still the fit's
-// (RobustLinearFit's Huber passes).
+// (RobustLinearFit's Huber passes). The leverages only `with_leverage` (Q
+// is formed for them).
 struct SubspaceFit {
   Eigen::VectorXd residual;  // weighted residual A y - b over the rows
   Eigen::VectorXd leverage;  // diagonal of the hat matrix, |row of Q's top|^2
@@ -133,7 +134,8 @@ struct SubspaceFit {
 SubspaceFit TikhonovFitAlong(const CorrectionProblem& problem,
                              const std::vector<int>& rows,
                              const Eigen::MatrixXd& directions,
-                             double lambda);
+                             double lambda,
+                             bool with_leverage);
 
 // The part of the flank error e on `rows` that the directions of A = W^1/2 S
 // T (those SolveRegularisedLinear may use) reach above the probe noise

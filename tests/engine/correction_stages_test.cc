@@ -369,8 +369,8 @@ TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
   ASSERT_GT(ls.k, 0);
   ASSERT_GT(ls.lambda, 0.0);
   // No direction: the residual is -b, the error at no change; no leverage.
-  const SubspaceFit none =
-      TikhonovFitAlong(problem, problem.used, Eigen::MatrixXd(5, 0), ls.lambda);
+  const SubspaceFit none = TikhonovFitAlong(
+      problem, problem.used, Eigen::MatrixXd(5, 0), ls.lambda, true);
   for (size_t r = 0; r < problem.used.size(); ++r) {
     const int i = problem.used[r];
     EXPECT_NEAR(none.residual(r),
@@ -379,7 +379,7 @@ TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
     EXPECT_EQ(none.leverage(r), 0.0);
   }
   const SubspaceFit refit = TikhonovFitAlong(
-      problem, problem.used, ls.svd.v.leftCols(ls.k), ls.lambda);
+      problem, problem.used, ls.svd.v.leftCols(ls.k), ls.lambda, true);
   EXPECT_LT((refit.residual - ls.residual).norm(),
             kSameFitTolerance * none.residual.norm());
   EXPECT_GT((refit.residual - none.residual).norm(),
@@ -427,7 +427,7 @@ TEST(RobustLinearFit, StandsTheSpikesOutWithTheFitAtItsWeights) {
   CorrectionProblem weighted = unit;
   weighted.weights = fit.weights;
   const SubspaceFit at_weights = TikhonovFitAlong(
-      weighted, unit.used, first.svd.v.leftCols(first.k), first.lambda);
+      weighted, unit.used, first.svd.v.leftCols(first.k), first.lambda, true);
   EXPECT_EQ(fit.residual, at_weights.residual);
   EXPECT_EQ(fit.leverage, at_weights.leverage);
 }
