@@ -91,23 +91,20 @@ bool ComputeReach(const ServiceContext& context,
   // What higher orders would make: every axis polynomial free to order 6
   // (the combined solve itself where the options already open them all, the
   // default).
-  nlohmann::json all_orders = body;
   const bool raised = combined.axis_orders_held_below_highest;
-  all_orders["options"] =
-      WithEveryAxisAtHighestOrder(body.value("options", nlohmann::json()));
   CorrectionSummary highest;
   nlohmann::json with_highest_orders;
   ApiError ignored;
   const nlohmann::json combined_json = ReachJson(combined);
   if (!raised) {
     with_highest_orders = combined_json;
-  } else if (SolveReach(context,
-                        all_orders,
-                        body["target"],
-                        zero_grid,
-                        &highest,
-                        &ignored)) {
-    with_highest_orders = ReachJson(highest);
+  } else {
+    nlohmann::json all_orders = body;
+    all_orders["options"] =
+        WithEveryAxisAtHighestOrder(body.value("options", nlohmann::json()));
+    if (SolveReach(
+            context, all_orders, body["target"], zero_grid, &highest, &ignored))
+      with_highest_orders = ReachJson(highest);
   }
   if (with_highest_orders.is_object()) {
     with_highest_orders["default_max_order"] = kHighestOrder;
