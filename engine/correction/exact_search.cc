@@ -1,7 +1,7 @@
 // The exact-model search (exact_search.h).
 #include "engine/correction/exact_search.h"
 
-#include <Eigen/QR>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -22,9 +22,20 @@ constexpr double kSearchGainMinUm = 0.1;
 // closer to the noise there is little to find.
 constexpr double kSearchNoiseShare = 2.0;
 // The search's light damping of each direction, a share of its singular value
-// (the penalty |mu z|^2 of the QPs): keeps them definite without holding a
-// direction back.
+// (the penalty |mu z|^2 of the QPs), never below that share of the weak-flank
+// floor: keeps them definite without holding a direction back.
 constexpr double kSearchDampingShare = 1e-3;
+// The wide search continues the search's end point over the directions down to
+// kWideSearchShare x the weak-flank floor as well (a wheel cone change of tens
+// of mrad that makes a lead crowning on a narrow gear moves the flank by ~1e-5
+// to 1e-4 um per unit of correction size at the linearisation point, just
+// under the floor), for at most kWideSearchPasses passes and only while each
+// pass lowers the cost by kWideSearchStopShare of it (most wide searches gain
+// almost nothing and stop after one pass; those that matter fall by tens of
+// % per pass). Robustness benchmark (BENCHMARKS.md, "The wide search").
+constexpr double kWideSearchShare = 1e-6;
+constexpr int kWideSearchPasses = 8;
+constexpr double kWideSearchStopShare = 1e-2;
 
 // The exact rms at the linearisation point over the used points after
 // `delta` (infinity when a used point is lost).
@@ -87,29 +98,75 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
     const int i = problem.used[r];
     filtered.error_um(i) += removed(r) / std::sqrt(problem.weights(i));
   }
-  // Every direction above the floor, a light damping on each.
-  KeptSubspace full;
-  full.k = rank;
-  full.sigma1 = ls.svd.sigma(0);
-  full.ridge = 1e-12 * full.sigma1 * full.sigma1;
-  full.vk = ls.svd.v.leftCols(rank);
-  full.tv = problem.t_map * full.vk;
-  full.mu = kSearchDampingShare * ls.svd.sigma.head(rank);
-  // The regularised answer in these coordinates (T has full column rank).
-  const Eigen::VectorXd y = problem.t_map.colPivHouseholderQr().solve(delta);
-  Eigen::VectorXd z = full.vk.transpose() * y;
-  full.z = z;
+  // Every direction above the floor (then, in the wide search, down to
+  // kWideSearchShare of it), a light damping on each.
+  double weight_sum = 0.0;
+  for (int i : problem.used) weight_sum += problem.weights(i);
+  const double floor_sigma = kWeakFlankEffectShare *
+                             options.min_flank_effect_um *
+                             std::sqrt(weight_sum);
+  // A change in these coordinates: T_free^-1 delta(free) (T maps the free
+  // coordinates onto the free coefficients only, T_free is its square part).
+  const Eigen::PartialPivLU<Eigen::MatrixXd> t_lu(problem.t_free);
+  auto coordinates = [&](const Eigen::VectorXd& change) {
+    Eigen::VectorXd free_change(problem.NumFree());
+    for (int c = 0; c < problem.NumFree(); ++c)
+      free_change(c) = change(problem.free[c]);
+    return Eigen::VectorXd(t_lu.solve(free_change));
+  };
+  auto search = [&](int directions,
+                    int max_passes,
+                    double stop_share,
+                    const Eigen::VectorXd& start,
+                    Eigen::VectorXd* searched) {
+    KeptSubspace subspace;
+    subspace.k = directions;
+    subspace.sigma1 = ls.svd.sigma(0);
+    subspace.ridge = 1e-12 * subspace.sigma1 * subspace.sigma1;
+    subspace.vk = ls.svd.v.leftCols(directions);
+    subspace.tv = problem.t_map * subspace.vk;
+    subspace.mu = (kSearchDampingShare * ls.svd.sigma.head(directions))
+                      .cwiseMax(kSearchDampingShare * floor_sigma);
+    Eigen::VectorXd z = subspace.vk.transpose() * coordinates(start);
+    subspace.z = z;
+    CorrectionOptions passes = options;
+    passes.max_num_iterations = max_passes;
+    std::string not_converged;
+    RefineWithinMotionBound(
+        passes, filtered, subspace, &z, searched, &not_converged, stop_share);
+    return searched->size() == delta.size() ? ExactRms(problem, *searched)
+                                            : kInf;
+  };
   Eigen::VectorXd searched;
-  std::string not_converged;
-  RefineWithinMotionBound(
-      options, filtered, full, &z, &searched, &not_converged);
-  const double after =
-      searched.size() == delta.size() ? ExactRms(problem, searched) : kInf;
+  double after = search(
+      rank, options.max_num_iterations, kBoundedStopRelative, delta, &searched);
+  int wide = rank;
+  while (wide < ls.svd.sigma.size() && ls.svd.sigma(wide) > 0.0 &&
+         ls.svd.sigma(wide) >= kWideSearchShare * floor_sigma)
+    ++wide;
+  std::string subspace_text = std::to_string(rank) + " directions";
+  if (wide > rank) {
+    Eigen::VectorXd searched_wide;
+    const double after_wide =
+        search(wide,
+               std::min(kWideSearchPasses, options.max_num_iterations),
+               kWideSearchStopShare,
+               std::isfinite(after) ? searched : delta,
+               &searched_wide);
+    if (after_wide < after) {
+      after = after_wide;
+      searched = searched_wide;
+      subspace_text = std::to_string(wide) + " directions, " +
+                      std::to_string(wide - rank) +
+                      " of them under the weak-flank floor";
+    }
+  }
   summary->exact_search_after_rms_um = after;
   if (after < (1.0 - kSearchGainShare) * before - kSearchGainMinUm) {
     summary->exact_search =
         "taken: the exact model at the linearisation point predicts " +
-        PredictionText(after) + " against " + PredictionText(before);
+        PredictionText(after) + " against " + PredictionText(before) + " (" +
+        subspace_text + ")";
     return searched;
   }
   summary->exact_search = "kept the regularised answer: the search predicts " +

@@ -24,45 +24,71 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
     *y = y_free;
     return true;
   }
-  const Eigen::MatrixXd hinv_gt = llt.solve(constraints.transpose());
-  const Eigen::MatrixXd q_mat = constraints * hinv_gt;
+  // With H = L L': Q = G H^-1 G' = R' R for R = L^-1 G' (k x m). Q is never
+  // formed: the dual's gradient needs R' (R mu), which only the passive
+  // columns of R enter, and the passive block Q_pp = R_p' R_p.
+  const Eigen::MatrixXd r_mat = llt.matrixL().solve(constraints.transpose());
   const Eigen::VectorXd q_vec = constraints * y_free - limits;
   const double tol =
-      1e-12 * std::max(1.0, q_mat.diagonal().cwiseAbs().maxCoeff());
+      1e-12 * std::max(1.0, r_mat.colwise().squaredNorm().maxCoeff());
 
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(m);
-  std::vector<bool> passive(m, false);
-  auto solve_passive = [&](Eigen::VectorXd* z) {
+  std::vector<bool> passive(m, false), refused(m, false);
+  auto passive_indices = [&]() {
     std::vector<int> idx;
     for (int i = 0; i < m; ++i)
       if (passive[i]) idx.push_back(i);
+    return idx;
+  };
+  // R mu over the passive set (mu is zero elsewhere).
+  auto r_times = [&](const Eigen::VectorXd& v) {
+    Eigen::VectorXd out = Eigen::VectorXd::Zero(r_mat.rows());
+    for (int i = 0; i < m; ++i)
+      if (v(i) != 0.0) out += v(i) * r_mat.col(i);
+    return out;
+  };
+  auto solve_passive = [&](Eigen::VectorXd* z) {
+    const std::vector<int> idx = passive_indices();
     z->setZero(m);
     if (idx.empty()) return;
-    Eigen::MatrixXd qpp(idx.size(), idx.size());
+    Eigen::MatrixXd rp(r_mat.rows(), idx.size());
     Eigen::VectorXd rhs(idx.size());
     for (size_t a = 0; a < idx.size(); ++a) {
+      rp.col(a) = r_mat.col(idx[a]);
       rhs(a) = q_vec(idx[a]);
-      for (size_t b = 0; b < idx.size(); ++b) qpp(a, b) = q_mat(idx[a], idx[b]);
     }
+    const Eigen::MatrixXd qpp = rp.transpose() * rp;
     const Eigen::VectorXd zp = qpp.completeOrthogonalDecomposition().solve(rhs);
     for (size_t a = 0; a < idx.size(); ++a) (*z)(idx[a]) = zp(a);
   };
   for (int outer = 0; outer < 3 * m + 10; ++outer) {
-    const Eigen::VectorXd w =
-        q_vec - q_mat * mu;  // minus the gradient of the dual
+    // Minus the gradient of the dual, q - Q mu.
+    const Eigen::VectorXd w = q_vec - r_mat.transpose() * r_times(mu);
     int best = -1;
     double best_w = tol;
     for (int i = 0; i < m; ++i) {
-      if (!passive[i] && w(i) > best_w) {
+      if (!passive[i] && !refused[i] && w(i) > best_w) {
         best_w = w(i);
         best = i;
       }
     }
     if (best < 0) break;
     passive[best] = true;
+    // Lawson and Hanson's guard: a multiplier that would enter with a
+    // non-positive value (rounding, or a constraint nearly dependent on the
+    // passive ones, as neighbouring samples of the motion bound are) is
+    // refused until another enters, instead of entering and leaving again
+    // until the iteration limit.
+    Eigen::VectorXd z;
+    solve_passive(&z);
+    if (!(z(best) > 0.0)) {
+      passive[best] = false;
+      refused[best] = true;
+      continue;
+    }
+    std::fill(refused.begin(), refused.end(), false);
     for (int inner = 0; inner < 3 * m + 10; ++inner) {
-      Eigen::VectorXd z;
-      solve_passive(&z);
+      if (inner > 0) solve_passive(&z);
       bool all_positive = true;
       for (int i = 0; i < m; ++i)
         if (passive[i] && z(i) <= 0.0) all_positive = false;
@@ -84,7 +110,8 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
       }
     }
   }
-  *y = y_free - hinv_gt * mu;
+  // y = y_free - H^-1 G' mu = y_free - L'^-1 (R mu).
+  *y = y_free - llt.matrixU().solve(r_times(mu));
   return true;
 }
 
@@ -109,38 +136,38 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
   Eigen::MatrixXd hess = a.transpose() * a;
   hess.diagonal().array() += subspace.ridge + subspace.mu.array().square();
   const Eigen::VectorXd grad = a.transpose() * b;
-  std::vector<Eigen::RowVectorXd> rows;
-  std::vector<double> lims;
-  if (problem.mode == CorrectionMode::kRework) {
-    for (int i : problem.reached) {
-      rows.push_back(stv.row(i));
-      lims.push_back(stv.row(i).dot(z_k) - change_k(i));
-    }
+  // The constraint rows G and limits h of G z <= h: rework's no added
+  // material, the parameter bounds, then the motion bound -1 <= rows T V_k z
+  // <= 1.
+  const bool rework = problem.mode == CorrectionMode::kRework;
+  int bounds = 0;
+  for (int c = 0; c < problem.NumFree(); ++c) {
+    const int j = problem.free[c];
+    bounds += std::isfinite(problem.upper(j)) + std::isfinite(problem.lower(j));
+  }
+  const Eigen::MatrixXd motion = problem.motion_rows * tv;
+  const int num_rows = (rework ? static_cast<int>(problem.reached.size()) : 0) +
+                       bounds + 2 * static_cast<int>(motion.rows());
+  Eigen::MatrixXd g_mat(num_rows, k);
+  Eigen::VectorXd h_vec(num_rows);
+  int row = 0;
+  auto add = [&](const auto& constraint, double limit) {
+    g_mat.row(row) = constraint;
+    h_vec(row) = limit;
+    ++row;
+  };
+  if (rework) {
+    for (int i : problem.reached)
+      add(stv.row(i), stv.row(i).dot(z_k) - change_k(i));
   }
   for (int c = 0; c < problem.NumFree(); ++c) {
     const int j = problem.free[c];
-    if (std::isfinite(problem.upper(j))) {
-      rows.push_back(tv.row(j));
-      lims.push_back(problem.upper(j));
-    }
-    if (std::isfinite(problem.lower(j))) {
-      rows.push_back(-tv.row(j));
-      lims.push_back(-problem.lower(j));
-    }
+    if (std::isfinite(problem.upper(j))) add(tv.row(j), problem.upper(j));
+    if (std::isfinite(problem.lower(j))) add(-tv.row(j), -problem.lower(j));
   }
-  // The motion bound: -1 <= rows T V_k z <= 1.
-  const Eigen::MatrixXd motion = problem.motion_rows * tv;
   for (int r = 0; r < motion.rows(); ++r) {
-    rows.push_back(motion.row(r));
-    lims.push_back(1.0);
-    rows.push_back(-motion.row(r));
-    lims.push_back(1.0);
-  }
-  Eigen::MatrixXd g_mat(rows.size(), k);
-  Eigen::VectorXd h_vec(rows.size());
-  for (size_t r = 0; r < rows.size(); ++r) {
-    g_mat.row(r) = rows[r];
-    h_vec(r) = lims[r];
+    add(motion.row(r), 1.0);
+    add(-motion.row(r), 1.0);
   }
   return SolveConvexQp(hess, grad, g_mat, h_vec, z);
 }
@@ -205,7 +232,6 @@ constexpr int kBoundedHalvings = 4;
 // what the safe step guards against (robustness benchmark, every order open: 7
 // -> 8 and 7 -> 10 rounds worse on seeds 2026 and 7 with it).
 constexpr int kHalvingsFromNoChange = 8;
-constexpr double kBoundedStopRelative = 1e-4;
 
 // The exact cost of the next part at z (infinity when a used point is lost);
 // `evaluation` gets the model at p + T V_k z, with its Jacobian on request.
@@ -233,7 +259,8 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
                             const KeptSubspace& subspace,
                             Eigen::VectorXd* z,
                             Eigen::VectorXd* delta,
-                            std::string* not_converged) {
+                            std::string* not_converged,
+                            double stop_share) {
   // The start is evaluated with its Jacobian once (Evaluate gives the same
   // deviations with and without it), for its cost and the first pass.
   ModelEvaluation at;
@@ -290,7 +317,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
     const double fall = cost - trial_cost;
     *z += step;
     cost = trial_cost;
-    if (fall < kBoundedStopRelative * cost) {
+    if (fall < stop_share * cost) {
       ++pass;
       settled = true;
       break;

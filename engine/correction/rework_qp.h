@@ -74,12 +74,16 @@ bool WithinMotionBound(const CorrectionProblem& problem,
 // A start beyond the bound first takes the QP's answer whole (it is within
 // the bound). Updates z and delta; returns the passes made; a failed QP goes
 // to not_converged (delta stays the last accepted change).
+//
+// A pass that lowers the cost by less than `stop_share` of it is the last.
+constexpr double kBoundedStopRelative = 1e-4;
 int RefineWithinMotionBound(const CorrectionOptions& options,
                             const CorrectionProblem& problem,
                             const KeptSubspace& subspace,
                             Eigen::VectorXd* z,
                             Eigen::VectorXd* delta,
-                            std::string* not_converged);
+                            std::string* not_converged,
+                            double stop_share = kBoundedStopRelative);
 
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -541,6 +541,29 @@ TEST(SolveConvexQp, KnownAnswers) {
                             Eigen::Vector2d(0.2, 1.0),
                             &y));
   EXPECT_LT((y - Eigen::Vector2d(0.2, 0.8)).norm(), 1e-12);
+  // The motion bound's rows come as many samples of one polynomial, nearly
+  // or exactly dependent: the same answer with every row twenty times over
+  // and an ill-conditioned Hessian (the guard refuses a multiplier that would
+  // enter at zero instead of cycling to the iteration limit).
+  Eigen::MatrixXd g_many(40, 2);
+  Eigen::VectorXd h_many(40);
+  for (int r = 0; r < 20; ++r) {
+    g_many.row(2 * r) << 1.0, 0.0;
+    h_many(2 * r) = 0.2;
+    g_many.row(2 * r + 1) << 1.0, 1.0 + 1e-13 * r;
+    h_many(2 * r + 1) = 1.0;
+  }
+  ASSERT_TRUE(
+      SolveConvexQp(identity, Eigen::Vector2d(2.0, 1.0), g_many, h_many, &y));
+  EXPECT_LT((y - Eigen::Vector2d(0.2, 0.8)).norm(), 1e-9);
+  Eigen::Matrix2d stiff;
+  stiff << 1.0, 0.0, 0.0, 1e-10;
+  ASSERT_TRUE(
+      SolveConvexQp(stiff, Eigen::Vector2d(2.0, 1e-10), g_many, h_many, &y));
+  // Unconstrained (2, 1): the bound y1 <= 0.2, then y1 + y2 <= 1 with y2
+  // free to take what is left (its curvature is small): (0.2, 0.8).
+  EXPECT_LT((y - Eigen::Vector2d(0.2, 0.8)).norm(), 1e-6);
+  EXPECT_LE((g_many * y - h_many).maxCoeff(), 1e-9);
   // A Hessian that is not positive definite is refused.
   EXPECT_FALSE(SolveConvexQp(-identity,
                              Eigen::Vector2d(1.0, 1.0),
