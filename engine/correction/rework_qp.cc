@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace gearloop {
@@ -260,7 +261,8 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
                             Eigen::VectorXd* z,
                             Eigen::VectorXd* delta,
                             std::string* not_converged,
-                            double stop_share) {
+                            double stop_share,
+                            ModelEvaluation* end_evaluation) {
   // The start is evaluated with its Jacobian once (Evaluate gives the same
   // deviations with and without it), for its cost and the first pass.
   ModelEvaluation at;
@@ -299,6 +301,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
       if (!std::isfinite(trial_cost)) break;
       *z = z_qp;
       cost = trial_cost;
+      std::swap(at, trial);
       continue;
     }
     const int halvings =
@@ -317,6 +320,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
     const double fall = cost - trial_cost;
     *z += step;
     cost = trial_cost;
+    std::swap(at, trial);  // `at` is the model at z (its Jacobian or not)
     if (fall < stop_share * cost) {
       ++pass;
       settled = true;
@@ -333,6 +337,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
         ") makes a better part: no change";
   }
   *delta = subspace.tv * *z;
+  if (end_evaluation != nullptr) *end_evaluation = std::move(at);
   return pass;
 }
 

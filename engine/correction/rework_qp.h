@@ -75,7 +75,9 @@ bool WithinMotionBound(const CorrectionProblem& problem,
 // the bound). Updates z and delta; returns the passes made; a failed QP goes
 // to not_converged (delta stays the last accepted change).
 //
-// A pass that lowers the cost by less than `stop_share` of it is the last.
+// A pass that lowers the cost by less than `stop_share` of it is the last;
+// `end_evaluation`, when given, gets the model at the end point (its
+// deviations; the Jacobian only when the last pass kept its start).
 constexpr double kBoundedStopRelative = 1e-4;
 int RefineWithinMotionBound(const CorrectionOptions& options,
                             const CorrectionProblem& problem,
@@ -83,7 +85,8 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
                             Eigen::VectorXd* z,
                             Eigen::VectorXd* delta,
                             std::string* not_converged,
-                            double stop_share = kBoundedStopRelative);
+                            double stop_share = kBoundedStopRelative,
+                            ModelEvaluation* end_evaluation = nullptr);
 
 }  // namespace correction_internal
 }  // namespace gearloop
