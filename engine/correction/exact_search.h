@@ -12,12 +12,14 @@
 // reaches kept whole), within the motion bound; then, from its end point, the
 // wide search over the directions down to 1e-6 of the floor as well (a wheel
 // cone change that makes a lead crowning on a narrow gear lies just under the
-// floor), while each pass lowers the cost by 1 %. Its answer replaces the
-// regularised one only where its exact prediction at the linearisation point
-// is below (1 - kSearchGainShare) x the regularised answer's - kSearchGainMinUm
-// (20 % and 0.1 um lower); either then goes through the safe step. It runs
+// floor), while each pass lowers the cost by 1 %. The lower end point is the
+// search's answer; it replaces the regularised one only where its exact
+// prediction at the linearisation point is below (1 - kSearchGainShare) x the
+// regularised answer's - kSearchGainMinUm (20 % and 0.02 um lower); either
+// then goes through the safe step. It runs
 // only where the regularised answer's linear and exact predictions both stay
-// above 2 x the filter's noise + 0.1 um.
+// above the filter's noise + 0.05 um. The wide search only where no order
+// 4-6 is free.
 //
 //   delta = SearchOnExactModel(options, problem, ls, delta, &summary);
 #ifndef GEARLOOP_ENGINE_CORRECTION_EXACT_SEARCH_H_
