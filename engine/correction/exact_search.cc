@@ -67,19 +67,6 @@ double ExactRms(const CorrectionProblem& problem,
   return ExactRmsOf(problem, eval);
 }
 
-// Whether the problem frees a polynomial coefficient of order 4-6.
-bool FreeAboveCubic(const CorrectionProblem& problem) {
-  for (const ParameterBlock& b : problem.blocks) {
-    if (!b.is_polynomial) continue;
-    for (int j : problem.free) {
-      if (j > b.first_index + kCubicOrder &&
-          j < b.first_index + b.num_coefficients)
-        return true;
-    }
-  }
-  return false;
-}
-
 // An exact prediction for the summary: infinity is a lost point.
 std::string PredictionText(double um) {
   return std::isfinite(um) ? FormatUm(um) + " um" : "inf (a used point lost)";
@@ -126,12 +113,9 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
     filtered.error_um(i) += removed(r) / std::sqrt(problem.weights(i));
   }
   // Every direction above the floor (then, in the wide search, down to
-  // kWideSearchShare of it), a light damping on each.
-  double weight_sum = 0.0;
-  for (int i : problem.used) weight_sum += problem.weights(i);
-  const double floor_sigma = kWeakFlankEffectShare *
-                             options.min_flank_effect_um *
-                             std::sqrt(weight_sum);
+  // kWideSearchShare of it), a light damping on each. With the per-direction
+  // filter the solve's rank threshold is the weak-flank floor.
+  const double floor_sigma = ls.rank_threshold;
   // A change in these coordinates: T_free^-1 delta(free) (T maps the free
   // coordinates onto the free coefficients only, T_free is its square part).
   const Eigen::PartialPivLU<Eigen::MatrixXd> t_lu(problem.t_free);
@@ -168,10 +152,8 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
                             &not_converged,
                             stop_share,
                             &at_end);
-    return searched->size() == delta.size() &&
-                   at_end.status.size() == problem.evaluation.status.size()
-               ? ExactRmsOf(problem, at_end)
-               : kInf;
+    return searched->size() == delta.size() ? ExactRmsOf(problem, at_end)
+                                            : kInf;
   };
   Eigen::VectorXd searched;
   double after = search(
@@ -181,7 +163,7 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
          ls.svd.sigma(wide) >= kWideSearchShare * floor_sigma)
     ++wide;
   std::string subspace_text = std::to_string(rank) + " directions";
-  if (wide > rank && !FreeAboveCubic(problem)) {
+  if (wide > rank && !OpensOrdersAboveCubic(options, problem.blocks)) {
     Eigen::VectorXd searched_wide;
     const double after_wide =
         search(wide,

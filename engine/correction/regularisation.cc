@@ -285,6 +285,7 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
       options.min_flank_effect_um * std::sqrt(weight_sum);
   const double rank_threshold =
       (per_direction ? kWeakFlankEffectShare : 1.0) * floor_sigma;
+  ls.rank_threshold = rank_threshold;
   if (svd_of_a != nullptr) {
     ls.svd = *svd_of_a;
     ls.svd.rank = CountRank(ls.svd.sigma, rank_threshold);

@@ -97,7 +97,10 @@ struct LinearSolve {
   Svd svd;
   Eigen::VectorXd beta;  // U' b
   int k = 0;             // directions eligible (the numerical rank)
-  double lambda = 0.0;   // Tikhonov level (the largest mu_i kept)
+  // The singular value below which a direction is not eligible (the weak-flank
+  // floor with the per-direction filter, min_flank_effect_um without).
+  double rank_threshold = 0.0;
+  double lambda = 0.0;  // Tikhonov level (the largest mu_i kept)
   // Per eligible direction i < k: the filter factor f_i and the level mu_i
   // with f_i = sigma_i^2 / (sigma_i^2 + mu_i^2) (mu_i = lambda for one
   // Tikhonov level), and the directions kept (f_i > 0, every i < k for one
