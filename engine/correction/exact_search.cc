@@ -67,6 +67,85 @@ double ExactRms(const CorrectionProblem& problem,
   return ExactRmsOf(problem, eval);
 }
 
+// The sequential QPs of the search (RefineWithinMotionBound) over the first
+// `directions` columns of the solve's V, each lightly damped
+// (kSearchDampingShare of its singular value, never below that share of the
+// weak-flank floor), fitting the noise-filtered error: e + (sum_i (1 - f_i)
+// beta_i u_i) / sqrt(w) (the measured part of each direction shrunk as the
+// filter did, what no direction reaches kept whole).
+class SubspaceSearch {
+ public:
+  SubspaceSearch(const CorrectionOptions& options,
+                 const CorrectionProblem& problem,
+                 const LinearSolve& ls)
+      : options_(options),
+        problem_(problem),
+        ls_(ls),
+        filtered_(problem),
+        t_lu_(problem.t_free) {
+    Eigen::VectorXd removed = Eigen::VectorXd::Zero(ls.svd.u.rows());
+    for (int i = 0; i < ls.svd.rank; ++i) {
+      const double f = i < ls.filter.size() ? ls.filter(i) : 0.0;
+      removed += (1.0 - f) * ls.beta(i) * ls.svd.u.col(i);
+    }
+    for (size_t r = 0; r < problem.used.size(); ++r) {
+      const int i = problem.used[r];
+      filtered_.error_um(i) += removed(r) / std::sqrt(problem.weights(i));
+    }
+  }
+
+  // From the change `start`, at most `max_passes` passes, the last one that
+  // lowers the cost by less than `stop_share` of it; the end point in
+  // `searched`, its exact rms over the used points returned (infinity: a
+  // used point lost).
+  double Run(int directions,
+             int max_passes,
+             double stop_share,
+             const Eigen::VectorXd& start,
+             Eigen::VectorXd* searched) const {
+    KeptSubspace subspace;
+    subspace.k = directions;
+    subspace.sigma1 = ls_.svd.sigma(0);
+    subspace.ridge = 1e-12 * subspace.sigma1 * subspace.sigma1;
+    subspace.vk = ls_.svd.v.leftCols(directions);
+    subspace.tv = problem_.t_map * subspace.vk;
+    subspace.mu = (kSearchDampingShare * ls_.svd.sigma.head(directions))
+                      .cwiseMax(kSearchDampingShare * ls_.rank_threshold);
+    Eigen::VectorXd z = subspace.vk.transpose() * Coordinates(start);
+    subspace.z = z;
+    CorrectionOptions passes = options_;
+    passes.max_num_iterations = max_passes;
+    std::string not_converged;
+    ModelEvaluation at_end;
+    RefineWithinMotionBound(passes,
+                            filtered_,
+                            subspace,
+                            &z,
+                            searched,
+                            &not_converged,
+                            stop_share,
+                            &at_end);
+    return searched->size() == start.size() ? ExactRmsOf(problem_, at_end)
+                                            : kInf;
+  }
+
+ private:
+  // A change in the free coordinates: T_free^-1 change(free) (T maps the free
+  // coordinates onto the free coefficients only, T_free is its square part).
+  Eigen::VectorXd Coordinates(const Eigen::VectorXd& change) const {
+    Eigen::VectorXd free_change(problem_.NumFree());
+    for (int c = 0; c < problem_.NumFree(); ++c)
+      free_change(c) = change(problem_.free[c]);
+    return t_lu_.solve(free_change);
+  }
+
+  const CorrectionOptions& options_;
+  const CorrectionProblem& problem_;
+  const LinearSolve& ls_;
+  CorrectionProblem filtered_;
+  Eigen::PartialPivLU<Eigen::MatrixXd> t_lu_;
+};
+
 // An exact prediction for the summary: infinity is a lost point.
 std::string PredictionText(double um) {
   return std::isfinite(um) ? FormatUm(um) + " um" : "inf (a used point lost)";
@@ -101,76 +180,25 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
     return delta;
   }
   const int rank = ls.svd.rank;
-  // The noise-filtered error: e + (sum_i (1 - f_i) beta_i u_i) / sqrt(w).
-  Eigen::VectorXd removed = Eigen::VectorXd::Zero(ls.svd.u.rows());
-  for (int i = 0; i < rank; ++i) {
-    const double f = i < ls.filter.size() ? ls.filter(i) : 0.0;
-    removed += (1.0 - f) * ls.beta(i) * ls.svd.u.col(i);
-  }
-  CorrectionProblem filtered = problem;
-  for (size_t r = 0; r < problem.used.size(); ++r) {
-    const int i = problem.used[r];
-    filtered.error_um(i) += removed(r) / std::sqrt(problem.weights(i));
-  }
-  // Every direction above the floor (then, in the wide search, down to
-  // kWideSearchShare of it), a light damping on each. With the per-direction
-  // filter the solve's rank threshold is the weak-flank floor.
-  const double floor_sigma = ls.rank_threshold;
-  // A change in these coordinates: T_free^-1 delta(free) (T maps the free
-  // coordinates onto the free coefficients only, T_free is its square part).
-  const Eigen::PartialPivLU<Eigen::MatrixXd> t_lu(problem.t_free);
-  auto coordinates = [&](const Eigen::VectorXd& change) {
-    Eigen::VectorXd free_change(problem.NumFree());
-    for (int c = 0; c < problem.NumFree(); ++c)
-      free_change(c) = change(problem.free[c]);
-    return Eigen::VectorXd(t_lu.solve(free_change));
-  };
-  auto search = [&](int directions,
-                    int max_passes,
-                    double stop_share,
-                    const Eigen::VectorXd& start,
-                    Eigen::VectorXd* searched) {
-    KeptSubspace subspace;
-    subspace.k = directions;
-    subspace.sigma1 = ls.svd.sigma(0);
-    subspace.ridge = 1e-12 * subspace.sigma1 * subspace.sigma1;
-    subspace.vk = ls.svd.v.leftCols(directions);
-    subspace.tv = problem.t_map * subspace.vk;
-    subspace.mu = (kSearchDampingShare * ls.svd.sigma.head(directions))
-                      .cwiseMax(kSearchDampingShare * floor_sigma);
-    Eigen::VectorXd z = subspace.vk.transpose() * coordinates(start);
-    subspace.z = z;
-    CorrectionOptions passes = options;
-    passes.max_num_iterations = max_passes;
-    std::string not_converged;
-    ModelEvaluation at_end;
-    RefineWithinMotionBound(passes,
-                            filtered,
-                            subspace,
-                            &z,
-                            searched,
-                            &not_converged,
-                            stop_share,
-                            &at_end);
-    return searched->size() == delta.size() ? ExactRmsOf(problem, at_end)
-                                            : kInf;
-  };
+  const SubspaceSearch search(options, problem, ls);
   Eigen::VectorXd searched;
-  double after = search(
+  double after = search.Run(
       rank, options.max_num_iterations, kBoundedStopRelative, delta, &searched);
+  // Down to kWideSearchShare of the weak-flank floor (with the per-direction
+  // filter, the solve's rank threshold).
   int wide = rank;
   while (wide < ls.svd.sigma.size() && ls.svd.sigma(wide) > 0.0 &&
-         ls.svd.sigma(wide) >= kWideSearchShare * floor_sigma)
+         ls.svd.sigma(wide) >= kWideSearchShare * ls.rank_threshold)
     ++wide;
   std::string subspace_text = std::to_string(rank) + " directions";
   if (wide > rank && !OpensOrdersAboveCubic(options, problem.blocks)) {
     Eigen::VectorXd searched_wide;
     const double after_wide =
-        search(wide,
-               std::min(kWideSearchPasses, options.max_num_iterations),
-               kWideSearchStopShare,
-               std::isfinite(after) ? searched : delta,
-               &searched_wide);
+        search.Run(wide,
+                   std::min(kWideSearchPasses, options.max_num_iterations),
+                   kWideSearchStopShare,
+                   std::isfinite(after) ? searched : delta,
+                   &searched_wide);
     if (after_wide < after) {
       after = after_wide;
       searched = searched_wide;

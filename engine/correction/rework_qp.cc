@@ -12,44 +12,32 @@
 namespace gearloop {
 namespace correction_internal {
 
-bool SolveConvexQp(const Eigen::MatrixXd& hessian,
-                   const Eigen::VectorXd& g,
-                   const Eigen::MatrixXd& constraints,
-                   const Eigen::VectorXd& limits,
-                   Eigen::VectorXd* y) {
-  const Eigen::LLT<Eigen::MatrixXd> llt(hessian);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::VectorXd y_free = llt.solve(g);
-  const int m = static_cast<int>(constraints.rows());
-  if (m == 0 || ((constraints * y_free - limits).array() <= 0.0).all()) {
-    *y = y_free;
-    return true;
-  }
-  // With H = L L': Q = G H^-1 G' = R' R for R = L^-1 G' (k x m). Q is never
-  // formed: the dual's gradient needs R' (R mu), which only the passive
-  // columns of R enter, and the passive block Q_pp = R_p' R_p.
-  const Eigen::MatrixXd r_mat = llt.matrixL().solve(constraints.transpose());
-  const Eigen::VectorXd q_vec = constraints * y_free - limits;
+namespace {
+
+// R v for a v that is zero off a few entries (the passive multipliers).
+Eigen::VectorXd TimesSparse(const Eigen::MatrixXd& r_mat,
+                            const Eigen::VectorXd& v) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(r_mat.rows());
+  for (int i = 0; i < v.size(); ++i)
+    if (v(i) != 0.0) out += v(i) * r_mat.col(i);
+  return out;
+}
+
+// The dual of SolveConvexQp, min 1/2 mu' Q mu - q' mu, mu >= 0 with Q = R' R,
+// by the active-set method of Lawson and Hanson. Q is never formed: the
+// dual's gradient needs R' (R mu), which only the passive columns of R enter,
+// and the passive block Q_pp = R_p' R_p.
+Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
+                                     const Eigen::VectorXd& q_vec) {
+  const int m = static_cast<int>(q_vec.size());
   const double tol =
       1e-12 * std::max(1.0, r_mat.colwise().squaredNorm().maxCoeff());
-
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(m);
   std::vector<bool> passive(m, false), refused(m, false);
-  auto passive_indices = [&]() {
+  auto solve_passive = [&](Eigen::VectorXd* z) {
     std::vector<int> idx;
     for (int i = 0; i < m; ++i)
       if (passive[i]) idx.push_back(i);
-    return idx;
-  };
-  // R mu over the passive set (mu is zero elsewhere).
-  auto r_times = [&](const Eigen::VectorXd& v) {
-    Eigen::VectorXd out = Eigen::VectorXd::Zero(r_mat.rows());
-    for (int i = 0; i < m; ++i)
-      if (v(i) != 0.0) out += v(i) * r_mat.col(i);
-    return out;
-  };
-  auto solve_passive = [&](Eigen::VectorXd* z) {
-    const std::vector<int> idx = passive_indices();
     z->setZero(m);
     if (idx.empty()) return;
     Eigen::MatrixXd rp(r_mat.rows(), idx.size());
@@ -64,7 +52,8 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
   };
   for (int outer = 0; outer < 3 * m + 10; ++outer) {
     // Minus the gradient of the dual, q - Q mu.
-    const Eigen::VectorXd w = q_vec - r_mat.transpose() * r_times(mu);
+    const Eigen::VectorXd w =
+        q_vec - r_mat.transpose() * TimesSparse(r_mat, mu);
     int best = -1;
     double best_w = tol;
     for (int i = 0; i < m; ++i) {
@@ -111,8 +100,30 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
       }
     }
   }
+  return mu;
+}
+
+}  // namespace
+
+bool SolveConvexQp(const Eigen::MatrixXd& hessian,
+                   const Eigen::VectorXd& g,
+                   const Eigen::MatrixXd& constraints,
+                   const Eigen::VectorXd& limits,
+                   Eigen::VectorXd* y) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(hessian);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::VectorXd y_free = llt.solve(g);
+  if (constraints.rows() == 0 ||
+      ((constraints * y_free - limits).array() <= 0.0).all()) {
+    *y = y_free;
+    return true;
+  }
+  // With H = L L': Q = G H^-1 G' = R' R for R = L^-1 G' (k x m).
+  const Eigen::MatrixXd r_mat = llt.matrixL().solve(constraints.transpose());
+  const Eigen::VectorXd mu =
+      SolveDualNonNegative(r_mat, constraints * y_free - limits);
   // y = y_free - H^-1 G' mu = y_free - L'^-1 (R mu).
-  *y = y_free - llt.matrixU().solve(r_times(mu));
+  *y = y_free - llt.matrixU().solve(TimesSparse(r_mat, mu));
   return true;
 }
 
