@@ -19,6 +19,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -349,6 +351,16 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   *test = TestMachineState(options, problem, state_problem, state);
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
+  const double share = PlausibleShare(state_problem, state, *test, *noise_um);
+  SetPlausibleEnd(share, &at_state);
+  if (share < 1.0) {
+    std::ostringstream plausible;
+    plausible << std::setprecision(2) << share;
+    test->reason +=
+        "; it fits to the noise: the safe step asks about lost points and the "
+        "models' agreement no farther than " +
+        plausible.str() + " of the way to the commanded settings";
+  }
   if (options.signal_filter) at_state.signal_noise_um = *noise_um;
   *result = SolveProblem(options, std::move(at_state), &state);
   ReportMachineStateTest(*test, &result->summary);

@@ -2,6 +2,7 @@
 // measurement.
 #include "engine/correction/machine_state.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -114,6 +115,40 @@ MachineStateTest TestMachineState(const CorrectionOptions& options,
   t.used = true;
   t.reason = "significant (" + why.str() + ")";
   return t;
+}
+
+double PlausibleShare(const CorrectionProblem& state_problem,
+                      const CorrectionResult& state,
+                      const MachineStateTest& test,
+                      double noise_um) {
+  if (!test.used || !(test.threshold > 0.0) ||
+      !(test.statistic > test.threshold))
+    return 1.0;
+  const double n = state.summary.num_points_used;
+  const double rest = n - state.summary.effective_dof;
+  const double sigma = state_problem.probe_noise_um;
+  const double misfit = state.summary.residual_rms_um;
+  const bool fits =
+      sigma > 0.0
+          ? rest > 1.0 && n * misfit * misfit / (sigma * sigma) <=
+                              rest + kStateFitSds * std::sqrt(2.0 * rest)
+          : noise_um > 0.0 && noise_um <= kStateNoiseCeilingUm;
+  if (!fits) return 1.0;
+  return std::min(1.0, std::sqrt(test.threshold / test.statistic));
+}
+
+void SetPlausibleEnd(double share, CorrectionProblem* at_state) {
+  at_state->plausible_share = share;
+  if (!(share < 1.0) ||
+      at_state->commanded_parameters.size() != at_state->parameters.size())
+    return;
+  at_state->plausible_parameters =
+      at_state->parameters +
+      share * (at_state->commanded_parameters - at_state->parameters);
+  ModelEvaluation there;
+  at_state->model->Evaluate(at_state->plausible_parameters, false, &there);
+  at_state->plausible_deviations_um = there.deviations_um;
+  at_state->plausible_status = there.status;
 }
 
 void ReportMachineStateTest(const MachineStateTest& test,

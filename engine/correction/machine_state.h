@@ -77,6 +77,37 @@ MachineStateTest TestMachineState(const CorrectionOptions& options,
                                   const CorrectionProblem& state_problem,
                                   const CorrectionResult& state);
 
+// How far from the estimated state toward the commanded settings the machine
+// plausibly runs, as a share t of the way (1: as far as the commanded
+// settings). Along the way the misfit the commanded settings leave beyond the
+// state's grows as t^2 (linear model), so the test's statistic falls to its
+// threshold at t = sqrt(threshold / statistic): nearer than that the
+// measurement cannot tell the machine from the state. That holds only where
+// the state fits the measurement to the noise; where it leaves more, the
+// model does not explain the measurement (an error it cannot represent, such
+// as the wheel's parabola, taken up by other parameters) and the machine may
+// be anywhere up to the commanded settings: t = 1.
+//  - Noise stated (sigma of the teeth average): n r_s^2 / sigma^2 within
+//    (n - dof) + kStateFitSds sqrt(2 (n - dof)), the chi-square distribution's
+//    mean + 3 standard deviations for what the fit leaves.
+//  - Noise unknown: the fit's own estimate of the probe noise (`noise_um`)
+//    within kStateNoiseCeilingUm; more than a gear measuring machine's
+//    probe scatters (a few tenths of a um) is misfit, not noise.
+//  - Exact data (threshold 0) or the state not used: t = 1.
+constexpr double kStateFitSds = 3.0;
+constexpr double kStateNoiseCeilingUm = 1.0;
+
+double PlausibleShare(const CorrectionProblem& state_problem,
+                      const CorrectionResult& state,
+                      const MachineStateTest& test,
+                      double noise_um);
+
+// Sets the plausible end of `at_state` (a problem linearised at the state,
+// with its commanded parameters): the share, the parameters state + share x
+// (commanded - state) and the model's flank there; nothing while the share is
+// 1.
+void SetPlausibleEnd(double share, CorrectionProblem* at_state);
+
 // The state's correction size and misfit into `summary`
 // (machine_state_estimated = true).
 void ReportMachineState(const CorrectionResult& state,

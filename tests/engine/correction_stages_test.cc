@@ -858,6 +858,80 @@ TEST(ChooseSafeStep, HalvesAStepWhoseContactsTheRealMachineMayLose) {
   }
 }
 
+// The same step where the state fits the measurement to the noise and the
+// machine plausibly runs no farther than a share of 0.2 of the way to the
+// commanded settings (SetPlausibleEnd; seed 7, scenario 168 of the
+// robustness benchmark): point 0, lost at the commanded end and halfway
+// (above 0.25e-3), is found at the plausible end (-0.8e-3 + 1e-3 = 0.2e-3),
+// and the whole step is kept. The contact's branch is still asked at the
+// commanded end: halved (seed 1, scenario 146).
+TEST(ChooseSafeStep, AsksWhetherAPointIsLostAtThePlausibleEnd) {
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
+  state(4) = -1e-3;
+  constexpr double kNever = 1.0;
+  constexpr double kShare = 0.2;
+  struct Case {
+    double lost_above, jump_above, fraction;
+  };
+  for (const Case& c :
+       {Case{0.25e-3, kNever, 1.0}, Case{kNever, 0.75e-3, 0.5}}) {
+    const BranchModel model(c.lost_above, c.jump_above);
+    CorrectionProblem at_state =
+        RelinearisedAt(SafeStepProblem(model, best), state);
+    SetPlausibleEnd(kShare, &at_state);
+    EXPECT_NEAR(at_state.plausible_parameters(4), -0.8e-3, 1e-15);
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd step =
+        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
+    EXPECT_TRUE(outcome.improved);
+    EXPECT_EQ(outcome.step_fraction, c.fraction)
+        << "lost above " << c.lost_above << ", other branch above "
+        << c.jump_above;
+    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
+  }
+}
+
+// The share of the way to the commanded settings the machine plausibly runs:
+// sqrt(threshold / statistic) where the state fits to the noise (stated: the
+// chi-square of what the fit leaves; unknown: the fit's own noise estimate
+// within kStateNoiseCeilingUm), 1 otherwise.
+TEST(PlausibleShare, NearTheStateOnlyWhereTheStateFitsToTheNoise) {
+  CorrectionProblem state_problem;
+  CorrectionResult state;
+  state.summary.num_points_used = 40;
+  state.summary.effective_dof = 5.0;
+  MachineStateTest test;
+  test.used = true;
+  test.statistic = 400.0;
+  test.threshold = 16.0;
+  constexpr double kTolerance = 1e-12;
+  // Noise stated 0.3 um: a misfit of 0.3 um is the noise (chi-square 40
+  // against 35 + 3 sqrt(70) = 60.1); 0.5 um is not (111).
+  state_problem.probe_noise_um = 0.3;
+  state.summary.residual_rms_um = 0.3;
+  EXPECT_NEAR(PlausibleShare(state_problem, state, test, 0.0), 0.2, kTolerance);
+  state.summary.residual_rms_um = 0.5;
+  EXPECT_EQ(PlausibleShare(state_problem, state, test, 0.0), 1.0);
+  // Noise unknown: the fit's estimate against the ceiling.
+  state_problem.probe_noise_um = -1.0;
+  EXPECT_NEAR(PlausibleShare(state_problem, state, test, 0.4), 0.2, kTolerance);
+  EXPECT_EQ(
+      PlausibleShare(state_problem, state, test, 2.0 * kStateNoiseCeilingUm),
+      1.0);
+  // A statistic near its threshold leaves the share near 1, never above.
+  test.statistic = 17.0;
+  EXPECT_NEAR(PlausibleShare(state_problem, state, test, 0.4),
+              std::sqrt(16.0 / 17.0),
+              kTolerance);
+  // The state not used, or exact data: the commanded settings.
+  test.used = false;
+  EXPECT_EQ(PlausibleShare(state_problem, state, test, 0.4), 1.0);
+  test.used = true;
+  test.threshold = 0.0;
+  EXPECT_EQ(PlausibleShare(state_problem, state, test, 0.4), 1.0);
+}
+
 // The linear machine whose last grid row moves `steepness` times as much as
 // the rest of the flank.
 class SteepRowModel : public LinearModel {
