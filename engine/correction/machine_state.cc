@@ -145,10 +145,6 @@ void SetPlausibleEnd(double share, CorrectionProblem* at_state) {
   at_state->plausible_parameters =
       at_state->parameters +
       share * (at_state->commanded_parameters - at_state->parameters);
-  ModelEvaluation there;
-  at_state->model->Evaluate(at_state->plausible_parameters, false, &there);
-  at_state->plausible_deviations_um = there.deviations_um;
-  at_state->plausible_status = there.status;
 }
 
 void ReportMachineStateTest(const MachineStateTest& test,

@@ -106,12 +106,9 @@ struct CorrectionProblem {
   // Linearised at an estimated state: the farthest point toward the
   // commanded parameters the machine plausibly runs, as a share of the way
   // from the state (1: the commanded parameters themselves; PlausibleShare,
-  // machine_state.h), the point and the model's flank there (empty while the
-  // share is 1).
+  // machine_state.h), and the point (empty while the share is 1).
   double plausible_share = 1.0;
   Eigen::VectorXd plausible_parameters;
-  Eigen::VectorXd plausible_deviations_um;
-  std::vector<PointStatus> plausible_status;
 
   // The linearisation at `parameters`.
   Eigen::VectorXd parameters;

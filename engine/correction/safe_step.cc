@@ -124,27 +124,6 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
          (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
 }
 
-// The end of the way from the estimated state toward the commanded
-// parameters the machine plausibly runs at (CorrectionProblem's plausible
-// end; the commanded parameters while its share is 1): the parameters and the
-// model's flank there.
-struct PlausibleEnd {
-  const Eigen::VectorXd* parameters;
-  const Eigen::VectorXd* deviations_um;
-  const std::vector<PointStatus>* status;
-};
-
-PlausibleEnd PlausibleEndOf(const CorrectionProblem& problem) {
-  if (problem.plausible_share < 1.0 &&
-      problem.plausible_parameters.size() == problem.parameters.size())
-    return {&problem.plausible_parameters,
-            &problem.plausible_deviations_um,
-            &problem.plausible_status};
-  return {&problem.commanded_parameters,
-          &problem.commanded_deviations_um,
-          &problem.commanded_status};
-}
-
 // Linearised at an estimated machine state (`high_orders`: `delta` moves
 // orders 4-6): whether the exact change `delta`
 // makes at the commanded parameters differs from `change` (the change at the
@@ -191,21 +170,35 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   JoinContactRolls(problem, after, roll_lo, roll_hi);
-  const PlausibleEnd end = PlausibleEndOf(problem);
-  ModelEvaluation after_end_storage;
+  // The plausible end, evaluated only where a test asks it: a point nearing
+  // the edge, or a step of orders 4-6.
+  const bool plausible =
+      problem.plausible_share < 1.0 &&
+      problem.plausible_parameters.size() == problem.parameters.size();
+  const bool any_nearing = std::any_of(problem.used.begin(),
+                                       problem.used.end(),
+                                       [&](int i) { return nearing[i]; });
+  ModelEvaluation after_end_storage, at_end_storage;
   const ModelEvaluation* after_end = &after;
-  if (end.parameters != &problem.commanded_parameters) {
-    problem.model->Evaluate(*end.parameters + delta, false, &after_end_storage);
+  const Eigen::VectorXd* end_deviations_um = &problem.commanded_deviations_um;
+  const std::vector<PointStatus>* end_status = &problem.commanded_status;
+  if (plausible && (any_nearing || high_orders)) {
+    problem.model->Evaluate(
+        problem.plausible_parameters + delta, false, &after_end_storage);
     after_end = &after_end_storage;
+    if (high_orders) {
+      problem.model->Evaluate(
+          problem.plausible_parameters, false, &at_end_storage);
+      end_deviations_um = &at_end_storage.deviations_um;
+      end_status = &at_end_storage.status;
+    }
   }
   double sum = 0.0;
   int count = 0;
   bool lost_at_commanded_end = false;
   for (int i : problem.used) {
     if (problem.commanded_status[i] != PointStatus::kOk) continue;
-    const bool reached_at_end = (*end.status)[i] == PointStatus::kOk;
-    if (nearing[i] && reached_at_end &&
-        after_end->status[i] != PointStatus::kOk)
+    if (nearing[i] && after_end->status[i] != PointStatus::kOk)
       return "takes a measured point near the wheel's edge and loses it at "
              "the commanded settings";
     if (after.status[i] != PointStatus::kOk) {
@@ -218,11 +211,11 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
         kContactJumpShare * (problem.roll_max_rad - problem.roll_min_rad))
       return "moves a measured point's contact to another part of the "
              "generating roll at the commanded settings than at the state";
-    if (!high_orders || !reached_at_end ||
+    if (!high_orders || (*end_status)[i] != PointStatus::kOk ||
         after_end->status[i] != PointStatus::kOk)
       continue;
     const double d =
-        (after_end->deviations_um(i) - (*end.deviations_um)(i)) - change(i);
+        (after_end->deviations_um(i) - (*end_deviations_um)(i)) - change(i);
     sum += d * d;
     ++count;
   }
