@@ -180,7 +180,9 @@ struct CorrectionOptions {
   //
   // The default 6 (every order of every axis, issue 13): the regularised
   // solver first solves held to each axis' cubic term, and answers with orders
-  // 4-6 only where their exact prediction is better by max(0.1 um, 20 %) and
+  // 4-6 only where their exact prediction is better by max(0.05-0.1 um,
+  // 20 %; the absolute part 1 % of the measured part's rms, held within
+  // 0.05-0.1 um) and
   // they keep every measured point at the commanded settings
   // (summary.order_choice); the second solve runs only where orders 4-6 reach
   // enough above the noise from the cubic answer's predicted part. A Legendre
@@ -465,7 +467,8 @@ struct CorrectionSummary {
   // computed held to the cubic terms and (where the screen lets it, see
   // default_max_order) with every order asked, and the
   // higher orders are used only when their exact prediction is better by
-  // max(0.1 um, 20 % of the cubic one) and they keep every measured point at
+  // max(0.05-0.1 um, 20 % of the cubic one; 1 % of the measured part's rms
+  // within 0.05-0.1 um) and they keep every measured point at
   // the commanded settings. order_choice says which and why (""
   // when no order above 3 was free); the two predicted rms [um] (NaN when not
   // computed or not usable). highest_order_moved: the highest polynomial
