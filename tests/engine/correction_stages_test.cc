@@ -6,6 +6,7 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <random>
 #include <string>
@@ -824,6 +825,39 @@ class BranchModel : public LinearModel {
   double lost_above_, jump_above_;
 };
 
+// Point 0 of BranchModel lost above `lost_above` of parameter 4 and on
+// another branch above `jump_above`; the safe step's fraction of the step.
+struct BranchCase {
+  double lost_above, jump_above, fraction;
+};
+constexpr double kNeverLostOrJumped = 1.0;
+
+// The estimated state 1e-3 below the commanded settings in parameter 4, the
+// step 1e-3 up, the plausible end `plausible_share` of the way to the
+// commanded settings (1: the commanded settings): the fraction the safe step
+// keeps for each case.
+void ExpectBranchStepFractions(double plausible_share,
+                               std::initializer_list<BranchCase> cases) {
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
+  state(4) = -1e-3;
+  for (const BranchCase& c : cases) {
+    const BranchModel model(c.lost_above, c.jump_above);
+    CorrectionProblem at_state =
+        RelinearisedAt(SafeStepProblem(model, best), state);
+    ASSERT_EQ(at_state.commanded_status[0], PointStatus::kOk);
+    SetPlausibleEnd(plausible_share, &at_state);
+    SafeStepOutcome outcome;
+    const Eigen::VectorXd step =
+        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
+    EXPECT_TRUE(outcome.improved);
+    EXPECT_EQ(outcome.step_fraction, c.fraction)
+        << "plausible share " << plausible_share << ", lost above "
+        << c.lost_above << ", other branch above " << c.jump_above;
+    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
+  }
+}
+
 // The estimated state 1e-3 below the commanded settings in parameter 4, the
 // step 1e-3 up. Point 0 lost at the commanded end of the step (1e-3) and
 // halfway there from the state (0.5e-3, lost above 0.25e-3): the step is
@@ -832,30 +866,11 @@ class BranchModel : public LinearModel {
 // another branch at the commanded end (above 0.75e-3): halved; not (above
 // 1.5e-3): kept. Seed 1 of the robustness benchmark, scenarios 114 and 146.
 TEST(ChooseSafeStep, HalvesAStepWhoseContactsTheRealMachineMayLose) {
-  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
-  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
-  state(4) = -1e-3;
-  constexpr double kNever = 1.0;
-  struct Case {
-    double lost_above, jump_above, fraction;
-  };
-  for (const Case& c : {Case{0.25e-3, kNever, 0.5},
-                        Case{0.75e-3, kNever, 1.0},
-                        Case{kNever, 0.75e-3, 0.5},
-                        Case{kNever, 1.5e-3, 1.0}}) {
-    const BranchModel model(c.lost_above, c.jump_above);
-    const CorrectionProblem at_state =
-        RelinearisedAt(SafeStepProblem(model, best), state);
-    ASSERT_EQ(at_state.commanded_status[0], PointStatus::kOk);
-    SafeStepOutcome outcome;
-    const Eigen::VectorXd step =
-        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
-    EXPECT_TRUE(outcome.improved);
-    EXPECT_EQ(outcome.step_fraction, c.fraction)
-        << "lost above " << c.lost_above << ", other branch above "
-        << c.jump_above;
-    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
-  }
+  ExpectBranchStepFractions(1.0,
+                            {{0.25e-3, kNeverLostOrJumped, 0.5},
+                             {0.75e-3, kNeverLostOrJumped, 1.0},
+                             {kNeverLostOrJumped, 0.75e-3, 0.5},
+                             {kNeverLostOrJumped, 1.5e-3, 1.0}});
 }
 
 // The same step where the state fits the measurement to the noise and the
@@ -866,30 +881,15 @@ TEST(ChooseSafeStep, HalvesAStepWhoseContactsTheRealMachineMayLose) {
 // and the whole step is kept. The contact's branch is still asked at the
 // commanded end: halved (seed 1, scenario 146).
 TEST(ChooseSafeStep, AsksWhetherAPointIsLostAtThePlausibleEnd) {
-  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
-  Eigen::VectorXd state = Eigen::VectorXd::Zero(5);
-  state(4) = -1e-3;
-  constexpr double kNever = 1.0;
-  constexpr double kShare = 0.2;
-  struct Case {
-    double lost_above, jump_above, fraction;
-  };
-  for (const Case& c :
-       {Case{0.25e-3, kNever, 1.0}, Case{kNever, 0.75e-3, 0.5}}) {
-    const BranchModel model(c.lost_above, c.jump_above);
-    CorrectionProblem at_state =
-        RelinearisedAt(SafeStepProblem(model, best), state);
-    SetPlausibleEnd(kShare, &at_state);
-    EXPECT_NEAR(at_state.plausible_parameters(4), -0.8e-3, 1e-15);
-    SafeStepOutcome outcome;
-    const Eigen::VectorXd step =
-        ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
-    EXPECT_TRUE(outcome.improved);
-    EXPECT_EQ(outcome.step_fraction, c.fraction)
-        << "lost above " << c.lost_above << ", other branch above "
-        << c.jump_above;
-    EXPECT_TRUE(step.isApprox(outcome.step_fraction * best));
-  }
+  CorrectionProblem at_state;
+  at_state.parameters = Eigen::VectorXd::Zero(5);
+  at_state.commanded_parameters = Eigen::VectorXd::Constant(5, 1e-3);
+  SetPlausibleEnd(0.2, &at_state);
+  EXPECT_TRUE(at_state.plausible_parameters.isApprox(
+      Eigen::VectorXd::Constant(5, 0.2e-3)));
+  ExpectBranchStepFractions(
+      0.2,
+      {{0.25e-3, kNeverLostOrJumped, 1.0}, {kNeverLostOrJumped, 0.75e-3, 0.5}});
 }
 
 // The share of the way to the commanded settings the machine plausibly runs:
