@@ -124,6 +124,44 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
          (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
 }
 
+// The model's flank at the plausible end (CorrectionProblem's; machine_state.h,
+// PlausibleShare) after the step and before it, or the commanded end's
+// (`after_commanded`, and the commanded flank) while the share is 1 or no
+// test asks it (only a point `nearing` the wheel's edge and a step of
+// `high_orders` do). Not copied: the pointers may point into the storage.
+struct PlausibleEndFlanks {
+  ModelEvaluation after_storage, before_storage;
+  const ModelEvaluation* after = nullptr;
+  const Eigen::VectorXd* deviations_um = nullptr;
+  const std::vector<PointStatus>* status = nullptr;
+};
+
+void EvaluatePlausibleEnd(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta,
+                          const std::vector<bool>& nearing,
+                          bool high_orders,
+                          const ModelEvaluation& after_commanded,
+                          PlausibleEndFlanks* end) {
+  end->after = &after_commanded;
+  end->deviations_um = &problem.commanded_deviations_um;
+  end->status = &problem.commanded_status;
+  const bool plausible =
+      problem.plausible_share < 1.0 &&
+      problem.plausible_parameters.size() == problem.parameters.size();
+  const bool any_nearing = std::any_of(problem.used.begin(),
+                                       problem.used.end(),
+                                       [&](int i) { return nearing[i]; });
+  if (!plausible || !(any_nearing || high_orders)) return;
+  problem.model->Evaluate(
+      problem.plausible_parameters + delta, false, &end->after_storage);
+  end->after = &end->after_storage;
+  if (!high_orders) return;
+  problem.model->Evaluate(
+      problem.plausible_parameters, false, &end->before_storage);
+  end->deviations_um = &end->before_storage.deviations_um;
+  end->status = &end->before_storage.status;
+}
+
 // Linearised at an estimated machine state (`high_orders`: `delta` moves
 // orders 4-6): whether the exact change `delta`
 // makes at the commanded parameters differs from `change` (the change at the
@@ -170,35 +208,14 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   JoinContactRolls(problem, after, roll_lo, roll_hi);
-  // The plausible end, evaluated only where a test asks it: a point nearing
-  // the edge, or a step of orders 4-6.
-  const bool plausible =
-      problem.plausible_share < 1.0 &&
-      problem.plausible_parameters.size() == problem.parameters.size();
-  const bool any_nearing = std::any_of(problem.used.begin(),
-                                       problem.used.end(),
-                                       [&](int i) { return nearing[i]; });
-  ModelEvaluation after_end_storage, at_end_storage;
-  const ModelEvaluation* after_end = &after;
-  const Eigen::VectorXd* end_deviations_um = &problem.commanded_deviations_um;
-  const std::vector<PointStatus>* end_status = &problem.commanded_status;
-  if (plausible && (any_nearing || high_orders)) {
-    problem.model->Evaluate(
-        problem.plausible_parameters + delta, false, &after_end_storage);
-    after_end = &after_end_storage;
-    if (high_orders) {
-      problem.model->Evaluate(
-          problem.plausible_parameters, false, &at_end_storage);
-      end_deviations_um = &at_end_storage.deviations_um;
-      end_status = &at_end_storage.status;
-    }
-  }
+  PlausibleEndFlanks end;
+  EvaluatePlausibleEnd(problem, delta, nearing, high_orders, after, &end);
   double sum = 0.0;
   int count = 0;
   bool lost_at_commanded_end = false;
   for (int i : problem.used) {
     if (problem.commanded_status[i] != PointStatus::kOk) continue;
-    if (nearing[i] && after_end->status[i] != PointStatus::kOk)
+    if (nearing[i] && end.after->status[i] != PointStatus::kOk)
       return "takes a measured point near the wheel's edge and loses it at "
              "the commanded settings";
     if (after.status[i] != PointStatus::kOk) {
@@ -211,11 +228,11 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
         kContactJumpShare * (problem.roll_max_rad - problem.roll_min_rad))
       return "moves a measured point's contact to another part of the "
              "generating roll at the commanded settings than at the state";
-    if (!high_orders || (*end_status)[i] != PointStatus::kOk ||
-        after_end->status[i] != PointStatus::kOk)
+    if (!high_orders || (*end.status)[i] != PointStatus::kOk ||
+        end.after->status[i] != PointStatus::kOk)
       continue;
     const double d =
-        (after_end->deviations_um(i) - (*end_deviations_um)(i)) - change(i);
+        (end.after->deviations_um(i) - (*end.deviations_um)(i)) - change(i);
     sum += d * d;
     ++count;
   }
