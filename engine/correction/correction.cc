@@ -374,7 +374,7 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
   const double share = PlausibleShare(state_problem, state, *test, *noise_um);
-  SetPlausibleEnd(share, &at_state);
+  at_state.plausible_share = share;
   if (share < 1.0) {
     std::ostringstream plausible;
     plausible << std::setprecision(2) << share;

@@ -137,16 +137,6 @@ double PlausibleShare(const CorrectionProblem& state_problem,
   return std::min(1.0, std::sqrt(test.threshold / test.statistic));
 }
 
-void SetPlausibleEnd(double share, CorrectionProblem* at_state) {
-  at_state->plausible_share = share;
-  if (!(share < 1.0) ||
-      at_state->commanded_parameters.size() != at_state->parameters.size())
-    return;
-  at_state->plausible_parameters =
-      at_state->parameters +
-      share * (at_state->commanded_parameters - at_state->parameters);
-}
-
 void ReportMachineStateTest(const MachineStateTest& test,
                             CorrectionSummary* summary) {
   summary->machine_state_test = test.test;

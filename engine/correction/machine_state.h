@@ -102,11 +102,6 @@ double PlausibleShare(const CorrectionProblem& state_problem,
                       const MachineStateTest& test,
                       double noise_um);
 
-// Sets the plausible end of `at_state` (a problem linearised at the state,
-// with its commanded parameters): the share and the parameters state + share
-// x (commanded - state); no parameters while the share is 1.
-void SetPlausibleEnd(double share, CorrectionProblem* at_state);
-
 // The state's correction size and misfit into `summary`
 // (machine_state_estimated = true).
 void ReportMachineState(const CorrectionResult& state,

@@ -106,9 +106,8 @@ struct CorrectionProblem {
   // Linearised at an estimated state: the farthest point toward the
   // commanded parameters the machine plausibly runs, as a share of the way
   // from the state (1: the commanded parameters themselves; PlausibleShare,
-  // machine_state.h), and the point (empty while the share is 1).
+  // machine_state.h; the point is TowardCommanded(plausible_share)).
   double plausible_share = 1.0;
-  Eigen::VectorXd plausible_parameters;
 
   // The linearisation at `parameters`.
   Eigen::VectorXd parameters;
@@ -123,6 +122,12 @@ struct CorrectionProblem {
 
   int NumFree() const { return static_cast<int>(free.size()); }
   const Eigen::VectorXd& d0() const { return evaluation.deviations_um; }
+  // The point `share` of the way from `parameters` to
+  // `commanded_parameters`: parameters + share (commanded - parameters).
+  // Requires the commanded parameters.
+  Eigen::VectorXd TowardCommanded(double share) const {
+    return parameters + share * (commanded_parameters - parameters);
+  }
 };
 
 // The sizes and the options of a request; "" when valid, else what is wrong

@@ -145,19 +145,16 @@ void EvaluatePlausibleEnd(const CorrectionProblem& problem,
   end->after = &after_commanded;
   end->deviations_um = &problem.commanded_deviations_um;
   end->status = &problem.commanded_status;
-  const bool plausible =
-      problem.plausible_share < 1.0 &&
-      problem.plausible_parameters.size() == problem.parameters.size();
   const bool any_nearing = std::any_of(problem.used.begin(),
                                        problem.used.end(),
                                        [&](int i) { return nearing[i]; });
-  if (!plausible || !(any_nearing || high_orders)) return;
-  problem.model->Evaluate(
-      problem.plausible_parameters + delta, false, &end->after_storage);
+  if (!(problem.plausible_share < 1.0) || !(any_nearing || high_orders)) return;
+  const Eigen::VectorXd plausible =
+      problem.TowardCommanded(problem.plausible_share);
+  problem.model->Evaluate(plausible + delta, false, &end->after_storage);
   end->after = &end->after_storage;
   if (!high_orders) return;
-  problem.model->Evaluate(
-      problem.plausible_parameters, false, &end->before_storage);
+  problem.model->Evaluate(plausible, false, &end->before_storage);
   end->deviations_um = &end->before_storage.deviations_um;
   end->status = &end->before_storage.status;
 }
@@ -240,10 +237,7 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
     const double share = std::min(0.5, problem.plausible_share);
     ModelEvaluation midway;
     problem.model->Evaluate(
-        problem.parameters +
-            share * (problem.commanded_parameters - problem.parameters) + delta,
-        false,
-        &midway);
+        problem.TowardCommanded(share) + delta, false, &midway);
     for (int i : problem.used) {
       if (problem.commanded_status[i] == PointStatus::kOk &&
           after.status[i] != PointStatus::kOk &&

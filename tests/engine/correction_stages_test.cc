@@ -846,7 +846,7 @@ void ExpectBranchStepFractions(double plausible_share,
     CorrectionProblem at_state =
         RelinearisedAt(SafeStepProblem(model, best), state);
     ASSERT_EQ(at_state.commanded_status[0], PointStatus::kOk);
-    SetPlausibleEnd(plausible_share, &at_state);
+    at_state.plausible_share = plausible_share;
     SafeStepOutcome outcome;
     const Eigen::VectorXd step =
         ChooseSafeStep(CorrectionOptions(), at_state, best, &outcome);
@@ -875,8 +875,8 @@ TEST(ChooseSafeStep, HalvesAStepWhoseContactsTheRealMachineMayLose) {
 
 // The same step where the state fits the measurement to the noise and the
 // machine plausibly runs no farther than a share of 0.2 of the way to the
-// commanded settings (SetPlausibleEnd; seed 7, scenario 168 of the
-// robustness benchmark): point 0, lost at the commanded end and halfway
+// commanded settings (CorrectionProblem::TowardCommanded; seed 7, scenario 168
+// of the robustness benchmark): point 0, lost at the commanded end and halfway
 // (above 0.25e-3), is found at the plausible end (-0.8e-3 + 1e-3 = 0.2e-3),
 // and the whole step is kept. The contact's branch is still asked at the
 // commanded end: halved (seed 1, scenario 146).
@@ -884,8 +884,7 @@ TEST(ChooseSafeStep, AsksWhetherAPointIsLostAtThePlausibleEnd) {
   CorrectionProblem at_state;
   at_state.parameters = Eigen::VectorXd::Zero(5);
   at_state.commanded_parameters = Eigen::VectorXd::Constant(5, 1e-3);
-  SetPlausibleEnd(0.2, &at_state);
-  EXPECT_TRUE(at_state.plausible_parameters.isApprox(
+  EXPECT_TRUE(at_state.TowardCommanded(0.2).isApprox(
       Eigen::VectorXd::Constant(5, 0.2e-3)));
   ExpectBranchStepFractions(
       0.2,
