@@ -182,8 +182,9 @@ struct CorrectionOptions {
   // solver first solves held to each axis' cubic term, and answers with orders
   // 4-6 only where their exact prediction is better by max(0.05-0.1 um,
   // 20 %; the absolute part 1 % of the measured part's rms, held within
-  // 0.05-0.1 um) and
-  // they keep every measured point at the commanded settings
+  // 0.05-0.1 um), they keep every measured point at the commanded settings
+  // and, linearised there while the cubic answer estimated a machine state,
+  // they are predicted better by the same margin at that state
   // (summary.order_choice); the second solve runs only where orders 4-6 reach
   // enough above the noise from the cubic answer's predicted part. A Legendre
   // term of order k moves the axis by its amplitude inside the roll range but
@@ -505,6 +506,10 @@ struct CorrectionResult {
   // 1-sigma band of predicted_residual_um per point [um] (the probe noise
   // there, summary.prediction_band), NaN where there is no prediction.
   Eigen::VectorXd predicted_residual_sigma_um;
+  // The parameters the correction was linearised and predicted at: the
+  // estimated machine state (summary.machine_state_estimated) or the current
+  // parameters; empty when no solve ran.
+  Eigen::VectorXd linearised_at;
   CorrectionSummary summary;
 };
 
