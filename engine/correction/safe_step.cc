@@ -124,23 +124,39 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
          (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
 }
 
-// The model's flank after the step at the plausible end (CorrectionProblem's;
-// machine_state.h, PlausibleShare) into `storage`, or the commanded end's
-// (`after_commanded`) while the share is 1 or no used point is `nearing`
-// the wheel's edge (only that test asks it). Returns the one to ask.
-const ModelEvaluation* AfterAtThePlausibleEnd(
-    const CorrectionProblem& problem,
-    const Eigen::VectorXd& delta,
-    const std::vector<bool>& nearing,
-    const ModelEvaluation& after_commanded,
-    ModelEvaluation* storage) {
+// The model's flank at the plausible end (CorrectionProblem's; machine_state.h,
+// PlausibleShare) after the step and before it, or the commanded end's
+// (`after_commanded`, and the commanded flank) while the share is 1 or no
+// test asks it (only a point `nearing` the wheel's edge and a step of
+// `high_orders` do). Not copied: the pointers may point into the storage.
+struct PlausibleEndFlanks {
+  ModelEvaluation after_storage, before_storage;
+  const ModelEvaluation* after = nullptr;
+  const Eigen::VectorXd* deviations_um = nullptr;
+  const std::vector<PointStatus>* status = nullptr;
+};
+
+void EvaluatePlausibleEnd(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta,
+                          const std::vector<bool>& nearing,
+                          bool high_orders,
+                          const ModelEvaluation& after_commanded,
+                          PlausibleEndFlanks* end) {
+  end->after = &after_commanded;
+  end->deviations_um = &problem.commanded_deviations_um;
+  end->status = &problem.commanded_status;
   const bool any_nearing = std::any_of(problem.used.begin(),
                                        problem.used.end(),
                                        [&](int i) { return nearing[i]; });
-  if (!(problem.plausible_share < 1.0) || !any_nearing) return &after_commanded;
-  problem.model->Evaluate(
-      problem.TowardCommanded(problem.plausible_share) + delta, false, storage);
-  return storage;
+  if (!(problem.plausible_share < 1.0) || !(any_nearing || high_orders)) return;
+  const Eigen::VectorXd plausible =
+      problem.TowardCommanded(problem.plausible_share);
+  problem.model->Evaluate(plausible + delta, false, &end->after_storage);
+  end->after = &end->after_storage;
+  if (!high_orders) return;
+  problem.model->Evaluate(plausible, false, &end->before_storage);
+  end->deviations_um = &end->before_storage.deviations_um;
+  end->status = &end->before_storage.status;
 }
 
 // Linearised at an estimated machine state (`high_orders`: `delta` moves
@@ -163,21 +179,16 @@ const ModelEvaluation* AfterAtThePlausibleEnd(
 //
 // Where the state fits the measurement to the noise, the machine cannot be
 // as far off as the commanded end (PlausibleShare, machine_state.h): the
-// point nearing the edge and the halfway point are then asked at the
-// plausible end (the halfway point at the nearer of the two), the contact's
-// branch and the agreement of orders 4-6 still at the commanded end. Seed 7,
-// scenario 168: the step lost two grid rows at the commanded settings and
-// halfway, so every fraction was refused at 10.3 um; at the state (F 321
-// over a threshold of 4: a share of 0.11) it keeps them, and the real part
-// went to 2.85 um. The branch test at the plausible end let seed 1's 146 go
-// 2.41 -> 36 um (the wheel's parabola, which the state cannot see, moved the
-// real contacts). The agreement at the plausible end let seed 14's 138 go
-// 7.58 -> 26.6 um (orders 4-6 at a share of 0.024 moved the root row's
-// contacts from roll -0.305 to -0.370 rad; the commanded end said -36 um
-// there) and seed 5's 38 0.72 -> 0.868 um. Asked at the commanded end:
-// fifteen seeds x 200 scenarios, default options, rounds worse 12 -> 10;
-// within 1.2 x best + noise 1927 -> 1924 of 2000 on ten of them (every seed
-// at 95 % or more; BENCHMARKS.md, "Ten seeds").
+// agreement, the point nearing the edge and the halfway point are then asked
+// at the plausible end (the halfway point at the nearer of the two), the
+// contact's branch still at the commanded end. Seed 7, scenario 168: the
+// step lost two grid rows at the commanded settings and halfway, so every
+// fraction was refused at 10.3 um; at the state (F 321 over a threshold of
+// 4: a share of 0.11) it keeps them, and the real part went to 2.85 um. The
+// branch test at the plausible end let seed 1's 146 go 2.41 -> 36 um (the
+// wheel's parabola, which the state cannot see, moved the real contacts).
+// Five seeds x 200 scenarios, default options: within 1.2 x best + noise
+// 191, 191, 191, 186, 193 -> 191, 193, 192, 188, 194; rounds worse unchanged.
 // The contacts at the commanded end are joined into [*roll_lo, *roll_hi].
 // Why they disagree, or null.
 const char* ModelsDisagree(const CorrectionProblem& problem,
@@ -194,15 +205,14 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
   ModelEvaluation after;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   JoinContactRolls(problem, after, roll_lo, roll_hi);
-  ModelEvaluation plausible_storage;
-  const ModelEvaluation* at_plausible_end = AfterAtThePlausibleEnd(
-      problem, delta, nearing, after, &plausible_storage);
+  PlausibleEndFlanks end;
+  EvaluatePlausibleEnd(problem, delta, nearing, high_orders, after, &end);
   double sum = 0.0;
   int count = 0;
   bool lost_at_commanded_end = false;
   for (int i : problem.used) {
     if (problem.commanded_status[i] != PointStatus::kOk) continue;
-    if (nearing[i] && at_plausible_end->status[i] != PointStatus::kOk)
+    if (nearing[i] && end.after->status[i] != PointStatus::kOk)
       return "takes a measured point near the wheel's edge and loses it at "
              "the commanded settings";
     if (after.status[i] != PointStatus::kOk) {
@@ -215,10 +225,11 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
         kContactJumpShare * (problem.roll_max_rad - problem.roll_min_rad))
       return "moves a measured point's contact to another part of the "
              "generating roll at the commanded settings than at the state";
-    if (!high_orders) continue;
+    if (!high_orders || (*end.status)[i] != PointStatus::kOk ||
+        end.after->status[i] != PointStatus::kOk)
+      continue;
     const double d =
-        (after.deviations_um(i) - problem.commanded_deviations_um(i)) -
-        change(i);
+        (end.after->deviations_um(i) - (*end.deviations_um)(i)) - change(i);
     sum += d * d;
     ++count;
   }
