@@ -105,6 +105,23 @@ Eigen::Matrix<double, N, 1> SolveByPartialPivoting(
   return b;
 }
 
+// Whether the step after two whole Newton steps of sizes `previous_mm` then
+// `step_mm` is predicted below a tenth of `tolerance_mm`: in the quadratic
+// regime each step is about K times the square of the one before, so K is
+// estimated as step_mm / previous_mm^2 and the next step as K step_mm^2. Only
+// once the steps have fallen steeply (step_mm < 1e-3 previous_mm), so that a
+// slow, linear approach is never taken for convergence. (Engine benchmark: the
+// predicted step matched the one Newton then took to within a factor of a few,
+// and the confirming iteration it saves was about one in five of the contact
+// Newton's iterations.)
+inline bool NextStepBelow(double previous_mm,
+                          double step_mm,
+                          double tolerance_mm) {
+  if (!(previous_mm > 0.0) || !(step_mm < 1e-3 * previous_mm)) return false;
+  const double k_per_mm = step_mm / (previous_mm * previous_mm);
+  return k_per_mm * step_mm * step_mm < 0.1 * tolerance_mm;
+}
+
 // Solves g(x) = 0 for N unknowns by Newton's method from *x, leaving the last
 // iterate in *x. Each iteration calls `system(x, &g, &jacobian)` to fill g(x)
 // and dg/dx at x, solves jacobian * dx = -g by LU with partial pivoting, and
@@ -123,6 +140,7 @@ DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
   Eigen::Matrix<double, N, 1> g;
   Eigen::Matrix<double, N, N> jacobian;
   int iteration = 0;
+  double last_full_step_mm = -1.0;  // the last step, when it was taken whole
   for (; iteration < options.max_iterations; ++iteration) {
     system(*x, &g, &jacobian);
     const Eigen::Matrix<double, N, 1> dx =
@@ -132,11 +150,15 @@ DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
     const double shrink =
         step_mm > options.max_step_mm ? options.max_step_mm / step_mm : 1.0;
     *x += shrink * dx;
-    if (step_mm < options.step_tolerance_mm) {
+    if (step_mm < options.step_tolerance_mm ||
+        (shrink == 1.0 &&
+         NextStepBelow(
+             last_full_step_mm, step_mm, options.step_tolerance_mm))) {
       summary.converged = true;
       ++iteration;
       break;
     }
+    last_full_step_mm = shrink == 1.0 ? step_mm : -1.0;
   }
   summary.num_iterations = iteration;
   return summary;

@@ -56,6 +56,64 @@ TEST(SolveByPartialPivoting, SingularSystemGivesNonFiniteStep) {
   EXPECT_FALSE(x.allFinite());
 }
 
+// The stop without a confirming iteration: only when two whole steps fell
+// steeply and the next is predicted below a tenth of the tolerance.
+TEST(NextStepBelow, OnlyInTheQuadraticRegime) {
+  const double tol_mm = 1e-11;
+  EXPECT_TRUE(NextStepBelow(1e-3, 1e-7, tol_mm));   // next about 1e-15
+  EXPECT_FALSE(NextStepBelow(1e-3, 5e-6, tol_mm));  // next about 1.3e-10
+  EXPECT_FALSE(NextStepBelow(1e-6, 1e-7, tol_mm));  // a slow, linear fall
+  EXPECT_FALSE(NextStepBelow(-1.0, 1e-9, tol_mm));  // no whole step before
+  EXPECT_FALSE(NextStepBelow(0.0, 1e-9, tol_mm));
+}
+
+// x^2 + y^2 = 4, x = y: a simple root, reached to within the tolerance, and
+// without the confirming iteration (the step after the last is below it).
+TEST(DampedNewton, StopsAtASimpleRootWithinTheTolerance) {
+  const DampedNewtonOptions options;
+  const auto system = [](const Eigen::Vector2d& x,
+                         Eigen::Vector2d* g,
+                         Eigen::Matrix2d* jacobian) {
+    *g << x(0) * x(0) + x(1) * x(1) - 4.0, x(0) - x(1);
+    *jacobian << 2.0 * x(0), 2.0 * x(1), 1.0, -1.0;
+  };
+  Eigen::Vector2d x(3.0, 1.0);
+  const DampedNewtonSummary summary =
+      DampedNewton<2>(options, Eigen::Vector2d::Ones(), system, &x);
+  ASSERT_TRUE(summary.converged);
+  EXPECT_LT(
+      (x - Eigen::Vector2d::Constant(std::sqrt(2.0))).cwiseAbs().maxCoeff(),
+      options.step_tolerance_mm);
+  // One more Newton step from the answer moves it by less than the tolerance.
+  Eigen::Vector2d g;
+  Eigen::Matrix2d jacobian;
+  system(x, &g, &jacobian);
+  const Eigen::Vector2d dx = SolveByPartialPivoting<2>(jacobian, -g);
+  EXPECT_LT(dx.cwiseAbs().maxCoeff(), 0.1 * options.step_tolerance_mm);
+  EXPECT_LE(summary.num_iterations, 6);
+}
+
+// x^2 = 0: a double root, where Newton only halves its distance each step. The
+// steps never fall steeply, so it runs on until a step is below the tolerance.
+TEST(DampedNewton, RunsOnAtADoubleRootUntilTheStepIsBelowTheTolerance) {
+  const DampedNewtonOptions options{200, 1e-11, 20.0};
+  Eigen::Matrix<double, 1, 1> x;
+  x << 1.0;
+  const DampedNewtonSummary summary = DampedNewton<1>(
+      options,
+      Eigen::Matrix<double, 1, 1>::Ones(),
+      [](const Eigen::Matrix<double, 1, 1>& x,
+         Eigen::Matrix<double, 1, 1>* g,
+         Eigen::Matrix<double, 1, 1>* jacobian) {
+        (*g)(0) = x(0) * x(0);
+        (*jacobian)(0, 0) = 2.0 * x(0);
+      },
+      &x);
+  ASSERT_TRUE(summary.converged);
+  EXPECT_LT(std::abs(x(0)), 2.0 * options.step_tolerance_mm);
+  EXPECT_GE(summary.num_iterations, 36);  // 2^-36 ~ 1.5e-11
+}
+
 }  // namespace
 }  // namespace engine_internal
 }  // namespace gearloop
