@@ -45,6 +45,11 @@ struct ModelEvaluation {
   // no contact was found. Empty when the model does not say. A small margin
   // is a point a small machine error can lose.
   std::vector<double> contact_margin_mm;
+  // Each point's contact in the model's own unknowns (row i; the flat-wheel
+  // grinder: u_w [mm], phi_w [rad], phi1 [rad]), kept so that
+  // MachineModel::AddJacobian can differentiate there without solving for the
+  // contact again. Empty when the model keeps none; not for reports.
+  Eigen::MatrixXd contact_unknowns;
 
   int NumReached() const;
   bool AllReached() const;
@@ -90,6 +95,16 @@ class MachineModel {
   virtual void Evaluate(const Eigen::VectorXd& parameters,
                         bool with_jacobian,
                         ModelEvaluation* evaluation) const = 0;
+
+  // Adds the Jacobian to an evaluation Evaluate(parameters, false, evaluation)
+  // made at the same parameters: afterwards *evaluation is what
+  // Evaluate(parameters, true, evaluation) gives, number for number. The
+  // default evaluates again; a model that keeps its contacts
+  // (ModelEvaluation::contact_unknowns) differentiates at them instead.
+  virtual void AddJacobian(const Eigen::VectorXd& parameters,
+                           ModelEvaluation* evaluation) const {
+    Evaluate(parameters, true, evaluation);
+  }
 
   // The span of the roll angle over the grid's nominal contacts [rad], where
   // the model has one (the range a machine's generating roll is programmed

@@ -20,12 +20,14 @@
 #include <cmath>
 #include <cstdio>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "engine/correction/baseline_solvers.h"
+#include "engine/correction/evaluation_memo.h"
 #include "engine/correction/exact_search.h"
 #include "engine/correction/machine_state.h"
 #include "engine/correction/outliers.h"
@@ -722,7 +724,15 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
 CorrectionResult ComputeCorrection(const CorrectionOptions& options,
                                    const CorrectionInput& input) {
   const auto start = std::chrono::steady_clock::now();
-  CorrectionResult result = CorrectWithOrderChoice(options, input);
+  // The stages evaluate the exact model at some points more than once: one
+  // memo for the whole correction (evaluation_memo.h).
+  CorrectionInput memoised = input;
+  std::optional<correction_internal::EvaluationMemo> memo;
+  if (input.model != nullptr) {
+    memo.emplace(input.model);
+    memoised.model = &*memo;
+  }
+  CorrectionResult result = CorrectWithOrderChoice(options, memoised);
   if (input.model != nullptr) {
     const std::vector<ParameterBlock> blocks = input.model->ParameterBlocks();
     if (result.delta.size() == input.model->NumParameters())

@@ -619,6 +619,8 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
                                       std::numeric_limits<double>::quiet_NaN());
   evaluation->contact_margin_mm.assign(
       n, std::numeric_limits<double>::quiet_NaN());
+  evaluation->contact_unknowns.setConstant(
+      n, 3, std::numeric_limits<double>::quiet_NaN());
   const ContactFrame frame = MakeContactFrame(setup_, settings);
   const double wheel_radius_mm = frame.c.wheel_radius_mm;
   if (with_jacobian) {
@@ -638,10 +640,36 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
     if (contact.status != PointStatus::kOk) continue;
     evaluation->deviations_um(i) = contact.deviation_mm * kMmToUm;
     evaluation->contact_roll_rad[i] = contact.roll_rad;
+    evaluation->contact_unknowns.row(i) << contact.wheel_u_mm,
+        contact.wheel_phi_rad, contact.roll_rad;
     if (with_jacobian) {
       evaluation->jacobian_um.row(i) =
           ContactSensitivity(settings, point, contact) * kMmToUm;
     }
+  }
+}
+
+void FlatWheelGrinder::AddJacobian(const Eigen::VectorXd& parameters,
+                                   ModelEvaluation* evaluation) const {
+  const int n = grid_.NumPoints();
+  if (evaluation->contact_unknowns.rows() != n ||
+      evaluation->contact_unknowns.cols() != 3 ||
+      static_cast<int>(evaluation->status.size()) != n) {
+    Evaluate(parameters, true, evaluation);
+    return;
+  }
+  const MachineSettings settings = MachineSettings::FromVector(parameters);
+  evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
+  for (int i = 0; i < n; ++i) {
+    if (evaluation->status[i] != PointStatus::kOk) continue;
+    // The sensitivity reads the contact's u_w, phi_w and phi1 only.
+    EnvelopeContact contact;
+    contact.status = PointStatus::kOk;
+    contact.wheel_u_mm = evaluation->contact_unknowns(i, 0);
+    contact.wheel_phi_rad = evaluation->contact_unknowns(i, 1);
+    contact.roll_rad = evaluation->contact_unknowns(i, 2);
+    evaluation->jacobian_um.row(i) =
+        ContactSensitivity(settings, grid_.points[i], contact) * kMmToUm;
   }
 }
 

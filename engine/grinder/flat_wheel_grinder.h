@@ -116,6 +116,10 @@ class FlatWheelGrinder : public MachineModel {
   void Evaluate(const Eigen::VectorXd& parameters,
                 bool with_jacobian,
                 ModelEvaluation* evaluation) const override;
+  // The Jacobian at the contacts Evaluate kept (contact_unknowns: u_w, phi_w,
+  // phi1 per point), without the contact Newton.
+  void AddJacobian(const Eigen::VectorXd& parameters,
+                   ModelEvaluation* evaluation) const override;
 
   // The envelope contact at theoretical flank point `point` for `settings`.
   EnvelopeContact SolveContact(const MachineSettings& settings,

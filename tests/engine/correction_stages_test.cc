@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/correction/correction.h"
+#include "engine/correction/evaluation_memo.h"
 #include "engine/correction/legendre_coordinates.h"
 #include "engine/correction/machine_state.h"
 #include "engine/correction/outliers.h"
@@ -91,6 +92,84 @@ class LinearModel : public GridModel {
  private:
   Eigen::MatrixXd jacobian_;
 };
+
+// ---------------------------------------------------------------------------------------------
+// The evaluation memo of one correction.
+
+// The linear machine, counting what it is asked: evaluations with and without
+// the Jacobian, and Jacobians added to a kept evaluation.
+class CountingModel : public LinearModel {
+ public:
+  CountingModel() : LinearModel(11) {}
+  void Evaluate(const Eigen::VectorXd& parameters,
+                bool with_jacobian,
+                ModelEvaluation* e) const override {
+    ++(with_jacobian ? with_jacobian_ : plain_);
+    LinearModel::Evaluate(parameters, with_jacobian, e);
+    e->contact_unknowns = Eigen::MatrixXd::Constant(kPoints, 1, 1.0);
+  }
+  void AddJacobian(const Eigen::VectorXd& parameters,
+                   ModelEvaluation* e) const override {
+    ++added_;
+    ModelEvaluation full;
+    LinearModel::Evaluate(parameters, true, &full);
+    e->jacobian_um = full.jacobian_um;
+  }
+  mutable int plain_ = 0, with_jacobian_ = 0, added_ = 0;
+};
+
+TEST(EvaluationMemo, AnswersRepeatsAndAddsTheJacobianToAKeptEvaluation) {
+  const CountingModel model;
+  const EvaluationMemo memo(&model);
+  const Eigen::VectorXd p = Eigen::VectorXd::LinSpaced(5, 1e-3, 5e-3);
+  ModelEvaluation direct, first, again, with, plain_again;
+  model.Evaluate(p, true, &direct);
+  model.plain_ = model.with_jacobian_ = 0;
+
+  memo.Evaluate(p, false, &first);
+  memo.Evaluate(p, false, &again);
+  EXPECT_EQ(model.plain_, 1);
+  EXPECT_EQ(again.deviations_um, direct.deviations_um);
+  EXPECT_EQ(again.jacobian_um.size(), 0);
+  // The Jacobian where the memo holds a plain evaluation: added, not solved
+  // again.
+  memo.Evaluate(p, true, &with);
+  EXPECT_EQ(model.with_jacobian_, 0);
+  EXPECT_EQ(model.added_, 1);
+  EXPECT_EQ(with.jacobian_um, direct.jacobian_um);
+  EXPECT_EQ(with.deviations_um, direct.deviations_um);
+  // A plain evaluation after that: answered without the Jacobian.
+  memo.Evaluate(p, false, &plain_again);
+  EXPECT_EQ(plain_again.jacobian_um.size(), 0);
+  EXPECT_EQ(plain_again.status, direct.status);
+  EXPECT_EQ(plain_again.contact_roll_rad, direct.contact_roll_rad);
+  EXPECT_EQ(model.plain_ + model.with_jacobian_ + model.added_, 2);
+  EXPECT_EQ(memo.model_evaluations(), 1);
+  EXPECT_EQ(memo.answered(), 3);
+}
+
+TEST(EvaluationMemo, ARoundingApartIsAnotherPointAndTheOldestIsForgotten) {
+  const CountingModel model;
+  const EvaluationMemo memo(&model);
+  const Eigen::VectorXd p = Eigen::VectorXd::LinSpaced(5, 1e-3, 5e-3);
+  ModelEvaluation e;
+  memo.Evaluate(p, false, &e);
+  Eigen::VectorXd nudged = p;
+  nudged(2) = std::nextafter(nudged(2), 1.0);
+  memo.Evaluate(nudged, false, &e);
+  EXPECT_EQ(model.plain_, 2);
+  // Enough other points to overwrite every kept one: p is evaluated again.
+  for (int k = 1; k <= 40; ++k) {
+    memo.Evaluate(p * (1.0 + k * 1e-3), false, &e);
+  }
+  const int before = model.plain_;
+  memo.Evaluate(p, false, &e);
+  EXPECT_EQ(model.plain_, before + 1);
+  // The last one is still kept.
+  memo.Evaluate(p, true, &e);
+  EXPECT_EQ(model.plain_, before + 1);
+  EXPECT_EQ(model.added_, 1);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Regularisation rule and lambda.

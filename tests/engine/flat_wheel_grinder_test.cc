@@ -558,4 +558,47 @@ TEST(MachineSettings, NominalRightFlankMatchesModelFormulas) {
 }
 
 }  // namespace
+// The correction's evaluation memo asks for the Jacobian of an evaluation made
+// without it (AddJacobian): it must be Evaluate's with the Jacobian, number
+// for number, also where points are not reached (zero rows) and when the
+// evaluation kept no contacts (then the model evaluates again).
+void ExpectAddJacobianIsEvaluatesJacobian(const FlatWheelGrinder& grinder,
+                                          const Eigen::VectorXd& zeta) {
+  ModelEvaluation with, added, refilled;
+  grinder.Evaluate(zeta, true, &with);
+  grinder.Evaluate(zeta, false, &added);
+  ASSERT_EQ(added.contact_unknowns.rows(), 45);
+  grinder.AddJacobian(zeta, &added);
+  grinder.Evaluate(zeta, false, &refilled);
+  refilled.contact_unknowns.resize(0, 0);
+  grinder.AddJacobian(zeta, &refilled);
+  for (const ModelEvaluation* other : {&added, &refilled}) {
+    ASSERT_EQ(other->jacobian_um.rows(), with.jacobian_um.rows());
+    ASSERT_EQ(other->jacobian_um.cols(), with.jacobian_um.cols());
+    for (int i = 0; i < with.jacobian_um.rows(); ++i) {
+      EXPECT_EQ(other->status[i], with.status[i]) << "point " << i;
+      EXPECT_EQ(other->deviations_um(i), with.deviations_um(i))
+          << "point " << i;
+      for (int j = 0; j < with.jacobian_um.cols(); ++j)
+        EXPECT_EQ(other->jacobian_um(i, j), with.jacobian_um(i, j))
+            << "point " << i << ", parameter " << j;
+    }
+  }
+}
+
+TEST(FlatWheelGrinder, AddJacobianIsEvaluatesJacobianExactly) {
+  for (const NamedSetup& c : ReferenceCases()) {
+    SCOPED_TRACE(c.name);
+    const FlatWheelGrinder grinder(c.setup);
+    ExpectAddJacobianIsEvaluatesJacobian(grinder, grinder.nominal().ToVector());
+    ExpectAddJacobianIsEvaluatesJacobian(grinder, ReferenceSettings(grinder));
+  }
+  SCOPED_TRACE("points beyond the rim");
+  const FlatWheelGrinder wide(WideGearOnASmallWheel());
+  ModelEvaluation eval;
+  wide.Evaluate(wide.nominal().ToVector(), false, &eval);
+  ASSERT_LT(eval.NumReached(), 45);
+  ExpectAddJacobianIsEvaluatesJacobian(wide, wide.nominal().ToVector());
+}
+
 }  // namespace gearloop
