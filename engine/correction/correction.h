@@ -264,7 +264,7 @@ struct CorrectionOptions {
   // rule, as at the commanded parameters.
   bool signal_filter = true;
 
-  // The safe step (regularised solver; correction.cc, "SafeStep"): before
+  // The safe step (regularised solver; safe_step.cc, "SafeStep"): before
   // answering, the next part is predicted on the exact model at the point the
   // correction was linearised at (the estimated machine state, or the
   // commanded parameters). A step is kept only where that prediction is better
@@ -463,7 +463,7 @@ struct CorrectionSummary {
   double safe_step_current_rms_um = 0.0;
   double safe_step_predicted_rms_um = 0.0;
 
-  // The orders used (correction.cc, CorrectWithOrderChoice; regularised
+  // The orders used (order_choice.cc, CorrectWithOrderChoice; regularised
   // solver): when the options free an axis order above 3, the correction is
   // computed held to the cubic terms and (where the screen lets it, see
   // default_max_order) with every order asked, and the

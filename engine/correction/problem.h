@@ -196,7 +196,7 @@ double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 std::string FormatUm(double um);
 
 // The cubic term of an axis polynomial: every correction is first computed
-// held to it (correction.cc, CorrectWithOrderChoice); orders above it (4-6)
+// held to it (order_choice.cc, CorrectWithOrderChoice); orders above it (4-6)
 // answer only where they earn their place and the safe step asks more of them
 // (docs/correction-safety.md).
 constexpr int kCubicOrder = 3;

@@ -228,7 +228,7 @@ TEST(SafeStep, AsksThePlausibleEndWhereTheStateFitsToTheNoise) {
   for (const int index : {114, 146}) LoopMakingNoPartWorse(1, index);
 }
 
-// The orders 4-6 margin scaled to the measured part (correction.cc,
+// The orders 4-6 margin scaled to the measured part (order_choice.cc,
 // OrderGainMinUm). Seed 4, scenario 7 (z 88, b = 23 mm, helix slope, profile
 // crowning and diagonal end relief; sigma 0.11 um): after the first round
 // the part is at 0.18 um, and orders 4-6 predict 0.09 um, a gain of 0.09 um
@@ -256,7 +256,7 @@ TEST(OrderChoice, MarginScalesWithTheMeasuredPart) {
 }
 
 // Orders 4-6 linearised at the commanded settings must be predicted better
-// at the machine state the cubic answer estimated as well (correction.cc,
+// at the machine state the cubic answer estimated as well (order_choice.cc,
 // BetterAtTheCubicState). Seed 10, scenario 166 (z 94, b = 13 mm, root
 // relief, profile crowning and flank twist; hidden Z2 and C0; sigma 0.44
 // um): the every-order solve found no state worth using (its fit has more

@@ -1,0 +1,269 @@
+// One prepared correction problem solved (solve_problem.h).
+#include "engine/correction/solve_problem.h"
+
+#include <cmath>
+#include <string>
+
+#include "engine/correction/baseline_solvers.h"
+#include "engine/correction/exact_search.h"
+#include "engine/correction/machine_state.h"
+#include "engine/correction/outliers.h"
+#include "engine/correction/prediction_band.h"
+#include "engine/correction/refinement.h"
+#include "engine/correction/regularisation.h"
+#include "engine/correction/rework_qp.h"
+#include "engine/correction/safe_step.h"
+
+namespace gearloop {
+namespace correction_internal {
+namespace {
+
+// With the per-direction filter: a correction whose linear change of the
+// flank is below this share of the probe noise (rms over the used points) is
+// no correction (a noise coefficient just past the filter's three standard
+// deviations moves a weak direction, and the axes, for nothing: 0.19 um rms of
+// axis motion for a part measured as noise alone).
+constexpr double kNegligibleChangeShare = 0.1;
+
+// The rms over the used points of the error the linear model predicts after
+// delta, e + S delta.
+double LinearPredictionRms(const CorrectionProblem& problem,
+                           const Eigen::VectorXd& delta) {
+  const Eigen::VectorXd r = problem.error_um + problem.jacobian_um * delta;
+  return Rms(r, problem.used);
+}
+
+// Rank, spectrum, best reachable and initial error of the linear solve on the
+// final rows (every solver reports them).
+void ReportLinearSolve(const CorrectionProblem& problem,
+                       const LinearSolve& ls,
+                       CorrectionSummary* summary) {
+  summary->singular_values = ls.svd.sigma;
+  summary->rank = ls.svd.rank;
+  summary->condition_number =
+      ls.svd.rank > 0 ? ls.svd.sigma(0) / ls.svd.sigma(ls.svd.rank - 1) : kInf;
+  Eigen::VectorXd best_um = Eigen::VectorXd::Zero(problem.num_points);
+  for (size_t r = 0; r < problem.used.size(); ++r) {
+    best_um(problem.used[r]) =
+        ls.best(r) / std::sqrt(problem.weights(problem.used[r]));
+  }
+  summary->best_reachable_rms_um = Rms(best_um, problem.used);
+  summary->initial_rms_um = Rms(problem.error_um, problem.used);
+  summary->initial_max_um = MaxAbs(problem.error_um, problem.used);
+}
+
+// Steps 3-4 of the regularised solver in the kept subspace of `ls`: the
+// Tikhonov answer (through the QP with bounds or in rework mode), then the
+// rework passes or the exact-model refinement.
+Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
+                                 const CorrectionProblem& problem,
+                                 const LinearSolve& ls,
+                                 CorrectionSummary* summary,
+                                 std::string* not_converged) {
+  summary->rule = problem.rule;
+  summary->signal_filter_used = problem.signal_noise_um > 0.0;
+  summary->regularisation_level = ls.lambda;
+  summary->effective_dof = ls.dof;
+  summary->truncation_rank = ls.k;
+  const KeptSubspace subspace = KeepSubspace(ls, problem.t_map);
+  const bool rework = problem.mode == CorrectionMode::kRework;
+  Eigen::VectorXd z = subspace.z;
+  const bool beyond_motion_bound =
+      subspace.k > 0 && !WithinMotionBound(problem, subspace, z);
+  if (subspace.k > 0 && (rework || problem.has_bounds || beyond_motion_bound)) {
+    Eigen::VectorXd z_new;
+    if (SolveLinearisedQp(problem,
+                          subspace,
+                          problem.jacobian_um,
+                          Eigen::VectorXd::Zero(problem.num_points),
+                          Eigen::VectorXd::Zero(subspace.k),
+                          &z_new)) {
+      z = z_new;
+    } else {
+      *not_converged = "the constrained linear problem failed";
+    }
+  }
+  Eigen::VectorXd delta = subspace.tv * z;
+  // A change the measurement could not even see is not worth a move.
+  const bool negligible = problem.signal_noise_um > 0.0 && !rework &&
+                          Rms(problem.jacobian_um * delta, problem.used) <
+                              kNegligibleChangeShare * problem.signal_noise_um;
+  if (negligible) {
+    delta.setZero();
+    summary->effective_dof = 0.0;
+  }
+  summary->linear_residual_rms_um = LinearPredictionRms(problem, delta);
+  if (subspace.k == 0 || negligible) {
+    // Nothing above the noise: no change.
+  } else if (rework) {
+    summary->iterations =
+        RunReworkPasses(options, problem, subspace, &z, &delta, not_converged);
+  } else if ((beyond_motion_bound || options.signal_filter) &&
+             !problem.has_bounds && options.max_num_iterations > 0) {
+    summary->iterations = RefineWithinMotionBound(
+        options, problem, subspace, &z, &delta, not_converged);
+  } else if (options.max_num_iterations > 0) {
+    RefineOnExactModel(
+        options, problem, subspace, z, &delta, summary, not_converged);
+  }
+  return delta;
+}
+
+// The exact prediction at the new parameters: change and residual per point,
+// their rms and max over the used points, the correction size, and the status.
+// `at_new_parameters`: the model there when the caller has it (the safe
+// step's kept fraction, or the linearisation point for no change), else null.
+void PredictExactly(const CorrectionOptions& options,
+                    const CorrectionProblem& problem,
+                    const Eigen::VectorXd& delta,
+                    std::string not_converged,
+                    const ModelEvaluation* at_new_parameters,
+                    CorrectionResult* result) {
+  CorrectionSummary& summary = result->summary;
+  const int n = problem.num_points;
+  result->delta = delta;
+  result->parameters = problem.parameters + delta;
+  ModelEvaluation evaluated;
+  if (at_new_parameters == nullptr)
+    problem.model->Evaluate(result->parameters, false, &evaluated);
+  const ModelEvaluation& eval1 =
+      at_new_parameters != nullptr ? *at_new_parameters : evaluated;
+  result->predicted_change_um = Eigen::VectorXd::Constant(n, kNaN);
+  result->predicted_residual_um = Eigen::VectorXd::Constant(n, kNaN);
+  int lost = 0;
+  summary.max_added_material_um = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (problem.evaluation.status[i] != PointStatus::kOk) continue;
+    if (eval1.status[i] != PointStatus::kOk) {
+      ++lost;
+      continue;
+    }
+    result->predicted_change_um(i) = eval1.deviations_um(i) - problem.d0()(i);
+    summary.max_added_material_um =
+        std::max(summary.max_added_material_um, result->predicted_change_um(i));
+    if (std::isfinite(problem.error_um(i))) {
+      result->predicted_residual_um(i) =
+          problem.error_um(i) + result->predicted_change_um(i);
+    }
+  }
+  std::vector<int> predicted_used;
+  for (int i : problem.used)
+    if (std::isfinite(result->predicted_residual_um(i)))
+      predicted_used.push_back(i);
+  summary.residual_rms_um = Rms(result->predicted_residual_um, predicted_used);
+  summary.residual_max_um =
+      MaxAbs(result->predicted_residual_um, predicted_used);
+  summary.correction_size = CorrectionSize(problem.blocks,
+                                           delta,
+                                           problem.roll_min_rad,
+                                           problem.roll_max_rad,
+                                           options.block_scales,
+                                           &summary.block_sizes);
+  if (lost > 0 && not_converged.empty()) {
+    not_converged = std::to_string(lost) +
+                    " grid point(s) are not reached by the corrected settings";
+  }
+  if (problem.mode == CorrectionMode::kRework &&
+      options.solver == CorrectionSolver::kRegularised &&
+      summary.max_added_material_um > options.rework_tolerance_um &&
+      not_converged.empty()) {
+    not_converged = "rework: the correction still adds material at some point";
+  }
+  summary.status = not_converged.empty() ? CorrectionStatus::kConverged
+                                         : CorrectionStatus::kNotConverged;
+  summary.message = not_converged;
+}
+
+// The safe step of the regularised solver (safe_step.h): the motion bound,
+// then the largest fraction of the change whose exact prediction at the
+// linearisation point (the estimated machine state, or the commanded
+// parameters) is better than keeping the current settings.
+Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const Eigen::VectorXd& delta,
+                             CorrectionSummary* summary,
+                             std::string* no_safe_improvement,
+                             SafeStepOutcome* outcome) {
+  Eigen::VectorXd step = BoundAxisMotion(options, problem, delta, outcome);
+  if (delta.isZero(0.0) && summary->truncation_rank > 0) {
+    // Directions there were, but nothing above the noise along them: no
+    // change asked for, nothing to check (with no direction at all, rank 0,
+    // the check below says that no fraction makes a better part).
+    outcome->current_rms_um = CurrentPartRms(problem);
+    outcome->predicted_rms_um = outcome->current_rms_um;
+  } else {
+    step = ChooseSafeStep(options, problem, step, outcome);
+  }
+  summary->safe_step_checked = true;
+  summary->motion_scale = outcome->motion_scale;
+  summary->step_fraction = outcome->step_fraction;
+  summary->safe_step_current_rms_um = outcome->current_rms_um;
+  summary->safe_step_predicted_rms_um = outcome->predicted_rms_um;
+  if (!outcome->improved) *no_safe_improvement = outcome->message;
+  return step;
+}
+
+}  // namespace
+
+CorrectionResult SolveProblem(const CorrectionOptions& options,
+                              CorrectionProblem problem,
+                              const CorrectionResult* state) {
+  CorrectionResult result;
+  result.linearised_at = problem.parameters;
+  CorrectionSummary& summary = result.summary;
+  summary.solver = options.solver;
+  summary.mode = problem.mode;
+  ReportProblem(problem, &summary);
+  // The outlier test's first fit on the points it leaves has the SVD the
+  // solve needs (the same A): made once.
+  Svd svd_at_used;
+  if (options.outlier_threshold > 0.0 &&
+      options.solver == CorrectionSolver::kRegularised) {
+    RemoveGrossOutliers(options, &problem, &summary, &svd_at_used);
+  }
+  const LinearSolve ls =
+      SolveRegularisedLinear(options,
+                             problem,
+                             problem.used,
+                             svd_at_used.u.rows() > 0 ? &svd_at_used : nullptr);
+  ReportLinearSolve(problem, ls, &summary);
+  std::string not_converged;
+  Eigen::VectorXd delta;
+  switch (options.solver) {
+    case CorrectionSolver::kRegularised:
+      delta = SolveRegularised(options, problem, ls, &summary, &not_converged);
+      delta = SearchOnExactModel(options, problem, ls, delta, &summary);
+      break;
+    case CorrectionSolver::kPlainLeastSquares:
+      delta = SolvePlainLeastSquares(problem);
+      summary.linear_residual_rms_um = LinearPredictionRms(problem, delta);
+      break;
+    case CorrectionSolver::kParticleSwarm:
+      delta = SolveParticleSwarm(options, problem);
+      summary.iterations = options.pso_generations;
+      summary.linear_residual_rms_um = LinearPredictionRms(problem, delta);
+      break;
+  }
+  std::string no_safe_improvement;
+  SafeStepOutcome outcome;
+  if (options.safe_step && options.solver == CorrectionSolver::kRegularised) {
+    delta = MakeStepSafe(
+        options, problem, delta, &summary, &no_safe_improvement, &outcome);
+  }
+  const ModelEvaluation* at_new_parameters =
+      outcome.has_evaluation ? &outcome.evaluation
+      : delta.isZero(0.0)    ? &problem.evaluation
+                             : nullptr;
+  PredictExactly(
+      options, problem, delta, not_converged, at_new_parameters, &result);
+  if (!no_safe_improvement.empty()) {
+    summary.status = CorrectionStatus::kNoSafeImprovement;
+    summary.message = no_safe_improvement;
+  }
+  if (state != nullptr) ReportMachineState(*state, &summary);
+  EstimatePredictionBand(problem, &result);
+  return result;
+}
+
+}  // namespace correction_internal
+}  // namespace gearloop
