@@ -70,6 +70,9 @@ struct MachineStateTest {
   double statistic = 0.0;
   double threshold = 0.0;
   std::string reason;  // why it was used or not, in words
+  // The state fit was made and kept every point the commanded settings reach,
+  // whether or not it explained anything (set by the caller that made it).
+  bool fit_made = false;
 };
 
 MachineStateTest TestMachineState(const CorrectionOptions& options,

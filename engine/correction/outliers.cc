@@ -179,6 +179,9 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
                          problem->probe_noise_um};
   const int max_drop =
       static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
+  summary->outlier_indices.insert(summary->outlier_indices.end(),
+                                  problem->outliers_found_before.begin(),
+                                  problem->outliers_found_before.end());
   for (int drop = 0; drop < max_drop; ++drop) {
     Svd at_weights;
     const RobustFit fit = RobustLinearFit(options, *problem, used, &at_weights);

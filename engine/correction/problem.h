@@ -119,6 +119,10 @@ struct CorrectionProblem {
   std::vector<int> used;  // reached, with a finite e and a weight > 0 (outliers
                           // removed later)
   std::vector<int> missing;  // the others
+  // Gross outliers found before this problem was solved (the state fit's,
+  // correction.cc), grid indices already out of `used`; reported with the
+  // outlier test's own.
+  std::vector<int> outliers_found_before;
 
   int NumFree() const { return static_cast<int>(free.size()); }
   const Eigen::VectorXd& d0() const { return evaluation.deviations_um; }
