@@ -93,6 +93,15 @@ class LinearModel : public GridModel {
   Eigen::MatrixXd jacobian_;
 };
 
+// n draws of Gaussian probe noise of `sigma_um` (fixed seed).
+Eigen::VectorXd SeededNoise(int n, unsigned seed, double sigma_um) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, sigma_um);
+  Eigen::VectorXd noise(n);
+  for (int i = 0; i < n; ++i) noise(i) = gauss(rng);
+  return noise;
+}
+
 // ---------------------------------------------------------------------------------------------
 // The evaluation memo of one correction.
 
@@ -1452,10 +1461,7 @@ TEST(RefineWithinMotionBound, HoldsTheBoundAndBeatsTheScaledAnswer) {
 TEST(TestMachineState, UsesTheStateOnlyWhereItExplainsMoreThanTheNoise) {
   const LinearModel model(22);
   const int n = model.NumPoints();
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> gauss(0.0, 0.3);
-  Eigen::VectorXd noise(n);
-  for (int i = 0; i < n; ++i) noise(i) = gauss(rng);
+  const Eigen::VectorXd noise = SeededNoise(n, 5, 0.3);
   Eigen::VectorXd hidden = Eigen::VectorXd::Zero(5);
   hidden << 2e-3, -1e-3, 0.0, 3e-5, 1e-3;
   ModelEvaluation ran;
@@ -1499,10 +1505,7 @@ TEST(TestMachineState,
      AFitThatExplainsNothingKeepsTheFilterAtTheCommandedSettings) {
   const LinearModel model(24);
   const int n = model.NumPoints();
-  std::mt19937_64 rng(8);
-  std::normal_distribution<double> gauss(0.0, 0.1);
-  Eigen::VectorXd noise(n);
-  for (int i = 0; i < n; ++i) noise(i) = gauss(rng);
+  const Eigen::VectorXd noise = SeededNoise(n, 8, 0.1);
   CorrectionInput input;
   input.model = &model;
   input.current_parameters = Eigen::VectorXd::Zero(5);
