@@ -177,8 +177,15 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
   const OutlierTest test{options.outlier_threshold,
                          options.outlier_min_um,
                          problem->probe_noise_um};
+  // max_outlier_fraction of the usable points, those the state fit left out
+  // counted.
+  const int found_before =
+      static_cast<int>(problem->outliers_found_before.size());
   const int max_drop =
-      static_cast<int>(std::floor(options.max_outlier_fraction * used.size()));
+      std::max(0,
+               static_cast<int>(std::floor(options.max_outlier_fraction *
+                                           (used.size() + found_before))) -
+                   found_before);
   summary->outlier_indices.insert(summary->outlier_indices.end(),
                                   problem->outliers_found_before.begin(),
                                   problem->outliers_found_before.end());

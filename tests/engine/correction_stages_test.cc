@@ -409,6 +409,42 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
   EXPECT_EQ(summary.outlier_indices, spikes);
 }
 
+// The outliers the state fit left out are reported with the test's own and
+// count toward max_outlier_fraction of the usable points: with 4 of 45 left
+// out before and the fraction at 0.2 (9 points), the test drops at most 5 of
+// the 7 spikes left, the largest first.
+TEST(RemoveGrossOutliers, CountsTheOutliersFoundBeforeTowardTheLimit) {
+  const LinearModel model(11);
+  const int n = model.NumPoints();
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.measured_um = SeededNoise(n, 6, 0.2);
+  const std::vector<int> before = {0, 10, 20, 30};
+  const std::vector<int> spikes = {2, 6, 18, 22, 26, 38, 42};
+  for (size_t k = 0; k < spikes.size(); ++k)
+    input.measured_um(spikes[k]) += 40.0 - 2.0 * static_cast<double>(k);
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.2;
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  ASSERT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  for (int i : before) {
+    problem.used.erase(std::find(problem.used.begin(), problem.used.end(), i));
+    problem.outliers_found_before.push_back(i);
+  }
+  RemoveGrossOutliers(options, &problem, &summary);
+  std::vector<int> expected = before;
+  expected.insert(expected.end(), spikes.begin(), spikes.begin() + 5);
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(summary.outlier_indices, expected);
+  EXPECT_EQ(summary.num_points_used, n - 9);
+}
+
 // The prepared problem of `input` (expected to be valid).
 CorrectionProblem PreparedProblem(const CorrectionOptions& options,
                                   const CorrectionInput& input) {
