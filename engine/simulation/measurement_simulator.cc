@@ -175,6 +175,7 @@ ClosedLoopResult SimulateClosedLoop(
       it.corrected = true;
       it.predicted_residual_um = correction.predicted_residual_um;
       it.predicted_change_um = correction.predicted_change_um;
+      it.linearised_at = correction.linearised_at;
       result.iterations.push_back(it);
       if (!correction.summary.IsSolutionUsable()) {
         result.message = "correction " + std::to_string(part) +

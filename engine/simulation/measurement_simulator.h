@@ -130,6 +130,10 @@ struct ClosedLoopIteration {
   // when not corrected.
   Eigen::VectorXd predicted_residual_um;
   Eigen::VectorXd predicted_change_um;
+  // The parameters the correction was linearised at (CorrectionResult:
+  // the estimated machine state, or the commanded settings); empty when not
+  // corrected.
+  Eigen::VectorXd linearised_at;
 };
 
 struct ClosedLoopResult {

@@ -185,7 +185,8 @@ bool Solve(const ServiceContext& context,
       problem,
       s,
       problem.current_parameters,
-      CorrectionStep{run->result.parameters, run->result.delta},
+      CorrectionStep{
+          run->result.parameters, run->result.delta, run->result.linearised_at},
       run->result.predicted_residual_um,
       run->result.predicted_change_um,
       measured_um,
@@ -332,6 +333,13 @@ nlohmann::json CorrectionResultJson(
     result["delta"] = problem.delta_to_json(step->delta);
     result["axis_motion"] =
         CorrectionAxisMotionJson(problem, step->delta, summary);
+    // What the measurement says the machine runs besides its commanded
+    // settings (the errors the correction compensates), where it was used.
+    if (summary.machine_state_estimated &&
+        step->linearised_at.size() == commanded.size()) {
+      result["machine_state"]["estimated_errors"] =
+          problem.delta_to_json(step->linearised_at - commanded);
+    }
   }
   result["predicted_residual_um"] =
       GridToJson(predicted_residual_um, {}, rows, columns);

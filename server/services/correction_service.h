@@ -46,15 +46,20 @@ bool RunCorrection(const ServiceContext& context,
                    CorrectionRun* run,
                    ApiError* error);
 
-// The corrected parameters of a part and the change that leads to them.
+// The corrected parameters of a part and the change that leads to them, and
+// the parameters the correction was linearised at (the estimated machine
+// state, or the commanded settings; empty when not told).
 struct CorrectionStep {
   Eigen::VectorXd parameters;
   Eigen::VectorXd delta;
+  Eigen::VectorXd linearised_at;
 };
 
 // A correction's result as the API answers and the history stores it: the
 // summary, the family's header, with a step the corrected parameters (under
-// problem.parameters_key), "delta" and "axis_motion", and the grids
+// problem.parameters_key), "delta" and "axis_motion" (and, where the machine
+// state was used, machine_state.estimated_errors: linearised_at - commanded
+// in the form of "delta"), and the grids
 // predicted_residual_um, predicted_change_um, measured_um, target_um.
 nlohmann::json CorrectionResultJson(
     const CorrectionProblem& problem,

@@ -99,7 +99,8 @@ JobRecord ClosedLoopJob(const ClosedLoopRequest& request,
   std::optional<CorrectionStep> step;
   if (k + 1 < result.iterations.size()) {
     const Eigen::VectorXd& next = result.iterations[k + 1].commanded_parameters;
-    step = CorrectionStep{next, next - it.commanded_parameters};
+    step =
+        CorrectionStep{next, next - it.commanded_parameters, it.linearised_at};
   }
   const nlohmann::json result_json =
       CorrectionResultJson(problem,

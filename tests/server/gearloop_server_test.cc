@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <openssl/sha.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -273,6 +274,7 @@ TEST_F(GearloopServerTest,
   EXPECT_EQ(result["regularisation"]["rule"], "discrepancy-principle");
   EXPECT_EQ(result["machine_state"]["estimated"], false);
   EXPECT_EQ(result["machine_state"]["size"], 0.0);
+  EXPECT_FALSE(result["machine_state"].contains("estimated_errors"));
 }
 
 TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
@@ -314,6 +316,18 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   EXPECT_EQ(result["machine_state"]["reason"].get<std::string>().rfind(
                 "significant", 0),
             0u);
+  // The errors the state stands for, in the form of "delta": every axis's
+  // seven coefficients, and not all zero.
+  const nlohmann::json& errors = result["machine_state"]["estimated_errors"];
+  ASSERT_TRUE(errors.contains("axes")) << result["machine_state"].dump();
+  double largest = 0.0;
+  for (const char* axis : {"X", "Y", "Z", "A", "B", "C"}) {
+    ASSERT_EQ(errors["axes"][axis].size(), 7u) << axis;
+    for (const auto& c : errors["axes"][axis])
+      largest = std::max(largest, std::abs(c.get<double>()));
+  }
+  EXPECT_GT(largest, 0.0);
+  EXPECT_EQ(errors.size(), result["delta"].size());
   // The correction brings the flank close to the best the model can reach (3 um
   // hidden errors).
   EXPECT_LT(result["residual_rms_um"].get<double>(), 1.0);
@@ -1057,6 +1071,11 @@ TEST_F(GearloopServerTest, SimulatesAClosedLoopAndStoresItsLineage) {
               job.body["request"]["measurement"]["deviations_um"]);
     EXPECT_EQ(result["target_um"],
               job.body["request"]["target"]["deviations_um"]);
+    // Where the round used the machine state, it says which errors it stood
+    // for, as a correction does.
+    EXPECT_EQ(result["machine_state"].contains("estimated_errors"),
+              result["machine_state"]["estimated"].get<bool>())
+        << "round " << k;
     // Its rms over the points used is the stored residual_rms_um.
     double sum2 = 0.0;
     int count = 0;
