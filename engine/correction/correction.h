@@ -410,6 +410,14 @@ struct CorrectionSummary {
   std::vector<int> tooth_outlier_indices;
   std::vector<int>
       missing_indices;  // grid points without a usable measurement or contact
+  // Of those, the points that were measured but where the model at the
+  // settings it was linearised at has no contact (the wheel does not reach
+  // them there, or the contact was not found): the correction neither
+  // corrects nor predicts them, and residual_rms_um and the prediction band
+  // leave them out. The largest |measured - target| among them [um] (NaN when
+  // there are none): a measured error the answer does not cover.
+  std::vector<int> measured_not_reached_indices;
+  double measured_not_reached_max_um = std::numeric_limits<double>::quiet_NaN();
 
   // Ceres cost 1/2 |residuals|^2 of the exact-model refinement before and after
   // (0 if none).

@@ -156,6 +156,11 @@ std::string CorrectionSummary::BriefReport() const {
     if (!tooth_outlier_indices.empty())
       out << ", " << tooth_outlier_indices.size()
           << " point(s) with a tooth left out";
+    if (!measured_not_reached_indices.empty())
+      out << ", " << measured_not_reached_indices.size()
+          << " measured point(s) the model does not reach, not predicted "
+             "(largest |measured - target| "
+          << measured_not_reached_max_um << " um)";
     out << ", machine state "
         << (machine_state_estimated ? "estimated" : "commanded");
     if (!machine_state_reason.empty())

@@ -207,13 +207,16 @@ void SelectPoints(CorrectionProblem* p) {
   p->reached.clear();
   p->used.clear();
   p->missing.clear();
+  p->measured_not_reached.clear();
   for (int i = 0; i < p->num_points; ++i) {
     const bool ok = p->evaluation.status[i] == PointStatus::kOk;
+    const bool measured = std::isfinite(p->error_um(i)) && p->weights(i) > 0.0;
     if (ok) p->reached.push_back(i);
-    if (ok && std::isfinite(p->error_um(i)) && p->weights(i) > 0.0) {
+    if (ok && measured) {
       p->used.push_back(i);
     } else {
       p->missing.push_back(i);
+      if (measured) p->measured_not_reached.push_back(i);
     }
   }
 }
@@ -324,6 +327,13 @@ void ReportProblem(const CorrectionProblem& problem,
   summary->roll_min_rad = problem.roll_min_rad;
   summary->roll_max_rad = problem.roll_max_rad;
   summary->missing_indices = problem.missing;
+  summary->measured_not_reached_indices = problem.measured_not_reached;
+  summary->measured_not_reached_max_um = kNaN;
+  for (int i : problem.measured_not_reached) {
+    const double e = std::abs(problem.error_um(i));
+    if (!(summary->measured_not_reached_max_um >= e))
+      summary->measured_not_reached_max_um = e;
+  }
   summary->tooth_outlier_indices = problem.tooth_outliers;
   summary->num_free_parameters = problem.NumFree();
   summary->num_points_used = static_cast<int>(problem.used.size());

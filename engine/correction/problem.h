@@ -119,6 +119,10 @@ struct CorrectionProblem {
   std::vector<int> used;  // reached, with a finite e and a weight > 0 (outliers
                           // removed later)
   std::vector<int> missing;  // the others
+  // Of the missing: points measured (finite error, weight > 0) where the model
+  // at `parameters` has no contact. The correction neither sees nor predicts
+  // them; the summary says so (measured_not_reached_indices).
+  std::vector<int> measured_not_reached;
   // Gross outliers found before this problem was solved (the state fit's,
   // correction.cc), grid indices already out of `used`; reported with the
   // outlier test's own.

@@ -539,6 +539,10 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
       {"outliers", PointList(s.outlier_indices, columns)},
       {"tooth_outliers", PointList(s.tooth_outlier_indices, columns)},
       {"missing", PointList(s.missing_indices, columns)},
+      {"measured_not_reached",
+       PointList(s.measured_not_reached_indices, columns)},
+      {"measured_not_reached_max_um",
+       FiniteOrNull(s.measured_not_reached_max_um)},
   };
   // A zero correction says why (server/codec/zero_correction.h).
   const nlohmann::json explain = ZeroCorrectionExplainJson(s);

@@ -296,7 +296,10 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
                           "solver",
                           "status",
                           "iterations",
-                          "elapsed_ms"}) {
+                          "elapsed_ms",
+                          "missing",
+                          "measured_not_reached",
+                          "measured_not_reached_max_um"}) {
     EXPECT_TRUE(result.contains(key)) << key;
   }
   EXPECT_EQ(result["settings"]["axes"]["X"].size(), 7u);
