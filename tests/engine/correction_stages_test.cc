@@ -409,6 +409,18 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
   EXPECT_EQ(summary.outlier_indices, spikes);
 }
 
+// The prepared problem of `input` (expected to be valid).
+CorrectionProblem PreparedProblem(const CorrectionOptions& options,
+                                  const CorrectionInput& input) {
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  EXPECT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  return problem;
+}
+
 // The outliers the state fit left out are reported with the test's own and
 // count toward max_outlier_fraction of the usable points: with 4 of 45 left
 // out before and the fraction at 0.2 (9 points), the test drops at most 5 of
@@ -427,12 +439,8 @@ TEST(RemoveGrossOutliers, CountsTheOutliersFoundBeforeTowardTheLimit) {
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = 0.2;
-  CorrectionProblem problem;
+  CorrectionProblem problem = PreparedProblem(options, input);
   CorrectionSummary summary;
-  std::string error;
-  ASSERT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
   for (int i : before) {
     problem.used.erase(std::find(problem.used.begin(), problem.used.end(), i));
     problem.outliers_found_before.push_back(i);
@@ -443,18 +451,6 @@ TEST(RemoveGrossOutliers, CountsTheOutliersFoundBeforeTowardTheLimit) {
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(summary.outlier_indices, expected);
   EXPECT_EQ(summary.num_points_used, n - 9);
-}
-
-// The prepared problem of `input` (expected to be valid).
-CorrectionProblem PreparedProblem(const CorrectionOptions& options,
-                                  const CorrectionInput& input) {
-  CorrectionProblem problem;
-  CorrectionSummary summary;
-  std::string error;
-  EXPECT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
-  return problem;
 }
 
 // The problem of a measured grid of Gaussian noise of `size_um` (seeded) on a
