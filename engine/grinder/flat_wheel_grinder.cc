@@ -621,13 +621,9 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
       n, std::numeric_limits<double>::quiet_NaN());
   evaluation->contact_unknowns.setConstant(
       n, 3, std::numeric_limits<double>::quiet_NaN());
+  evaluation->jacobian_um.resize(0, 0);
   const ContactFrame frame = MakeContactFrame(setup_, settings);
   const double wheel_radius_mm = frame.c.wheel_radius_mm;
-  if (with_jacobian) {
-    evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
-  } else {
-    evaluation->jacobian_um.resize(0, 0);
-  }
   for (int i = 0; i < n; ++i) {
     const FlankGridPoint& point = grid_.points[i];
     const EnvelopeContact contact =
@@ -642,11 +638,9 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
     evaluation->contact_roll_rad[i] = contact.roll_rad;
     evaluation->contact_unknowns.row(i) << contact.wheel_u_mm,
         contact.wheel_phi_rad, contact.roll_rad;
-    if (with_jacobian) {
-      evaluation->jacobian_um.row(i) =
-          ContactSensitivity(settings, point, contact) * kMmToUm;
-    }
   }
+  // The Jacobian at the contacts just kept: one place computes it, for both.
+  if (with_jacobian) AddJacobian(parameters, evaluation);
 }
 
 void FlatWheelGrinder::AddJacobian(const Eigen::VectorXd& parameters,
