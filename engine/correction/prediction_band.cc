@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace gearloop {
 namespace correction_internal {
@@ -31,10 +32,12 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   band.noise_sigma_um = BandNoiseSigma(problem, summary, &band.noise_stated);
   const int points = problem.num_points;
   result->predicted_residual_sigma_um = Eigen::VectorXd::Constant(points, kNaN);
+  std::vector<int> predicted;
+  for (int i : PredictedPoints(problem))
+    if (std::isfinite(result->predicted_residual_um(i))) predicted.push_back(i);
   double mean_variance = 0.0;
   int used = 0;
-  for (int i : problem.used) {
-    if (!std::isfinite(result->predicted_residual_um(i))) continue;
+  for (int i : predicted) {
     // A stated sigma is one tooth's; an estimated one is already that of the
     // mean the solver saw.
     const double share = band.noise_stated ? problem.noise_share(i) : 1.0;
@@ -54,7 +57,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   const double expected2 =
       std::max(0.0, pred2 - mean_variance * (1.0 - 2.0 * dof / n));
   double change2 = 0.0;
-  for (int i : problem.used)
+  for (int i : predicted)
     if (std::isfinite(result->predicted_change_um(i)))
       change2 +=
           result->predicted_change_um(i) * result->predicted_change_um(i);

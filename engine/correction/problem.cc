@@ -377,6 +377,14 @@ bool UsesOrdersAboveCubic(const CorrectionProblem& problem,
   return HighestOrderMoved(problem.blocks, delta) > kCubicOrder;
 }
 
+std::vector<int> PredictedPoints(const CorrectionProblem& problem) {
+  std::vector<int> points = problem.used;
+  points.insert(points.end(),
+                problem.measured_not_reached.begin(),
+                problem.measured_not_reached.end());
+  return points;
+}
+
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx) {
   if (idx.empty()) return 0.0;
   double s = 0.0;

@@ -200,6 +200,11 @@ void ReportProblem(const CorrectionProblem& problem,
 // empty).
 double Rms(const Eigen::VectorXd& r, const std::vector<int>& idx);
 
+// The points a prediction may speak of: the used ones, then the measured ones
+// the model does not reach (predicted only where no change is answered, the
+// part staying as measured). Callers keep those with a finite prediction.
+std::vector<int> PredictedPoints(const CorrectionProblem& problem);
+
 // A figure for a summary message, three significant digits ("%.3g").
 std::string FormatUm(double um);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -402,11 +403,48 @@ double CurrentPartRms(const CorrectionProblem& problem) {
                    &residual);
 }
 
+std::string MeasuredNotReachedRefusal(const CorrectionProblem& problem) {
+  if (problem.measured_not_reached.empty()) return "";
+  const int columns = std::max(problem.model->GridColumns(), 1);
+  std::vector<int> rows;
+  double worst_um = 0.0;
+  for (int i : problem.measured_not_reached) {
+    const int row = i / columns + 1;
+    if (std::find(rows.begin(), rows.end(), row) == rows.end())
+      rows.push_back(row);
+    if (std::abs(problem.error_um(i)) > std::abs(worst_um))
+      worst_um = problem.error_um(i);
+  }
+  std::sort(rows.begin(), rows.end());
+  std::string row_list;
+  for (size_t r = 0; r < rows.size(); ++r)
+    row_list += (r == 0 ? "" : ", ") + std::to_string(rows[r]);
+  char worst[32];
+  std::snprintf(worst, sizeof(worst), "%.2f", worst_um);
+  return std::to_string(problem.measured_not_reached.size()) +
+         " measured grid point(s) (row(s) " + row_list + " of " +
+         std::to_string(problem.model->GridRows()) +
+         " counted from 1, largest error " + worst +
+         " um) have no contact on the model at the linearisation point: the "
+         "machine grinds them but the model cannot predict what a change does "
+         "there, so no change is answered and the current settings are kept "
+         "(check that the grid lies on the ground flank within the roll "
+         "range, then measure again)";
+}
+
 Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
                                const CorrectionProblem& problem,
                                const Eigen::VectorXd& delta,
                                SafeStepOutcome* outcome) {
   outcome->current_rms_um = CurrentPartRms(problem);
+  const std::string blind = MeasuredNotReachedRefusal(problem);
+  if (!blind.empty()) {
+    outcome->improved = false;
+    outcome->step_fraction = 0.0;
+    outcome->predicted_rms_um = outcome->current_rms_um;
+    outcome->message = blind;
+    return Eigen::VectorXd::Zero(delta.size());
+  }
   double alpha = 1.0;
   std::string whole;  // why the whole step was refused
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {

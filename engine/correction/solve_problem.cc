@@ -146,8 +146,16 @@ void PredictExactly(const CorrectionOptions& options,
           problem.error_um(i) + result->predicted_change_um(i);
     }
   }
+  // With no change the part stays as measured, also where the model has no
+  // contact (the safe step keeps the settings for those points).
+  if (delta.isZero(0.0)) {
+    for (int i : problem.measured_not_reached) {
+      result->predicted_change_um(i) = 0.0;
+      result->predicted_residual_um(i) = problem.error_um(i);
+    }
+  }
   std::vector<int> predicted_used;
-  for (int i : problem.used)
+  for (int i : PredictedPoints(problem))
     if (std::isfinite(result->predicted_residual_um(i)))
       predicted_used.push_back(i);
   summary.residual_rms_um = Rms(result->predicted_residual_um, predicted_used);

@@ -1642,6 +1642,50 @@ TEST(PrepareCorrectionProblem, SaysWhichMeasuredPointsTheModelDoesNotReach) {
   EXPECT_TRUE(std::isnan(all.summary.measured_not_reached_max_um));
 }
 
+// Measured points the model does not reach: the real machine grinds them, the
+// model cannot say what a step does there, so the safe step keeps the settings
+// and says which rows; the prediction then is the part as measured, those
+// points included. The same part measured without them gets its correction.
+TEST(ChooseSafeStep, KeepsTheSettingsWhileMeasuredPointsHaveNoContact) {
+  const RootlessModel model;
+  const LinearModel whole(26);  // the same flank, every point reached
+  const int n = model.NumPoints();
+  ModelEvaluation at_error;
+  const Eigen::VectorXd error_parameters =
+      (Eigen::VectorXd(5) << 2e-3, -1e-3, 1e-3, 1e-5, -2e-3).finished();
+  whole.Evaluate(error_parameters, false, &at_error);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.target_um = Eigen::VectorXd::Zero(n);
+  input.measured_um = at_error.deviations_um + SeededNoise(n, 12, 0.1);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.1;
+  const CorrectionResult blind = ComputeCorrection(options, input);
+  const CorrectionSummary& s = blind.summary;
+  EXPECT_EQ(s.status, CorrectionStatus::kNoSafeImprovement) << s.BriefReport();
+  EXPECT_TRUE(blind.delta.isZero(0.0));
+  EXPECT_NE(s.message.find("(row(s) 1 of 5 counted from 1, largest error"),
+            std::string::npos)
+      << s.message;
+  EXPECT_NE(s.message.find("no contact on the model"), std::string::npos);
+  EXPECT_EQ(s.measured_not_reached_indices, (std::vector<int>{0, 1, 2, 3}));
+  // The part as measured, the points without contact included.
+  std::vector<int> all(n);
+  for (int i = 0; i < n; ++i) all[i] = i;
+  for (int i = 0; i < n; ++i)
+    EXPECT_DOUBLE_EQ(blind.predicted_residual_um(i), input.measured_um(i)) << i;
+  EXPECT_NEAR(s.residual_rms_um, Rms(input.measured_um, all), 1e-12);
+  // Not measured there, the rest of the flank is corrected.
+  for (int i : {0, 1, 2, 3})
+    input.measured_um(i) = std::numeric_limits<double>::quiet_NaN();
+  const CorrectionResult seen = ComputeCorrection(options, input);
+  EXPECT_TRUE(seen.summary.IsSolutionUsable()) << seen.summary.BriefReport();
+  EXPECT_FALSE(seen.delta.isZero(0.0));
+  EXPECT_TRUE(seen.summary.measured_not_reached_indices.empty());
+  EXPECT_LT(seen.summary.residual_rms_um, 0.5 * s.residual_rms_um);
+}
+
 // The roll range of a model with a nominal range wider than its contacts is
 // the union of both (the machine rolls over the programmed range).
 class WideRollModel : public LinearModel {
