@@ -485,5 +485,31 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
   return Eigen::VectorXd::Zero(delta.size());
 }
 
+bool DropNegligibleStep(const CorrectionProblem& problem,
+                        Eigen::VectorXd* step,
+                        SafeStepOutcome* outcome) {
+  if (!outcome->improved || !outcome->has_evaluation ||
+      !(problem.signal_noise_um > 0.0) ||
+      problem.mode != CorrectionMode::kNextPart)
+    return false;
+  double sum = 0.0;
+  int count = 0;
+  for (int i : problem.used) {
+    if (outcome->evaluation.status[i] != PointStatus::kOk) continue;
+    const double change =
+        outcome->evaluation.deviations_um(i) - problem.d0()(i);
+    sum += change * change;
+    ++count;
+  }
+  if (count == 0 || std::sqrt(sum / count) >=
+                        kNegligibleChangeShare * problem.signal_noise_um)
+    return false;
+  step->setZero();
+  outcome->step_fraction = 0.0;
+  outcome->has_evaluation = false;
+  outcome->predicted_rms_um = outcome->current_rms_um;
+  return true;
+}
+
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -27,9 +27,13 @@
 //      the good step worse and the spur-crowning loop stalls at 7.9 um instead
 //      of 1.10.)
 //
+//   3. DropNegligibleStep: a kept fraction whose exact change the measurement
+//      could not see (below a tenth of the filter's noise) becomes no change.
+//
 //   SafeStepOutcome outcome;
 //   delta = BoundAxisMotion(options, problem, delta, &outcome);
 //   delta = ChooseSafeStep(options, problem, delta, &outcome);
+//   DropNegligibleStep(problem, &delta, &outcome);
 #ifndef GEARLOOP_ENGINE_CORRECTION_SAFE_STEP_H_
 #define GEARLOOP_ENGINE_CORRECTION_SAFE_STEP_H_
 
@@ -42,6 +46,14 @@
 
 namespace gearloop {
 namespace correction_internal {
+
+// With the per-direction filter: a correction whose change of the flank is
+// below this share of the probe noise (rms over the used points) is no
+// correction (a noise coefficient just past the filter's three standard
+// deviations moves a weak direction, and the axes, for nothing: 0.19 um rms of
+// axis motion for a part measured as noise alone). Asked of the linear change
+// (solve_problem.cc) and of the safe step's kept fraction (DropNegligibleStep).
+constexpr double kNegligibleChangeShare = 0.1;
 
 struct SafeStepOutcome {
   double motion_scale = 1.0;      // factor of the motion bound (1 = within it)
@@ -82,6 +94,19 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
                                const CorrectionProblem& problem,
                                const Eigen::VectorXd& delta,
                                SafeStepOutcome* outcome);
+
+// After ChooseSafeStep, next-part mode with the filter's noise
+// (problem.signal_noise_um > 0): a kept fraction whose exact change, rms over
+// the used points, is below kNegligibleChangeShare of that noise is a change
+// the measurement could not see either: the step becomes zero, the outcome
+// keeps the current settings (still `improved`: nothing is refused), and true
+// is returned. On twenty seeds x 200 scenarios (default options) 121 answered
+// steps were this small; 4 made the part better by more than 5 %, and seed 8's
+// 40 (half a step, 0.03 um rms of change predicted to gain 0.012 um) moved a
+// tip corner onto the envelope's other sheet, 0.41 -> 27.1 um.
+bool DropNegligibleStep(const CorrectionProblem& problem,
+                        Eigen::VectorXd* step,
+                        SafeStepOutcome* outcome);
 
 }  // namespace correction_internal
 }  // namespace gearloop

@@ -18,13 +18,6 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// With the per-direction filter: a correction whose linear change of the
-// flank is below this share of the probe noise (rms over the used points) is
-// no correction (a noise coefficient just past the filter's three standard
-// deviations moves a weak direction, and the axes, for nothing: 0.19 um rms of
-// axis motion for a part measured as noise alone).
-constexpr double kNegligibleChangeShare = 0.1;
-
 // The rms over the used points of the error the linear model predicts after
 // delta, e + S delta.
 double LinearPredictionRms(const CorrectionProblem& problem,
@@ -201,6 +194,7 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
     outcome->predicted_rms_um = outcome->current_rms_um;
   } else {
     step = ChooseSafeStep(options, problem, step, outcome);
+    DropNegligibleStep(problem, &step, outcome);
   }
   summary->safe_step_checked = true;
   summary->motion_scale = outcome->motion_scale;

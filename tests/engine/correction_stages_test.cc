@@ -850,6 +850,36 @@ TEST(ChooseSafeStep, HalvesAnOvershootUntilThePartIsPredictedBetter) {
   EXPECT_TRUE(step.isApprox(1.25 * best));
 }
 
+// A kept fraction whose exact change is below a tenth of the filter's noise
+// is dropped (DropNegligibleStep); above it, it stays.
+TEST(DropNegligibleStep, DropsAKeptFractionTheMeasurementCouldNotSee) {
+  const LinearModel model(12);
+  const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
+  CorrectionProblem problem = SafeStepProblem(model, best);
+  SafeStepOutcome outcome;
+  // Half of 2.5 x the exact answer is kept: a change of 1.25 x the error.
+  Eigen::VectorXd step =
+      ChooseSafeStep(CorrectionOptions(), problem, 2.5 * best, &outcome);
+  ASSERT_EQ(outcome.step_fraction, 0.5);
+  const double change_um = 1.25 * Rms(problem.error_um, problem.used);
+  problem.signal_noise_um = 0.5 * change_um / kNegligibleChangeShare;
+  EXPECT_FALSE(DropNegligibleStep(problem, &step, &outcome));
+  EXPECT_TRUE(step.isApprox(1.25 * best));
+  problem.signal_noise_um = 2.0 * change_um / kNegligibleChangeShare;
+  EXPECT_TRUE(DropNegligibleStep(problem, &step, &outcome));
+  EXPECT_TRUE(step.isZero(0.0));
+  EXPECT_EQ(outcome.step_fraction, 0.0);
+  EXPECT_TRUE(outcome.improved);
+  EXPECT_FALSE(outcome.has_evaluation);
+  EXPECT_EQ(outcome.predicted_rms_um, outcome.current_rms_um);
+  // Without the filter's noise nothing is dropped.
+  SafeStepOutcome again;
+  step = ChooseSafeStep(CorrectionOptions(), problem, 2.5 * best, &again);
+  problem.signal_noise_um = 0.0;
+  EXPECT_FALSE(DropNegligibleStep(problem, &step, &again));
+  EXPECT_FALSE(step.isZero(0.0));
+}
+
 TEST(ChooseSafeStep, KeepsTheCurrentSettingsWhenNoFractionIsBetter) {
   const LinearModel model(13);
   const Eigen::VectorXd best = Eigen::VectorXd::Constant(5, 1e-3);
