@@ -228,6 +228,30 @@ TEST(Outliers, TheStateFitsOutliersLeaveTheCorrectionsPoints) {
   LoopMakingNoPartWorse(10, 149);
 }
 
+// No change while measured points have no contact on the model at the
+// linearisation point (safe_step.cc, MeasuredNotReachedRefusal). Seed 19,
+// scenario 66 (z 21, a 12.2 um tip relief, hidden A3 and the wheel's
+// parabola; noise unknown): in round 2 the model at the state reached none of
+// the measured tip row, orders 4-6 predicted 0.14 um and the part went 3.64 ->
+// 20.9 um. Now round 2 keeps the settings, and round 3, whose state reaches
+// the row, takes the part under 1 um. Seed 21, scenario 117 (a root relief,
+// hidden C3): 1.41 -> 5.84 um in round 2, now kept.
+TEST(SafeStep, KeepsTheSettingsWhileMeasuredPointsHaveNoContact) {
+  const bench::LoopRecord loop = LoopMakingNoPartWorse(19, 66);
+  EXPECT_EQ(loop.rounds[1].status, "no_safe_improvement");
+  EXPECT_LT(loop.part_rms_um.back(), 1.0);
+  LoopMakingNoPartWorse(21, 117);
+}
+
+// A kept fraction whose exact change is below a tenth of the noise is dropped
+// (safe_step.cc, DropNegligibleStep). Seed 8, scenario 40 (sigma 0.43 told):
+// half a step of 0.03 um predicted to gain 0.012 um moved a tip corner onto
+// the envelope's other sheet, 0.406 -> 27.1 um.
+TEST(SafeStep, DropsAKeptFractionTheMeasurementCouldNotSee) {
+  const bench::LoopRecord loop = LoopMakingNoPartWorse(8, 40);
+  EXPECT_LT(loop.part_rms_um.back(), 0.5);
+}
+
 // The plausible end (machine_state.h, PlausibleShare; safe_step.cc,
 // ModelsDisagree). Seed 7, scenario 168 (z 41, b = 19 mm, tip relief, helix
 // slope and end relief; hidden A1, A3, Z1, C0 and the wheel's parabola, the
