@@ -65,10 +65,29 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   const double model2 = kModelShareOfChange * kModelShareOfChange * change2;
   const double sd2 = std::sqrt(4.0 * (mean_variance / n + model2) * pred2 +
                                2.0 * mean_variance * mean_variance / n);
-  band.expected_true_rms_um = std::sqrt(expected2);
+  // The points the model grinds after the step that the prediction has no
+  // measurement of (unmeasured, outliers) count at the model's flank: the
+  // true part has them too.
+  std::vector<bool> measured(points, false);
+  for (int i : predicted) measured[i] = true;
+  double unmeasured2 = 0.0;
+  int unmeasured = 0;
+  for (int i = 0; i < points; ++i) {
+    if (measured[i] || !std::isfinite(result->predicted_change_um(i)) ||
+        !std::isfinite(problem.target_um(i)))
+      continue;
+    const double r =
+        result->predicted_change_um(i) + problem.d0()(i) - problem.target_um(i);
+    unmeasured2 += r * r;
+    ++unmeasured;
+  }
+  const double all = n + unmeasured;
+  const double all2 = (expected2 * n + unmeasured2) / all;
+  const double all_sd2 = sd2 * n / all;
+  band.expected_true_rms_um = std::sqrt(all2);
   for (int k = 1; k <= 2; ++k) {
-    band.true_rms_low_um[k - 1] = std::sqrt(std::max(0.0, expected2 - k * sd2));
-    band.true_rms_high_um[k - 1] = std::sqrt(expected2 + k * sd2);
+    band.true_rms_low_um[k - 1] = std::sqrt(std::max(0.0, all2 - k * all_sd2));
+    band.true_rms_high_um[k - 1] = std::sqrt(all2 + k * all_sd2);
   }
 }
 

@@ -19,6 +19,12 @@
 // own linear misfit (which also holds what the machine cannot reach: wider).
 // The model's own error (a wrong state estimate) enters only through k_m;
 // the robustness benchmark measures how often the achieved rms falls inside.
+// The points the model grinds after the step without a measurement the
+// prediction uses (unmeasured points, outliers) join the rms at the model's
+// flank, r = d(p + delta) - t, with no noise (mean square over N + M points,
+// the sd scaled by N / (N + M)): twenty seeds x 200 scenarios, 2-sigma
+// coverage 94.9-98.5 % per seed -> 95.7-98.7 % (seeds 18 and 19 94.9 ->
+// 96.1 and 95.9 %; seed 11 97.3 -> 96.8 %).
 //
 //   EstimatePredictionBand(problem, &result);  // after PredictExactly
 #ifndef GEARLOOP_ENGINE_CORRECTION_PREDICTION_BAND_H_
