@@ -377,6 +377,18 @@ TEST(FindGrossOutlier, FindsTwoAdjacentOutliersAtAnEdge) {
   EXPECT_TRUE(first == 3 * columns || first == 3 * columns + 1) << first;
 }
 
+// The prepared problem of `input` (expected to be valid).
+CorrectionProblem PreparedProblem(const CorrectionOptions& options,
+                                  const CorrectionInput& input) {
+  CorrectionProblem problem;
+  CorrectionSummary summary;
+  std::string error;
+  EXPECT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  return problem;
+}
+
 // Five outliers of ~29 um among 45 points (robustness benchmark, scenario
 // 27): the plain fit bent toward them and inflated the spread so that only one
 // was found; the robust fit finds all five and no other point.
@@ -399,26 +411,10 @@ TEST(RemoveGrossOutliers, FindsFiveOutliersThroughTheRobustFit) {
   input.target_um = Eigen::VectorXd::Zero(n);
   CorrectionOptions options;
   options.probe_noise_um = 0.37;
-  CorrectionProblem problem;
+  CorrectionProblem problem = PreparedProblem(options, input);
   CorrectionSummary summary;
-  std::string error;
-  ASSERT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
   RemoveGrossOutliers(options, &problem, &summary);
   EXPECT_EQ(summary.outlier_indices, spikes);
-}
-
-// The prepared problem of `input` (expected to be valid).
-CorrectionProblem PreparedProblem(const CorrectionOptions& options,
-                                  const CorrectionInput& input) {
-  CorrectionProblem problem;
-  CorrectionSummary summary;
-  std::string error;
-  EXPECT_TRUE(
-      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-      << error;
-  return problem;
 }
 
 // The outliers the state fit left out are reported with the test's own and
