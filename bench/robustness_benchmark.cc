@@ -12,12 +12,16 @@
 //       [--orders default|cubic|both] [--threads 1] [--json FILE] [--verbose]
 //       [--only I] [--bound-wheel] [--reach-iterations 300]
 //       [--fix BLOCK]... [--no-state] [--solver pso] [--compare pso]
+//       [--error-scale 1] [--noise-scale 1]
 //
 // --only I runs the flat-wheel scenario I alone, drawn as in the full run.
 // --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
 // --fix BLOCK (repeatable) fixes a parameter block in every configuration
 // (max_order[BLOCK] = -1); --no-state turns estimate_machine_state off. Both
 // are for studies; the figures in BENCHMARKS.md use neither.
+// --error-scale F and --noise-scale F multiply every hidden error's size and
+// the probe noise (bench/robustness_scenarios.h, StressOptions): a stress
+// study outside the shop ranges, the scenarios otherwise drawn as without.
 // --reach-iterations 1 skips most of the reference optimiser's work (its
 // figures are then meaningless) for a quick count of worse rounds (~25 s).
 //
@@ -816,7 +820,9 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"reached_after\": %d, \"max_linear_motion_mm\": %s, "
                "\"max_angular_motion_rad\": %s, "
                "\"motion_within_bounds\": %s, \"correction_size\": %s, "
-               "\"cpu_ms\": %s, \"worse\": %s}",
+               "\"cpu_ms\": %s, \"worse\": %s, "
+               "\"expected_true_rms_um\": %s, \"band_1sigma_um\": [%s, %s], "
+               "\"band_2sigma_um\": [%s, %s]}",
                first ? "" : ", ",
                JsonNum(x.rms_before_um).c_str(),
                JsonNum(x.rms_after_um).c_str(),
@@ -831,7 +837,12 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                x.motion_within_bounds ? "true" : "false",
                JsonNum(x.correction_size).c_str(),
                JsonNum(x.cpu_ms).c_str(),
-               x.worse ? "true" : "false");
+               x.worse ? "true" : "false",
+               JsonNum(x.expected_true_rms_um).c_str(),
+               JsonNum(x.band_low_um[0]).c_str(),
+               JsonNum(x.band_high_um[0]).c_str(),
+               JsonNum(x.band_low_um[1]).c_str(),
+               JsonNum(x.band_high_um[1]).c_str());
 }
 
 // One scenario under configuration k: its parts, rounds and reference.
@@ -906,6 +917,7 @@ struct Args {
        no_signal_filter = false;
   std::vector<std::string> fixed_blocks, freed_blocks, reference_fixed;
   double min_flank_effect = -1.0;
+  bench::StressOptions stress;
   int iterations = -1;
   int reach_iterations = bench::ReachOptions().max_iterations;
 };
@@ -948,6 +960,10 @@ bool ParseArgs(int argc, char** argv, Args* a) {
       a->min_flank_effect = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--iterations") == 0 && has_value) {
       a->iterations = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--error-scale") == 0 && has_value) {
+      a->stress.error_scale = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--noise-scale") == 0 && has_value) {
+      a->stress.noise_scale = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       a->bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -957,7 +973,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
                    "usage: robustness_benchmark [--scenarios N] [--bevel N] "
                    "[--seed S] [--orders default|cubic|both] "
                    "[--solver NAME] [--compare NAME] "
-                   "[--threads N] [--json FILE] [--verbose] [--only I]\n");
+                   "[--threads N] [--json FILE] [--verbose] [--only I] "
+                   "[--error-scale F] [--noise-scale F]\n");
       return false;
     }
   }
@@ -1030,8 +1047,9 @@ std::vector<ScenarioOutcome> RunJobs(
   auto work = [&]() {
     for (int i = next++; i < total; i = next++) {
       const Scenario s =
-          jobs[i].first ? bench::DrawBevelScenario(a.seed, jobs[i].second)
-                        : bench::DrawGrinderScenario(a.seed, jobs[i].second);
+          jobs[i].first
+              ? bench::DrawBevelScenario(a.seed, jobs[i].second, a.stress)
+              : bench::DrawGrinderScenario(a.seed, jobs[i].second, a.stress);
       outcomes[i] = RunScenario(s,
                                 configs,
                                 a.seed,
@@ -1071,11 +1089,12 @@ int main(int argc, char** argv) {
   Args a;
   if (!ParseArgs(argc, argv, &a)) return 2;
   if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
+      !(a.stress.error_scale > 0.0) || !(a.stress.noise_scale > 0.0) ||
       (a.orders != "default" && a.orders != "all" && a.orders != "cubic" &&
        a.orders != "both")) {
     std::fprintf(stderr,
-                 "robustness_benchmark: bad --scenarios, --bevel, --threads or "
-                 "--orders\n");
+                 "robustness_benchmark: bad --scenarios, --bevel, --threads, "
+                 "--orders, --error-scale or --noise-scale\n");
     return 2;
   }
   std::vector<Config> configs;
@@ -1101,6 +1120,13 @@ int main(int argc, char** argv) {
       a.scenarios,
       a.bevel,
       kRounds);
+  if (a.stress.error_scale != 1.0 || a.stress.noise_scale != 1.0) {
+    std::printf(
+        "Stress study: every hidden error x %g, probe noise x %g (outside the "
+        "shop ranges below)\n\n",
+        a.stress.error_scale,
+        a.stress.noise_scale);
+  }
   PrintDistribution(outcomes);
   std::printf(
       "A round is worse when the next part's true rms exceeds the current "

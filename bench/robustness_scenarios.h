@@ -133,6 +133,15 @@ struct Scenario {
   std::string Describe() const;
 };
 
+// Draws outside the shop ranges above, to see how the correction holds up on
+// machines and probes worse than the benchmark's: every hidden error's size
+// (axis terms, cone, parabola depth) and the probe noise multiplied. 1 and 1
+// are the benchmark; the draws' random streams do not change with them.
+struct StressOptions {
+  double error_scale = 1.0;
+  double noise_scale = 1.0;
+};
+
 namespace internal {
 
 inline std::uint64_t MixSeed(std::uint64_t a, std::uint64_t b) {
@@ -198,6 +207,7 @@ inline void DrawHiddenErrors(Draw* d,
                              double roll_min,
                              double roll_max,
                              double wheel_depth_mm,
+                             double error_scale,
                              Scenario* s) {
   const std::vector<ParameterBlock> blocks = model.ParameterBlocks();
   std::vector<int> axes;
@@ -216,8 +226,9 @@ inline void DrawHiddenErrors(Draw* d,
       term.block = b.name;
       term.order = std::min(DrawOrder(d), b.num_coefficients - 1);
       const bool linear = b.unit == "mm";
-      term.size = d->Sign() * (linear ? d->LogUniform(1.0, 10.0)
-                                      : d->LogUniform(2.0, 20.0));
+      term.size =
+          error_scale * d->Sign() *
+          (linear ? d->LogUniform(1.0, 10.0) : d->LogUniform(2.0, 20.0));
       AddAxisTerm(blocks,
                   axes[pick],
                   term.order,
@@ -228,11 +239,11 @@ inline void DrawHiddenErrors(Draw* d,
                   &s->hidden_errors);
     } else if (pick == static_cast<int>(axes.size())) {
       term.block = "cone_angle";
-      term.size = d->Sign() * d->LogUniform(20.0, 200.0);
+      term.size = error_scale * d->Sign() * d->LogUniform(20.0, 200.0);
       s->hidden_errors(kConeAngleIndex) += term.size * 1e-6;
     } else {
       term.block = "parabola";
-      term.size = d->Sign() * d->LogUniform(1.0, 5.0);
+      term.size = error_scale * d->Sign() * d->LogUniform(1.0, 5.0);
       const double vertex_mm = d->Uniform(0.0, 0.5 * wheel_depth_mm);
       const double reach_mm = wheel_depth_mm - vertex_mm;
       s->hidden_errors(kParabolaCoefficientIndex) +=
@@ -243,8 +254,11 @@ inline void DrawHiddenErrors(Draw* d,
   }
 }
 
-inline void DrawMeasurement(Draw* d, std::uint64_t seed, Scenario* s) {
-  s->probe_noise_um = d->Uniform(0.1, 0.5);
+inline void DrawMeasurement(Draw* d,
+                            std::uint64_t seed,
+                            double noise_scale,
+                            Scenario* s) {
+  s->probe_noise_um = noise_scale * d->Uniform(0.1, 0.5);
   s->noise_told = d->Chance(0.5);
   s->measurement.probe_noise_um = s->probe_noise_um;
   s->measurement.seed = seed;
@@ -342,7 +356,9 @@ inline Eigen::VectorXd DrawUserGrid(Draw* d, const TargetCoordinates& c) {
 }  // namespace internal
 
 // The flat-wheel scenario `index` of the benchmark seeded with `base_seed`.
-inline Scenario DrawGrinderScenario(std::uint64_t base_seed, int index) {
+inline Scenario DrawGrinderScenario(std::uint64_t base_seed,
+                                    int index,
+                                    const StressOptions& stress = {}) {
   using internal::Draw;
   for (int attempt = 0;; ++attempt) {
     Scenario s;
@@ -393,8 +409,13 @@ inline Scenario DrawGrinderScenario(std::uint64_t base_seed, int index) {
     const double depth_mm = (g.tip_radius_mm - g.root_radius_mm) /
                             std::cos(g.normal_pressure_angle_rad);
     Draw hd(hidden_seed);
-    internal::DrawHiddenErrors(
-        &hd, *grinder, s.roll_min_rad, s.roll_max_rad, depth_mm, &s);
+    internal::DrawHiddenErrors(&hd,
+                               *grinder,
+                               s.roll_min_rad,
+                               s.roll_max_rad,
+                               depth_mm,
+                               stress.error_scale,
+                               &s);
     Draw td(target_seed);
     s.user_grid = td.Chance(1.0 / 7.0);
     if (s.user_grid) {
@@ -406,14 +427,16 @@ inline Scenario DrawGrinderScenario(std::uint64_t base_seed, int index) {
           s.target_kinds, grinder->grid(), g, s.setup.flank);
     }
     Draw pd(probe_seed);
-    internal::DrawMeasurement(&pd, pd.Seed(), &s);
+    internal::DrawMeasurement(&pd, pd.Seed(), stress.noise_scale, &s);
     return s;
   }
 }
 
 // The bevel scenario `index`: the published pinion (0 convex, 1 concave), then
 // perturbed variants.
-inline Scenario DrawBevelScenario(std::uint64_t base_seed, int index) {
+inline Scenario DrawBevelScenario(std::uint64_t base_seed,
+                                  int index,
+                                  const StressOptions& stress = {}) {
   using internal::Draw;
   for (int attempt = 0;; ++attempt) {
     Scenario s;
@@ -459,10 +482,15 @@ inline Scenario DrawBevelScenario(std::uint64_t base_seed, int index) {
     s.initial_parameters = conversion.motion.ToVector();
     s.target_um = Eigen::VectorXd::Zero(generator->NumPoints());
     Draw hd(hidden_seed);
-    internal::DrawHiddenErrors(
-        &hd, *generator, s.roll_min_rad, s.roll_max_rad, 0.0, &s);
+    internal::DrawHiddenErrors(&hd,
+                               *generator,
+                               s.roll_min_rad,
+                               s.roll_max_rad,
+                               0.0,
+                               stress.error_scale,
+                               &s);
     Draw pd(probe_seed);
-    internal::DrawMeasurement(&pd, pd.Seed(), &s);
+    internal::DrawMeasurement(&pd, pd.Seed(), stress.noise_scale, &s);
     return s;
   }
 }

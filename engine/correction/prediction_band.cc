@@ -25,6 +25,66 @@ double BandNoiseSigma(const CorrectionProblem& problem,
   return 0.0;
 }
 
+namespace {
+
+// The next part's mean square true residual as the model at the commanded
+// settings predicts it after the step (problem linearised at an estimated
+// state): on the `predicted` points e + the change there (the state's
+// prediction where the commanded model has no contact before or after), less
+// `noise_bias2`; on the other points it grinds after the step, its flank. The
+// sd of that mean square is `sd2_times_n` over the points counted. False
+// when linearised at the commanded settings (nothing else to say).
+bool CommandedEndPrediction(const CorrectionProblem& problem,
+                            const CorrectionResult& result,
+                            const std::vector<int>& predicted,
+                            double noise_bias2,
+                            double sd2_times_n,
+                            double* all2,
+                            double* sd2) {
+  if (problem.commanded_parameters.size() != problem.parameters.size() ||
+      problem.commanded_parameters == problem.parameters ||
+      problem.commanded_status.size() !=
+          static_cast<size_t>(problem.num_points))
+    return false;
+  ModelEvaluation after;
+  const bool moved = !result.delta.isZero(0.0);
+  if (moved)
+    problem.model->Evaluate(
+        problem.commanded_parameters + result.delta, false, &after);
+  const Eigen::VectorXd& after_um =
+      moved ? after.deviations_um : problem.commanded_deviations_um;
+  const std::vector<PointStatus>& after_status =
+      moved ? after.status : problem.commanded_status;
+  std::vector<bool> measured(problem.num_points, false);
+  double measured2 = 0.0;
+  for (int i : predicted) {
+    measured[i] = true;
+    double r = result.predicted_residual_um(i);
+    if (problem.commanded_status[i] == PointStatus::kOk &&
+        after_status[i] == PointStatus::kOk)
+      r = problem.error_um(i) + after_um(i) -
+          problem.commanded_deviations_um(i);
+    measured2 += r * r;
+  }
+  const double n = static_cast<double>(predicted.size());
+  double others2 = 0.0;
+  int others = 0;
+  for (int i = 0; i < problem.num_points; ++i) {
+    if (measured[i] || after_status[i] != PointStatus::kOk ||
+        !std::isfinite(problem.target_um(i)))
+      continue;
+    const double r = after_um(i) - problem.target_um(i);
+    others2 += r * r;
+    ++others;
+  }
+  const double all = n + others;
+  *all2 = (std::max(0.0, measured2 / n - noise_bias2) * n + others2) / all;
+  *sd2 = sd2_times_n / all;
+  return true;
+}
+
+}  // namespace
+
 void EstimatePredictionBand(const CorrectionProblem& problem,
                             CorrectionResult* result) {
   CorrectionSummary& summary = result->summary;
@@ -85,9 +145,31 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   const double all2 = (expected2 * n + unmeasured2) / all;
   const double all_sd2 = sd2 * n / all;
   band.expected_true_rms_um = std::sqrt(all2);
+  double low2[2], high2[2];
   for (int k = 1; k <= 2; ++k) {
-    band.true_rms_low_um[k - 1] = std::sqrt(std::max(0.0, all2 - k * all_sd2));
-    band.true_rms_high_um[k - 1] = std::sqrt(all2 + k * all_sd2);
+    low2[k - 1] = std::max(0.0, all2 - k * all_sd2);
+    high2[k - 1] = all2 + k * all_sd2;
+  }
+  // Linearised at an estimated state: the same step on the model at the
+  // commanded settings, the other end of what the machine may be running,
+  // predicts the part too; the band reaches over both.
+  double commanded_all2 = 0.0, commanded_sd2 = 0.0;
+  if (CommandedEndPrediction(problem,
+                             *result,
+                             predicted,
+                             mean_variance * (1.0 - 2.0 * dof / n),
+                             sd2 * n,
+                             &commanded_all2,
+                             &commanded_sd2)) {
+    for (int k = 1; k <= 2; ++k) {
+      low2[k - 1] = std::min(low2[k - 1],
+                             std::max(0.0, commanded_all2 - k * commanded_sd2));
+      high2[k - 1] = std::max(high2[k - 1], commanded_all2 + k * commanded_sd2);
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    band.true_rms_low_um[k] = std::sqrt(low2[k]);
+    band.true_rms_high_um[k] = std::sqrt(high2[k]);
   }
 }
 

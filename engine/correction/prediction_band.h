@@ -25,6 +25,12 @@
 // the sd scaled by N / (N + M)): twenty seeds x 200 scenarios, 2-sigma
 // coverage 94.9-98.5 % per seed -> 95.7-98.7 % (seeds 18 and 19 94.9 ->
 // 96.1 and 95.9 %; seed 11 97.3 -> 96.8 %).
+// Linearised at an estimated machine state, the model at the commanded
+// settings (the other end of what the machine may be running) predicts the
+// same step too: e + its change on the measured points, its flank on the
+// others it grinds after the step. The band reaches over both predictions
+// (low the lower, high the higher of the two, each with the same sd); the
+// expected value stays the state's. BENCHMARKS.md, "The band over both ends".
 //
 //   EstimatePredictionBand(problem, &result);  // after PredictExactly
 #ifndef GEARLOOP_ENGINE_CORRECTION_PREDICTION_BAND_H_

@@ -17,6 +17,7 @@
 #include "engine/correction/legendre_coordinates.h"
 #include "engine/correction/machine_state.h"
 #include "engine/correction/outliers.h"
+#include "engine/correction/prediction_band.h"
 #include "engine/correction/problem.h"
 #include "engine/correction/regularisation.h"
 #include "engine/correction/rework_qp.h"
@@ -1357,6 +1358,66 @@ TEST(ChooseSafeStep, AsksTheCommandedSettingsOnlyOfOrdersAboveCubic) {
         ChooseSafeStep(options, at_state, step, &outcome);
     EXPECT_EQ(outcome.improved, !order_five) << "order 5: " << order_five;
     EXPECT_EQ(kept, order_five ? Eigen::VectorXd::Zero(step.size()) : step);
+  }
+}
+
+// The band at an estimated state (p0 = -3) reaches over what the model at the
+// commanded settings predicts for the same step: there the step changes the
+// flank by J delta, not -2 J delta, and leaves 3 J delta (5.9 um rms) where
+// the state predicts nothing left. The expected value stays the state's;
+// linearised at the commanded settings the band is the noise's alone.
+TEST(EstimatePredictionBand, ReachesOverTheCommandedSettingsPrediction) {
+  const ScaledAxisModel model;
+  Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
+  step(1) = 1e-3;
+  step(3) = -2e-3;
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(model.NumParameters());
+  state(0) = -3.0;
+  constexpr double kSigmaUm = 0.1;
+  for (const bool at_state : {true, false}) {
+    CorrectionProblem problem = SafeStepProblem(model, step);
+    if (at_state) problem = RelinearisedAt(problem, state);
+    problem.probe_noise_um = kSigmaUm;
+    // The part the step removes exactly on the model it is linearised at.
+    ModelEvaluation after;
+    model.Evaluate(problem.parameters + step, false, &after);
+    const Eigen::VectorXd change = after.deviations_um - problem.d0();
+    problem.error_um = -change;
+    CorrectionResult result;
+    result.delta = step;
+    result.predicted_change_um = change;
+    result.predicted_residual_um = problem.error_um + change;
+    result.summary.num_points_used = static_cast<int>(problem.used.size());
+    result.summary.effective_dof = 6.0;
+    result.summary.residual_rms_um = 0.0;
+    EstimatePredictionBand(problem, &result);
+    const PredictionBand& band = result.summary.prediction_band;
+    EXPECT_NEAR(band.expected_true_rms_um, 0.0, /*tol_um=*/1e-9);
+    // J step on the model at the commanded settings.
+    ModelEvaluation commanded, commanded_after;
+    model.Evaluate(
+        Eigen::VectorXd::Zero(model.NumParameters()), false, &commanded);
+    model.Evaluate(step, false, &commanded_after);
+    const Eigen::VectorXd commanded_change =
+        commanded_after.deviations_um - commanded.deviations_um;
+    const double left_um =
+        std::sqrt((problem.error_um + commanded_change).squaredNorm() /
+                  problem.num_points);
+    if (at_state) {
+      ASSERT_NEAR(
+          left_um,
+          3.0 * std::sqrt(commanded_change.squaredNorm() / problem.num_points),
+          1e-9);
+      EXPECT_GT(left_um, 10.0 * kSigmaUm);
+      // Less the probe noise the measured rms holds (stated, though this
+      // measurement has none).
+      EXPECT_GE(band.true_rms_high_um[1],
+                std::sqrt(left_um * left_um - kSigmaUm * kSigmaUm));
+      EXPECT_EQ(band.true_rms_low_um[1], 0.0);
+    } else {
+      EXPECT_NEAR(left_um, 0.0, 1e-9);
+      EXPECT_LT(band.true_rms_high_um[1], 2.0 * kSigmaUm);
+    }
   }
 }
 
