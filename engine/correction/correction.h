@@ -470,6 +470,10 @@ struct CorrectionSummary {
   double step_fraction = 1.0;
   double safe_step_current_rms_um = 0.0;
   double safe_step_predicted_rms_um = 0.0;
+  // Where a fraction below 1 was kept: why the whole (bounded) change was not
+  // (a test it failed, or its exact prediction); "" when it was kept whole or
+  // nothing was kept (then the message says why).
+  std::string safe_step_shortened;
 
   // The orders used (order_choice.cc, CorrectWithOrderChoice; regularised
   // solver): when the options free an axis order above 3, the correction is

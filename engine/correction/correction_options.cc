@@ -171,6 +171,8 @@ std::string CorrectionSummary::BriefReport() const {
       out << ", safe step: motion x" << motion_scale << ", fraction "
           << step_fraction << " (exact rms " << safe_step_current_rms_um
           << " -> " << safe_step_predicted_rms_um << ")";
+      if (!safe_step_shortened.empty())
+        out << "; the whole change " << safe_step_shortened;
     }
     const PredictionBand& band = prediction_band;
     out << ", next part true rms " << band.expected_true_rms_um

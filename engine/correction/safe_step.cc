@@ -214,8 +214,11 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
   for (int i : problem.used) {
     if (problem.commanded_status[i] != PointStatus::kOk) continue;
     if (nearing[i] && end.after->status[i] != PointStatus::kOk)
-      return "takes a measured point near the wheel's edge and loses it at "
-             "the commanded settings";
+      return end.after == &after
+                 ? "takes a measured point near the wheel's edge and loses it "
+                   "at the commanded settings"
+                 : "takes a measured point near the wheel's edge and loses it "
+                   "at the plausible end toward the commanded settings";
     if (after.status[i] != PointStatus::kOk) {
       lost_at_commanded_end = true;
       continue;
@@ -460,6 +463,7 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
         robust_gain_um2 > 0.0) {
       outcome->step_fraction = alpha;
       outcome->has_evaluation = true;
+      outcome->shortened = whole;
       return alpha * delta;
     }
     if (halving == 0) {

@@ -62,6 +62,7 @@ struct SafeStepOutcome {
   double predicted_rms_um = 0.0;  // exact, at the linearisation point
   bool improved = true;           // false: no fraction was safe
   std::string message;            // why not, when !improved
+  std::string shortened;  // why not the whole change, when 0 < fraction < 1
   // The model at p + the kept step (when one was kept: improved and a step
   // evaluated), for the exact prediction to reuse.
   bool has_evaluation = false;

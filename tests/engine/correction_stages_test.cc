@@ -875,6 +875,9 @@ TEST(ChooseSafeStep, HalvesAnOvershootUntilThePartIsPredictedBetter) {
               0.25 * outcome.current_rms_um,
               /*tol_um=*/1e-9);
   EXPECT_TRUE(step.isApprox(1.25 * best));
+  // The answer says why not the whole change.
+  EXPECT_EQ(outcome.shortened.rfind("is predicted no better (rms ", 0), 0u)
+      << outcome.shortened;
 }
 
 // A kept fraction whose exact change is below a tenth of the filter's noise

@@ -304,6 +304,10 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   }
   EXPECT_EQ(result["settings"]["axes"]["X"].size(), 7u);
   EXPECT_EQ(result["predicted_residual_um"].size(), 5u);
+  // Why the safe step kept less than the whole change ("" when it did not).
+  const double fraction = result["safe_step"]["step_fraction"];
+  EXPECT_EQ(result["safe_step"]["shortened_because"].get<std::string>().empty(),
+            !(fraction > 0.0 && fraction < 1.0));
   EXPECT_TRUE(result["status"] == "converged" ||
               result["status"] == "not_converged");
   EXPECT_EQ(result["solver"], "regularised");
