@@ -331,6 +331,7 @@
       ["measured rms / max", P.fmt(r.initial_rms_um, 3) + " / " + P.fmt(r.initial_max_um, 3) + " \u00b5m"],
       ["predicted residual rms / max", P.fmt(r.residual_rms_um, 3) + " / " + P.fmt(r.residual_max_um, 3) + " \u00b5m"],
       ["best reachable rms", P.fmt(r.best_reachable_rms_um, 3) + " \u00b5m"],
+      ...P.nextPartRows(r),
     ];
     if (v) rows.push(["verdict measured", part(v.measured)], ["verdict predicted", part(v.predicted)]);
     const table = P.html("table", { class: "summary answer", "data-job-id": created.id });

@@ -397,6 +397,26 @@
     ];
   }
 
+  // How sure the prediction is (the answer's prediction_band) and, where the safe step kept less
+  // than the whole change, how much and why; nothing for a job stored before them.
+  function nextPartRows(r) {
+    const rows = [];
+    const b = (r || {}).prediction_band;
+    if (b && isNum(b.expected_true_rms_um)) {
+      const band = b.true_rms_2sigma_um || [];
+      rows.push([
+        "next part true rms (2\u03c3 band)",
+        fmt(b.expected_true_rms_um, 3) + " \u00b5m (" + fmt(band[0], 3) + " \u2013 " + fmt(band[1], 3) + " \u00b5m; noise " +
+          fmt(b.noise_sigma_um, 3) + " \u00b5m " + (b.noise_stated ? "stated" : "estimated") + ")",
+      ]);
+    }
+    const s = (r || {}).safe_step;
+    if (s && s.shortened_because) {
+      rows.push(["safe step", "kept " + String(s.step_fraction) + " of the change: the whole change " + s.shortened_because]);
+    }
+    return rows;
+  }
+
   // What the exact-model search did and, when it ran, its two exact predictions; "\u2013" for a
   // job stored before it (or a solver without it).
   function exactSearchRows(search) {
@@ -428,6 +448,7 @@
       ["measured rms / max", fmt(r.initial_rms_um, 3) + " / " + fmt(r.initial_max_um, 3) + " \u00b5m"],
       ["predicted residual rms / max", fmt(r.residual_rms_um, 3) + " / " + fmt(r.residual_max_um, 3) + " \u00b5m"],
       ["best reachable rms", fmt(r.best_reachable_rms_um, 3) + " \u00b5m"],
+      ...nextPartRows(r),
       ["solver, mode", (r.solver || "\u2013") + ", " + (r.mode || "\u2013")],
       ["rank, condition", (r.rank === undefined ? "\u2013" : r.rank) + ", " + fmt(r.condition_number, 1)],
       ["regularisation", r.regularisation ? r.regularisation.rule + " " + fmt(r.regularisation.level, 4) : "\u2013"],
@@ -829,5 +850,5 @@
     return section;
   }
 
-  global.GearloopPlots = { isBevel, isSplitTrajectory, renderSplitTrajectory, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, renderShaving, measuredGrid, targetGrid, html, svg, fmt, colour };
+  global.GearloopPlots = { isBevel, isSplitTrajectory, renderSplitTrajectory, heatmap, lineChart, axisCurves, axisMotionTable, isoTable, convergence, renderJob, renderShaving, measuredGrid, targetGrid, nextPartRows, html, svg, fmt, colour };
 })(window);

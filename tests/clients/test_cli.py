@@ -101,6 +101,8 @@ class CliTest(unittest.TestCase):
         self.assertIn(human.returncode, (0, 5), human.stderr)
         self.assertIn("predicted residual", human.stdout)
         self.assertIn("row 5 tip", human.stdout)
+        # How sure the prediction is: the expected true rms and its 2-sigma band.
+        self.assertRegex(human.stdout, r"next part true rms   [0-9.]+ um, 2 sigma [0-9.]+\.\.[0-9.]+ um \(noise [0-9.]+ um (stated|estimated)\)")
 
     def test_submit_several_teeth_shows_their_mean(self) -> None:
         data = Path(__file__).resolve().parent / "data"

@@ -273,6 +273,13 @@ async function main() {
       answerRows["status"] === again.status + (again.result.message ? " \u2014 " + again.result.message : "") && answerRows["predicted residual rms / max"] === again.result.residual_rms_um.toFixed(3) + " / " + again.result.residual_max_um.toFixed(3) + " \u00b5m",
       JSON.stringify(answerRows)
     );
+    const band = again.result.prediction_band;
+    check(
+      "new correction: how sure its prediction is",
+      answerRows["next part true rms (2\u03c3 band)"] ===
+        band.expected_true_rms_um.toFixed(3) + " \u00b5m (" + band.true_rms_2sigma_um[0].toFixed(3) + " \u2013 " + band.true_rms_2sigma_um[1].toFixed(3) + " \u00b5m; noise " + band.noise_sigma_um.toFixed(3) + " \u00b5m " + (band.noise_stated ? "stated" : "estimated") + ")",
+      JSON.stringify(answerRows)
+    );
     check("new correction in the history", (await page.$$("#jobs tbody tr[data-job-id='" + againId + "']")).length === 1 && (await page.getAttribute("body", "data-job-shown")) === String(job.id));
     await page.screenshot({ path: path.join(outDir, "dashboard-new-correction.png"), fullPage: true });
 
