@@ -169,14 +169,17 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
   const Eigen::VectorXd linear = problem.error_um + problem.jacobian_um * delta;
   const double threshold =
       kSearchNoiseShare * problem.signal_noise_um + kSearchNoiseMarginUm;
-  if (Rms(linear, problem.used) <= threshold) {
-    summary->exact_search = "not run: the answer is near the noise";
+  const double linear_rms_um = Rms(linear, problem.used);
+  if (linear_rms_um <= threshold) {
+    summary->exact_search = "not run: the linear answer leaves " +
+                            FormatUm(linear_rms_um) + " um, near the noise";
     return delta;
   }
   const double before = ExactRms(problem, delta);
   summary->exact_search_before_rms_um = before;
   if (std::isfinite(before) && before <= threshold) {
-    summary->exact_search = "not run: the answer is near the noise";
+    summary->exact_search = "not run: the exact answer leaves " +
+                            FormatUm(before) + " um, near the noise";
     return delta;
   }
   const int rank = ls.svd.rank;
