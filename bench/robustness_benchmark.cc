@@ -347,7 +347,8 @@ struct Summary {
       motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
   std::vector<std::string> worse_list;
   std::vector<double> ratio, cpu, achieved_over_predicted,
-      achieved_over_expected, best, final_rms, initial, max_linear, max_angular;
+      achieved_over_expected, best, final_rms, initial, max_linear, max_angular,
+      band_width;  // 2-sigma band high - low [um] of the banded rounds
 };
 
 Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
@@ -391,6 +392,7 @@ Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
         if (round.band_high_um[1] > 0.0 &&
             round.reached_after >= round.reached_before) {
           ++s.banded;
+          s.band_width.push_back(round.band_high_um[1] - round.band_low_um[1]);
           for (int k = 0; k < 2; ++k)
             s.in_band[k] += round.rms_after_um >= round.band_low_um[k] &&
                             round.rms_after_um <= round.band_high_um[k];
@@ -458,6 +460,12 @@ void PrintSummary(const Summary& s, const std::string& title) {
       Num(100.0 * s.in_band[0] / std::max(s.banded, 1), "%.1f").c_str(),
       Num(100.0 * s.in_band[1] / std::max(s.banded, 1), "%.1f").c_str(),
       s.banded);
+  // How much the band says: a band wide enough covers anything.
+  std::printf(
+      "| 2-sigma band width (high - low) per round, median (90th) | %s (%s) um "
+      "|\n",
+      Num(Quantile(s.band_width, 0.5)).c_str(),
+      Num(Quantile(s.band_width, 0.9)).c_str());
   std::printf(
       "| achieved / expected true rms per round, median (10th..90th) | %s "
       "(%s..%s) |\n",
@@ -785,30 +793,40 @@ void WriteSummaryJson(FILE* f,
                       size_t k,
                       bool bevel) {
   const Summary s = Summarise(outcomes, k, bevel);
-  std::fprintf(f,
-               "%s\"%s\": {\"scenarios\": %d, \"rounds\": %d, "
-               "\"worse_rounds\": %d, \"unusable\": %d, "
-               "\"lost_points\": %d, \"motion_violations\": %d, "
-               "\"within_1_2_best_plus_noise\": %d, "
-               "\"ratio_median\": %s, \"ratio_p90\": %s, \"ratio_worst\": "
-               "%s, \"coverage_2sigma\": null, "
-               "\"achieved_over_predicted_median\": %s, \"cpu_ms_median\": "
-               "%s, \"cpu_ms_p90\": %s}",
-               bevel ? ", " : "",
-               bevel ? "bevel" : "grinder",
-               s.scenarios,
-               s.rounds,
-               s.worse,
-               s.unusable,
-               s.lost_points,
-               s.motion_violations,
-               s.within,
-               JsonNum(Quantile(s.ratio, 0.5)).c_str(),
-               JsonNum(Quantile(s.ratio, 0.9)).c_str(),
-               JsonNum(Quantile(s.ratio, 1.0)).c_str(),
-               JsonNum(Quantile(s.achieved_over_predicted, 0.5)).c_str(),
-               JsonNum(Quantile(s.cpu, 0.5)).c_str(),
-               JsonNum(Quantile(s.cpu, 0.9)).c_str());
+  std::fprintf(
+      f,
+      "%s\"%s\": {\"scenarios\": %d, \"rounds\": %d, "
+      "\"worse_rounds\": %d, \"unusable\": %d, "
+      "\"lost_points\": %d, \"motion_violations\": %d, "
+      "\"within_1_2_best_plus_noise\": %d, "
+      "\"ratio_median\": %s, \"ratio_p90\": %s, \"ratio_worst\": "
+      "%s, \"banded_rounds\": %d, \"coverage_1sigma\": %s, "
+      "\"coverage_2sigma\": %s, \"band_width_2sigma_median_um\": %s, "
+      "\"band_width_2sigma_p90_um\": %s, "
+      "\"achieved_over_predicted_median\": %s, \"cpu_ms_median\": "
+      "%s, \"cpu_ms_p90\": %s}",
+      bevel ? ", " : "",
+      bevel ? "bevel" : "grinder",
+      s.scenarios,
+      s.rounds,
+      s.worse,
+      s.unusable,
+      s.lost_points,
+      s.motion_violations,
+      s.within,
+      JsonNum(Quantile(s.ratio, 0.5)).c_str(),
+      JsonNum(Quantile(s.ratio, 0.9)).c_str(),
+      JsonNum(Quantile(s.ratio, 1.0)).c_str(),
+      s.banded,
+      JsonNum(s.banded > 0 ? static_cast<double>(s.in_band[0]) / s.banded : NAN)
+          .c_str(),
+      JsonNum(s.banded > 0 ? static_cast<double>(s.in_band[1]) / s.banded : NAN)
+          .c_str(),
+      JsonNum(Quantile(s.band_width, 0.5)).c_str(),
+      JsonNum(Quantile(s.band_width, 0.9)).c_str(),
+      JsonNum(Quantile(s.achieved_over_predicted, 0.5)).c_str(),
+      JsonNum(Quantile(s.cpu, 0.5)).c_str(),
+      JsonNum(Quantile(s.cpu, 0.9)).c_str());
 }
 
 void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
