@@ -27,6 +27,30 @@ double BandNoiseSigma(const CorrectionProblem& problem,
 
 namespace {
 
+// The mean square over every point the next part has: `measured2` (the mean
+// square over the n measured points) and, at the points not `measured` with
+// a target, r = flank_um(i) - t where the model grinds them (flank_um(i)
+// finite); the total count in `*all`.
+template <class Flank>
+double MeanSquareOverAll(const CorrectionProblem& problem,
+                         const std::vector<bool>& measured,
+                         double measured2,
+                         double n,
+                         Flank flank_um,
+                         double* all) {
+  double others2 = 0.0;
+  int others = 0;
+  for (int i = 0; i < problem.num_points; ++i) {
+    const double flank = measured[i] ? kNaN : flank_um(i);
+    if (!std::isfinite(flank) || !std::isfinite(problem.target_um(i))) continue;
+    const double r = flank - problem.target_um(i);
+    others2 += r * r;
+    ++others;
+  }
+  *all = n + others;
+  return (measured2 * n + others2) / *all;
+}
+
 // The next part's mean square true residual as the model at the commanded
 // settings predicts it after the step (problem linearised at an estimated
 // state): on the `predicted` points e + the change there (the state's
@@ -37,6 +61,7 @@ namespace {
 bool CommandedEndPrediction(const CorrectionProblem& problem,
                             const CorrectionResult& result,
                             const std::vector<int>& predicted,
+                            const std::vector<bool>& measured,
                             double noise_bias2,
                             double sd2_times_n,
                             double* all2,
@@ -55,10 +80,8 @@ bool CommandedEndPrediction(const CorrectionProblem& problem,
       moved ? after.deviations_um : problem.commanded_deviations_um;
   const std::vector<PointStatus>& after_status =
       moved ? after.status : problem.commanded_status;
-  std::vector<bool> measured(problem.num_points, false);
   double measured2 = 0.0;
   for (int i : predicted) {
-    measured[i] = true;
     double r = result.predicted_residual_um(i);
     if (problem.commanded_status[i] == PointStatus::kOk &&
         after_status[i] == PointStatus::kOk)
@@ -67,18 +90,16 @@ bool CommandedEndPrediction(const CorrectionProblem& problem,
     measured2 += r * r;
   }
   const double n = static_cast<double>(predicted.size());
-  double others2 = 0.0;
-  int others = 0;
-  for (int i = 0; i < problem.num_points; ++i) {
-    if (measured[i] || after_status[i] != PointStatus::kOk ||
-        !std::isfinite(problem.target_um(i)))
-      continue;
-    const double r = after_um(i) - problem.target_um(i);
-    others2 += r * r;
-    ++others;
-  }
-  const double all = n + others;
-  *all2 = (std::max(0.0, measured2 / n - noise_bias2) * n + others2) / all;
+  double all = 0.0;
+  *all2 = MeanSquareOverAll(
+      problem,
+      measured,
+      std::max(0.0, measured2 / n - noise_bias2),
+      n,
+      [&](int i) {
+        return after_status[i] == PointStatus::kOk ? after_um(i) : kNaN;
+      },
+      &all);
   *sd2 = sd2_times_n / all;
   return true;
 }
@@ -130,19 +151,14 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   // true part has them too.
   std::vector<bool> measured(points, false);
   for (int i : predicted) measured[i] = true;
-  double unmeasured2 = 0.0;
-  int unmeasured = 0;
-  for (int i = 0; i < points; ++i) {
-    if (measured[i] || !std::isfinite(result->predicted_change_um(i)) ||
-        !std::isfinite(problem.target_um(i)))
-      continue;
-    const double r =
-        result->predicted_change_um(i) + problem.d0()(i) - problem.target_um(i);
-    unmeasured2 += r * r;
-    ++unmeasured;
-  }
-  const double all = n + unmeasured;
-  const double all2 = (expected2 * n + unmeasured2) / all;
+  double all = 0.0;
+  const double all2 = MeanSquareOverAll(
+      problem,
+      measured,
+      expected2,
+      n,
+      [&](int i) { return result->predicted_change_um(i) + problem.d0()(i); },
+      &all);
   const double all_sd2 = sd2 * n / all;
   band.expected_true_rms_um = std::sqrt(all2);
   double low2[2], high2[2];
@@ -157,6 +173,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   if (CommandedEndPrediction(problem,
                              *result,
                              predicted,
+                             measured,
                              mean_variance * (1.0 - 2.0 * dof / n),
                              sd2 * n,
                              &commanded_all2,
