@@ -319,6 +319,34 @@ void PrintReach(const json& result) {
   }
 }
 
+// How sure the prediction is, and why the safe step kept less than the whole
+// change where it did (absent on jobs stored before them).
+void PrintPredictionBand(const json& result) {
+  const json band = result.value("prediction_band", json());
+  if (band.is_object() &&
+      band.value("expected_true_rms_um", json()).is_number()) {
+    const json two = band.value("true_rms_2sigma_um", json());
+    const bool pair = two.is_array() && two.size() == 2;
+    std::cout << "  next part true rms   "
+              << Fixed(band.value("expected_true_rms_um", json()))
+              << " um, 2 sigma " << Fixed(pair ? two[0] : json()) << ".."
+              << Fixed(pair ? two[1] : json()) << " um (noise "
+              << Fixed(band.value("noise_sigma_um", json())) << " um "
+              << (band.value("noise_stated", false) ? "stated" : "estimated")
+              << ")\n";
+  }
+  const json safe_step = result.value("safe_step", json());
+  const json shortened = safe_step.is_object()
+                             ? safe_step.value("shortened_because", json())
+                             : json();
+  if (shortened.is_string() && !shortened.get<std::string>().empty()) {
+    std::cout << "  safe step kept "
+              << Text(safe_step.value("step_fraction", json()))
+              << " of the change: the whole change "
+              << shortened.get<std::string>() << "\n";
+  }
+}
+
 void PrintCorrectionSummary(const json& answer) {
   const json& result =
       answer.contains("result") ? answer["result"] : json::object();
@@ -345,31 +373,7 @@ void PrintCorrectionSummary(const json& answer) {
             << Fixed(result.value("residual_max_um", json())) << " um\n"
             << "  best reachable       rms "
             << Fixed(result.value("best_reachable_rms_um", json())) << " um\n";
-  // How sure the prediction is, and why the safe step kept less than the
-  // whole change where it did (absent on jobs stored before them).
-  const json band = result.value("prediction_band", json());
-  if (band.is_object() &&
-      band.value("expected_true_rms_um", json()).is_number()) {
-    const json two = band.value("true_rms_2sigma_um", json());
-    const bool pair = two.is_array() && two.size() == 2;
-    std::cout << "  next part true rms   "
-              << Fixed(band.value("expected_true_rms_um", json()))
-              << " um, 2 sigma " << Fixed(pair ? two[0] : json()) << ".."
-              << Fixed(pair ? two[1] : json()) << " um (noise "
-              << Fixed(band.value("noise_sigma_um", json())) << " um "
-              << (band.value("noise_stated", false) ? "stated" : "estimated")
-              << ")\n";
-  }
-  const json safe_step = result.value("safe_step", json());
-  const json shortened = safe_step.is_object()
-                             ? safe_step.value("shortened_because", json())
-                             : json();
-  if (shortened.is_string() && !shortened.get<std::string>().empty()) {
-    std::cout << "  safe step kept "
-              << Text(safe_step.value("step_fraction", json()))
-              << " of the change: the whole change "
-              << shortened.get<std::string>() << "\n";
-  }
+  PrintPredictionBand(result);
   if (result.contains("iso1328") && result["iso1328"].is_object()) {
     // ISO 1328-1 overall class of the measured part (against the target)
     // and of the predicted next part.
