@@ -12,7 +12,7 @@
 //       [--orders default|cubic|both] [--threads 1] [--json FILE] [--verbose]
 //       [--only I] [--bound-wheel] [--reach-iterations 300]
 //       [--fix BLOCK]... [--no-state] [--solver pso] [--compare pso]
-//       [--error-scale 1] [--noise-scale 1]
+//       [--error-scale 1] [--noise-scale 1] [--told-noise-scale 1]
 //
 // --only I runs the flat-wheel scenario I alone, drawn as in the full run.
 // --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
@@ -22,6 +22,8 @@
 // --error-scale F and --noise-scale F multiply every hidden error's size and
 // the probe noise (bench/robustness_scenarios.h, StressOptions): a stress
 // study outside the shop ranges, the scenarios otherwise drawn as without.
+// --told-noise-scale F tells the solver F x the probe's sigma in the
+// scenarios whose noise is told (a shop stating its probe wrong).
 // --reach-iterations 1 skips most of the reference optimiser's work (its
 // figures are then meaningless) for a quick count of worse rounds (~25 s).
 //
@@ -840,7 +842,9 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"motion_within_bounds\": %s, \"correction_size\": %s, "
                "\"cpu_ms\": %s, \"worse\": %s, "
                "\"expected_true_rms_um\": %s, \"band_1sigma_um\": [%s, %s], "
-               "\"band_2sigma_um\": [%s, %s]}",
+               "\"band_2sigma_um\": [%s, %s], \"at_state\": %s, "
+               "\"motion_scale\": %s, \"step_fraction\": %s, "
+               "\"shortened_because\": %s}",
                first ? "" : ", ",
                JsonNum(x.rms_before_um).c_str(),
                JsonNum(x.rms_after_um).c_str(),
@@ -860,7 +864,11 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                JsonNum(x.band_low_um[0]).c_str(),
                JsonNum(x.band_high_um[0]).c_str(),
                JsonNum(x.band_low_um[1]).c_str(),
-               JsonNum(x.band_high_um[1]).c_str());
+               JsonNum(x.band_high_um[1]).c_str(),
+               x.at_state ? "true" : "false",
+               JsonNum(x.motion_scale).c_str(),
+               JsonNum(x.step_fraction).c_str(),
+               JsonString(x.shortened_because).c_str());
 }
 
 // One scenario under configuration k: its parts, rounds and reference.
@@ -982,6 +990,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
       a->stress.error_scale = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--noise-scale") == 0 && has_value) {
       a->stress.noise_scale = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--told-noise-scale") == 0 && has_value) {
+      a->stress.told_noise_scale = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--bound-wheel") == 0) {
       a->bound_wheel = true;
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
@@ -992,7 +1002,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
                    "[--seed S] [--orders default|cubic|both] "
                    "[--solver NAME] [--compare NAME] "
                    "[--threads N] [--json FILE] [--verbose] [--only I] "
-                   "[--error-scale F] [--noise-scale F]\n");
+                   "[--error-scale F] [--noise-scale F] "
+                   "[--told-noise-scale F]\n");
       return false;
     }
   }
@@ -1108,11 +1119,13 @@ int main(int argc, char** argv) {
   if (!ParseArgs(argc, argv, &a)) return 2;
   if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
       !(a.stress.error_scale > 0.0) || !(a.stress.noise_scale > 0.0) ||
+      !(a.stress.told_noise_scale > 0.0) ||
       (a.orders != "default" && a.orders != "all" && a.orders != "cubic" &&
        a.orders != "both")) {
     std::fprintf(stderr,
                  "robustness_benchmark: bad --scenarios, --bevel, --threads, "
-                 "--orders, --error-scale or --noise-scale\n");
+                 "--orders, --error-scale, --noise-scale or "
+                 "--told-noise-scale\n");
     return 2;
   }
   std::vector<Config> configs;
@@ -1138,12 +1151,15 @@ int main(int argc, char** argv) {
       a.scenarios,
       a.bevel,
       kRounds);
-  if (a.stress.error_scale != 1.0 || a.stress.noise_scale != 1.0) {
+  if (a.stress.error_scale != 1.0 || a.stress.noise_scale != 1.0 ||
+      a.stress.told_noise_scale != 1.0) {
     std::printf(
-        "Stress study: every hidden error x %g, probe noise x %g (outside the "
-        "shop ranges below)\n\n",
+        "Stress study: every hidden error x %g, probe noise x %g, noise told "
+        "to the solver x %g of the probe's (outside the shop ranges below)"
+        "\n\n",
         a.stress.error_scale,
-        a.stress.noise_scale);
+        a.stress.noise_scale,
+        a.stress.told_noise_scale);
   }
   PrintDistribution(outcomes);
   std::printf(

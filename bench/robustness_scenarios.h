@@ -129,17 +129,23 @@ struct Scenario {
   MeasurementSimulationOptions measurement;  // seed advanced by one per part
   double probe_noise_um = 0.0;               // sigma per tooth
   bool noise_told = false;
+  // What the solver is told where the noise is told: told_noise_scale x
+  // probe_noise_um (StressOptions; 1 in the benchmark).
+  double told_noise_scale = 1.0;
 
   std::string Describe() const;
 };
 
 // Draws outside the shop ranges above, to see how the correction holds up on
 // machines and probes worse than the benchmark's: every hidden error's size
-// (axis terms, cone, parabola depth) and the probe noise multiplied. 1 and 1
-// are the benchmark; the draws' random streams do not change with them.
+// (axis terms, cone, parabola depth) and the probe noise multiplied, and the
+// noise a shop states for its probe wrong by a factor (told_noise_scale: the
+// solver is told that times the probe's sigma where the noise is told). 1, 1
+// and 1 are the benchmark; the draws' random streams do not change with them.
 struct StressOptions {
   double error_scale = 1.0;
   double noise_scale = 1.0;
+  double told_noise_scale = 1.0;
 };
 
 namespace internal {
@@ -428,6 +434,7 @@ inline Scenario DrawGrinderScenario(std::uint64_t base_seed,
     }
     Draw pd(probe_seed);
     internal::DrawMeasurement(&pd, pd.Seed(), stress.noise_scale, &s);
+    s.told_noise_scale = stress.told_noise_scale;
     return s;
   }
 }
@@ -491,6 +498,7 @@ inline Scenario DrawBevelScenario(std::uint64_t base_seed,
                                &s);
     Draw pd(probe_seed);
     internal::DrawMeasurement(&pd, pd.Seed(), stress.noise_scale, &s);
+    s.told_noise_scale = stress.told_noise_scale;
     return s;
   }
 }
@@ -626,6 +634,12 @@ struct RoundRecord {
   std::string exact_search;
   double exact_search_before_rms_um = 0.0;
   double exact_search_after_rms_um = 0.0;
+  // The safe step (summary step_fraction, motion_scale, safe_step_shortened)
+  // and whether the solver linearised at an estimated machine state.
+  double step_fraction = 1.0;
+  double motion_scale = 1.0;
+  std::string shortened_because;
+  bool at_state = false;
 };
 
 struct LoopRecord {
@@ -669,7 +683,8 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
   LoopRecord loop;
   const MachineModel& model = *s.model;
   CorrectionOptions options = base_options;
-  options.probe_noise_um = s.noise_told ? s.probe_noise_um : -1.0;
+  options.probe_noise_um =
+      s.noise_told ? s.told_noise_scale * s.probe_noise_um : -1.0;
   Eigen::VectorXd commanded = s.initial_parameters;
   MeasurementSimulationOptions measurement = s.measurement;
   SimulatedMeasurement cmm =
@@ -708,6 +723,10 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
     round.exact_search_before_rms_um =
         result.summary.exact_search_before_rms_um;
     round.exact_search_after_rms_um = result.summary.exact_search_after_rms_um;
+    round.step_fraction = result.summary.step_fraction;
+    round.motion_scale = result.summary.motion_scale;
+    round.shortened_because = result.summary.safe_step_shortened;
+    round.at_state = result.summary.machine_state_estimated;
     if (round.usable) {
       MaxAxisMotion(model,
                     result.delta,
