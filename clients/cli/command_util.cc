@@ -332,8 +332,12 @@ void PrintPredictionBand(const json& result) {
               << " um, 2 sigma " << Fixed(pair ? two[0] : json()) << ".."
               << Fixed(pair ? two[1] : json()) << " um (noise "
               << Fixed(band.value("noise_sigma_um", json())) << " um "
-              << (band.value("noise_stated", false) ? "stated" : "estimated")
-              << ")\n";
+              << (band.value("noise_stated", false) ? "stated" : "estimated");
+    const json stated = band.value("stated_noise_um", json());
+    if (stated.is_number())
+      std::cout << " from the measurement's scatter; " << Fixed(stated)
+                << " um stated is contradicted";
+    std::cout << ")\n";
   }
   const json safe_step = result.value("safe_step", json());
   const json shortened = safe_step.is_object()

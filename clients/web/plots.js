@@ -407,7 +407,10 @@
       rows.push([
         "next part true rms (2\u03c3 band)",
         fmt(b.expected_true_rms_um, 3) + " \u00b5m (" + fmt(band[0], 3) + " \u2013 " + fmt(band[1], 3) + " \u00b5m; noise " +
-          fmt(b.noise_sigma_um, 3) + " \u00b5m " + (b.noise_stated ? "stated" : "estimated") + ")",
+          fmt(b.noise_sigma_um, 3) + " \u00b5m " + (b.noise_stated ? "stated" : "estimated") +
+          (isNum(b.stated_noise_um)
+            ? " from the measurement's scatter; " + fmt(b.stated_noise_um, 3) + " \u00b5m stated is contradicted"
+            : "") + ")",
       ]);
     }
     const s = (r || {}).safe_step;

@@ -74,30 +74,41 @@ void LeaveOutTheStateFitsOutliers(const CorrectionResult& state,
 // Step 0 and the correction at the estimated state; false when the state is
 // not used (then the correction is computed at the commanded parameters, with
 // the test's outcome and the noise the state fit estimated in `test` and
-// `noise_um`); the state fit itself in `state_fit`.
+// `noise_um`); the state fit itself in `state_fit`. A stated noise the state
+// fit's scatter contradicts is replaced in `*commanded`
+// (RaiseContradictedNoise) and the state refitted with the scatter.
 bool SolveAtMachineState(const CorrectionOptions& options,
-                         const CorrectionProblem& problem,
+                         CorrectionProblem* commanded,
                          CorrectionResult* result,
                          MachineStateTest* test,
                          double* noise_um,
                          CorrectionResult* state_fit) {
+  CorrectionProblem& problem = *commanded;
   CorrectionProblem state_problem;
   if (!MachineStateProblem(problem, &state_problem)) {
     test->reason = "no point for a state fit";
     return false;
   }
   *state_fit = SolveProblem(options, state_problem);
+  const bool raised =
+      RaiseContradictedNoise(*state_fit, &problem, &state_problem);
+  if (raised) {
+    *noise_um = problem.probe_noise_um;
+    *state_fit = SolveProblem(options, state_problem);
+  }
   const CorrectionResult& state = *state_fit;
   Eigen::VectorXd state_parameters;
   if (!AcceptMachineState(problem, state, &state_parameters)) {
     test->reason =
         "the state fit failed or loses a grid point the commanded settings "
         "reach";
+    if (raised) test->reason += "; " + ContradictedNoiseReason(problem);
     return false;
   }
   *noise_um = SignalNoise(problem, state.summary);
   *test = TestMachineState(options, problem, state_problem, state);
   test->fit_made = true;
+  if (raised) test->reason += "; " + ContradictedNoiseReason(problem);
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
   LeaveOutTheStateFitsOutliers(state, &at_state);
@@ -144,7 +155,7 @@ CorrectionResult Correct(const CorrectionOptions& options,
         problem.probe_noise_um >= 0.0 ? problem.probe_noise_um : 0.0;
     CorrectionResult state_fit;
     if (SolveAtMachineState(
-            options, problem, &result, &test, &noise_um, &state_fit))
+            options, &problem, &result, &test, &noise_um, &state_fit))
       return result;
     if (test.fit_made) LeaveOutTheStateFitsOutliers(state_fit, &problem);
     // At the commanded settings the filter follows only where the state fit

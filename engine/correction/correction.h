@@ -362,6 +362,11 @@ struct BlockCorrectionSize {
 struct PredictionBand {
   double noise_sigma_um = 0.0;
   bool noise_stated = false;
+  // The stated probe noise [um] where the measurement contradicted it (the
+  // machine-state fit's misfit scattered more than 1.5 times as much from
+  // point to point, machine_state.h RaiseContradictedNoise): noise_sigma_um
+  // is then that scatter and noise_stated false. NaN otherwise.
+  double stated_noise_um = std::numeric_limits<double>::quiet_NaN();
   double expected_true_rms_um = 0.0;
   double true_rms_low_um[2] = {0.0, 0.0};   // 1 sigma, 2 sigma
   double true_rms_high_um[2] = {0.0, 0.0};  // 1 sigma, 2 sigma

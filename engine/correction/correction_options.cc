@@ -178,7 +178,11 @@ std::string CorrectionSummary::BriefReport() const {
     out << ", next part true rms " << band.expected_true_rms_um
         << " um (2 sigma " << band.true_rms_low_um[1] << ".."
         << band.true_rms_high_um[1] << ", noise " << band.noise_sigma_um
-        << " um " << (band.noise_stated ? "stated" : "estimated") << ")";
+        << " um " << (band.noise_stated ? "stated" : "estimated");
+    if (std::isfinite(band.stated_noise_um))
+      out << " from the measurement's scatter; " << band.stated_noise_um
+          << " um stated is contradicted";
+    out << ")";
   }
   return out.str();
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 #include <string>
 
@@ -135,6 +136,57 @@ double PlausibleShare(const CorrectionProblem& state_problem,
           : noise_um > 0.0 && noise_um <= kStateNoiseCeilingUm;
   if (!fits) return 1.0;
   return std::min(1.0, std::sqrt(test.threshold / test.statistic));
+}
+
+double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
+                            const CorrectionResult& state) {
+  const Eigen::VectorXd& r = state.predicted_residual_um;
+  const int columns = state_problem.model->GridColumns();
+  const int rows = state_problem.model->GridRows();
+  if (r.size() != rows * columns || columns < 3) return kNaN;
+  std::vector<bool> usable(r.size(), false);
+  for (int i : state_problem.used) usable[i] = std::isfinite(r(i));
+  for (int i : state.summary.outlier_indices) usable[i] = false;
+  double sum = 0.0;
+  int count = 0;
+  for (int row = 0; row < rows; ++row) {
+    for (int c = 1; c + 1 < columns; ++c) {
+      const int i = row * columns + c;
+      if (!usable[i - 1] || !usable[i] || !usable[i + 1]) continue;
+      const double d = r(i - 1) - 2.0 * r(i) + r(i + 1);
+      sum += d * d;
+      ++count;
+    }
+  }
+  if (count < kScatterMinDifferences) return kNaN;
+  return std::sqrt(sum / (6.0 * count));
+}
+
+bool RaiseContradictedNoise(const CorrectionResult& state,
+                            CorrectionProblem* commanded,
+                            CorrectionProblem* state_problem) {
+  const double stated = state_problem->probe_noise_um;
+  if (!(stated > 0.0) || !state.summary.IsSolutionUsable()) return false;
+  const double scatter = ScatterOfStateMisfit(*state_problem, state);
+  if (!(scatter > kNoiseContradictedShare * stated)) return false;
+  commanded->stated_probe_noise_um = commanded->probe_noise_um;
+  commanded->probe_noise_um =
+      scatter * std::sqrt(commanded->mean_teeth_averaged);
+  state_problem->probe_noise_um = scatter;
+  return true;
+}
+
+std::string ContradictedNoiseReason(const CorrectionProblem& commanded) {
+  std::ostringstream out;
+  out << std::setprecision(3) << "the stated probe noise "
+      << commanded.stated_probe_noise_um
+      << " um is contradicted by the measurement: the state fit's misfit "
+         "scatters more than "
+      << kNoiseContradictedShare
+      << " times as much from point to point (second differences across the "
+         "face width); "
+      << commanded.probe_noise_um << " um is used as the probe noise";
+  return out.str();
 }
 
 void ReportMachineStateTest(const MachineStateTest& test,

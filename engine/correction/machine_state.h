@@ -105,6 +105,31 @@ double PlausibleShare(const CorrectionProblem& state_problem,
                       const MachineStateTest& test,
                       double noise_um);
 
+// The probe's scatter in the state fit's misfit, from its second differences
+// along each grid row (across the face width): white noise of sigma gives
+// them a variance of 6 sigma^2, a smooth misfit (what the model cannot
+// represent) little. [um], of the measured grid (teeth averaged); NaN with
+// fewer than kScatterMinDifferences differences.
+constexpr int kScatterMinDifferences = 12;
+double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
+                            const CorrectionResult& state);
+
+// A stated probe noise the measurement contradicts: the scatter of the state
+// fit `state` (ScatterOfStateMisfit) above kNoiseContradictedShare x the
+// stated sigma of `state_problem`. Then the scatter is the noise from here on:
+// `commanded`'s probe_noise_um (per tooth, the stated value kept in its
+// stated_probe_noise_um) and `state_problem`'s (of the teeth average); true.
+// A shop that states its probe's repeatability from the data sheet leaves
+// out the part's clamping and the gear's own scatter (robustness benchmark,
+// the noise told at half the probe's: the 2-sigma band covered 83-86 % and
+// parts at the noise were chased; BENCHMARKS.md).
+constexpr double kNoiseContradictedShare = 1.5;
+bool RaiseContradictedNoise(const CorrectionResult& state,
+                            CorrectionProblem* commanded,
+                            CorrectionProblem* state_problem);
+// What RaiseContradictedNoise did to `commanded`, in words.
+std::string ContradictedNoiseReason(const CorrectionProblem& commanded);
+
 // The state's correction size and misfit into `summary`
 // (machine_state_estimated = true).
 void ReportMachineState(const CorrectionResult& state,

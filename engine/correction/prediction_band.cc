@@ -11,8 +11,9 @@ namespace correction_internal {
 double BandNoiseSigma(const CorrectionProblem& problem,
                       const CorrectionSummary& summary,
                       bool* stated) {
-  *stated = problem.probe_noise_um > 0.0;
-  if (*stated) return problem.probe_noise_um;
+  *stated =
+      problem.probe_noise_um > 0.0 && std::isnan(problem.stated_probe_noise_um);
+  if (problem.probe_noise_um > 0.0) return problem.probe_noise_um;
   const double n = static_cast<double>(summary.num_points_used);
   if (summary.machine_state_estimated) {
     const double dof = summary.machine_state_dof;
@@ -111,6 +112,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   CorrectionSummary& summary = result->summary;
   PredictionBand& band = summary.prediction_band;
   band.noise_sigma_um = BandNoiseSigma(problem, summary, &band.noise_stated);
+  band.stated_noise_um = problem.stated_probe_noise_um;
   const int points = problem.num_points;
   result->predicted_residual_sigma_um = Eigen::VectorXd::Constant(points, kNaN);
   std::vector<int> predicted;
@@ -119,9 +121,10 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   double mean_variance = 0.0;
   int used = 0;
   for (int i : predicted) {
-    // A stated sigma is one tooth's; an estimated one is already that of the
-    // mean the solver saw.
-    const double share = band.noise_stated ? problem.noise_share(i) : 1.0;
+    // A stated sigma (or the scatter that replaced it) is one tooth's; an
+    // estimated one is already that of the mean the solver saw.
+    const double share =
+        problem.probe_noise_um > 0.0 ? problem.noise_share(i) : 1.0;
     const double sigma_i = band.noise_sigma_um * std::sqrt(share);
     result->predicted_residual_sigma_um(i) = sigma_i;
     mean_variance += sigma_i * sigma_i;

@@ -14,7 +14,9 @@
 // N the points used, s^2 the mean sigma_i^2 over them, c the rms of the
 // predicted change and k_m = 0.1 the model's own share of error in it. The band
 // of the true rms is sqrt(max(0, E -+ k sd)), k = 1 or 2. sigma is the stated
-// probe noise, else estimated from the machine-state fit's misfit (pure noise
+// probe noise (or, where the measurement contradicts it, the state fit's
+// point-to-point scatter: machine_state.h, RaiseContradictedNoise), else
+// estimated from the machine-state fit's misfit (pure noise
 // when the model explains the part) or, without a state, from the correction's
 // own linear misfit (which also holds what the machine cannot reach: wider).
 // The model's own error (a wrong state estimate) enters only through k_m;
@@ -52,7 +54,8 @@ namespace correction_internal {
 constexpr double kModelShareOfChange = 0.1;
 
 // The noise sigma the band uses [um] and whether it was stated (false:
-// estimated, see the file comment); 0 when nothing can be said.
+// estimated, or the stated one contradicted; see the file comment); 0 when
+// nothing can be said.
 double BandNoiseSigma(const CorrectionProblem& problem,
                       const CorrectionSummary& summary,
                       bool* stated);

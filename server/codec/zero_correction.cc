@@ -58,6 +58,12 @@ nlohmann::json NothingAboveNoise(const CorrectionSummary& s) {
   if (s.prediction_band.noise_stated) {
     noise = "the stated probe noise (options.probe_noise_um = " +
             Num(s.prediction_band.noise_sigma_um) + " um)";
+  } else if (std::isfinite(s.prediction_band.stated_noise_um)) {
+    noise = "the probe noise the measurement shows (" +
+            Num(s.prediction_band.noise_sigma_um) +
+            " um; the stated options.probe_noise_um = " +
+            Num(s.prediction_band.stated_noise_um) +
+            " um is contradicted by its scatter)";
   } else {
     noise = std::string("what ") + rule +
             " takes for noise (no options.probe_noise_um stated)";

@@ -102,7 +102,18 @@ class CliTest(unittest.TestCase):
         self.assertIn("predicted residual", human.stdout)
         self.assertIn("row 5 tip", human.stdout)
         # How sure the prediction is: the expected true rms and its 2-sigma band.
-        self.assertRegex(human.stdout, r"next part true rms   [0-9.]+ um, 2 sigma [0-9.]+\.\.[0-9.]+ um \(noise [0-9.]+ um (stated|estimated)\)")
+        self.assertRegex(human.stdout, r"next part true rms   [0-9.]+ um, 2 sigma [0-9.]+\.\.[0-9.]+ um \(noise [0-9.]+ um (stated|estimated)( from the measurement's scatter; [0-9.]+ um stated is contradicted)?\)")
+
+    def test_submit_says_when_the_measurement_contradicts_the_stated_noise(self) -> None:
+        # The example measurement scatters ~0.05 um from point to point; 0.01 um stated is
+        # contradicted, and the line says which noise was used and what was stated.
+        options = Path(self.tmp.name) / "understated-noise.json"
+        options.write_text(json.dumps({"probe_noise_um": 0.01}))
+        human = self.run_cli("submit", str(EXAMPLES / "request.json"), str(EXAMPLES / "measurement.json"),
+                             "--options", str(options))
+        self.assertIn(human.returncode, (0, 5), human.stderr)
+        self.assertRegex(human.stdout, r"\(noise [0-9.]+ um estimated from the measurement's scatter; "
+                                       r"0\.010 um stated is contradicted\)")
 
     def test_submit_several_teeth_shows_their_mean(self) -> None:
         data = Path(__file__).resolve().parent / "data"

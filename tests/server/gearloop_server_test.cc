@@ -277,6 +277,34 @@ TEST_F(GearloopServerTest,
   EXPECT_FALSE(result["machine_state"].contains("estimated_errors"));
 }
 
+// The probe noise used and where it came from: stated right (0.3 um, the
+// simulated probe's), it is used as stated; stated at a third, the
+// measurement contradicts it, its own scatter is used and the answer says so.
+TEST_F(GearloopServerTest, SaysWhenTheMeasurementContradictsTheStatedNoise) {
+  nlohmann::json request = CorrectionRequest();
+  Answer created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json right = created.body["result"]["prediction_band"];
+  EXPECT_EQ(right["noise_stated"], true);
+  EXPECT_TRUE(right["stated_noise_um"].is_null());
+  EXPECT_EQ(right["noise_sigma_um"], 0.3);
+
+  request["options"]["probe_noise_um"] = 0.1;
+  created = Post(*client_, "/api/v1/corrections", request);
+  ASSERT_EQ(created.status, 201) << created.body.dump();
+  const nlohmann::json& result = created.body["result"];
+  const nlohmann::json& band = result["prediction_band"];
+  EXPECT_EQ(band["noise_stated"], false);
+  EXPECT_EQ(band["stated_noise_um"], 0.1);
+  EXPECT_GT(band["noise_sigma_um"].get<double>(), 0.15);
+  EXPECT_LT(band["noise_sigma_um"].get<double>(), 0.45);
+  EXPECT_NE(result["machine_state"]["reason"].get<std::string>().find(
+                "the stated probe noise 0.1 um is contradicted by the "
+                "measurement"),
+            std::string::npos)
+      << result["machine_state"]["reason"];
+}
+
 TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   const nlohmann::json request = CorrectionRequest();
   const Answer created = Post(*client_, "/api/v1/corrections", request);

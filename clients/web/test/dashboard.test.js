@@ -277,7 +277,8 @@ async function main() {
     check(
       "new correction: how sure its prediction is",
       answerRows["next part true rms (2\u03c3 band)"] ===
-        band.expected_true_rms_um.toFixed(3) + " \u00b5m (" + band.true_rms_2sigma_um[0].toFixed(3) + " \u2013 " + band.true_rms_2sigma_um[1].toFixed(3) + " \u00b5m; noise " + band.noise_sigma_um.toFixed(3) + " \u00b5m " + (band.noise_stated ? "stated" : "estimated") + ")",
+        band.expected_true_rms_um.toFixed(3) + " \u00b5m (" + band.true_rms_2sigma_um[0].toFixed(3) + " \u2013 " + band.true_rms_2sigma_um[1].toFixed(3) + " \u00b5m; noise " + band.noise_sigma_um.toFixed(3) + " \u00b5m " + (band.noise_stated ? "stated" : "estimated") +
+          (typeof band.stated_noise_um === "number" ? " from the measurement's scatter; " + band.stated_noise_um.toFixed(3) + " \u00b5m stated is contradicted" : "") + ")",
       JSON.stringify(answerRows)
     );
     check("new correction in the history", (await page.$$("#jobs tbody tr[data-job-id='" + againId + "']")).length === 1 && (await page.getAttribute("body", "data-job-shown")) === String(job.id));
