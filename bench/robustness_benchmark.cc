@@ -1119,7 +1119,7 @@ int main(int argc, char** argv) {
   if (!ParseArgs(argc, argv, &a)) return 2;
   if (a.scenarios < 0 || a.bevel < 0 || a.threads < 1 ||
       !(a.stress.error_scale > 0.0) || !(a.stress.noise_scale > 0.0) ||
-      !(a.stress.told_noise_scale > 0.0) ||
+      !(a.stress.told_noise_scale >= 0.0) ||
       (a.orders != "default" && a.orders != "all" && a.orders != "cubic" &&
        a.orders != "both")) {
     std::fprintf(stderr,

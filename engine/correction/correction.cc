@@ -33,6 +33,7 @@
 #include "engine/correction/machine_state.h"
 #include "engine/correction/order_choice.h"
 #include "engine/correction/problem.h"
+#include "engine/correction/regularisation.h"
 #include "engine/correction/solve_problem.h"
 
 namespace gearloop {
@@ -93,6 +94,12 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   const bool raised =
       RaiseContradictedNoise(*state_fit, &problem, &state_problem);
   if (raised) {
+    // The level's rule as if the scatter had been stated (exact data stated
+    // had the discrepancy principle).
+    CorrectionOptions as_stated = options;
+    as_stated.probe_noise_um = problem.probe_noise_um;
+    problem.rule = ChooseRegularisationRule(as_stated);
+    state_problem.rule = problem.rule;
     *noise_um = problem.probe_noise_um;
     *state_fit = SolveProblem(options, state_problem);
   }

@@ -166,9 +166,11 @@ bool RaiseContradictedNoise(const CorrectionResult& state,
                             CorrectionProblem* commanded,
                             CorrectionProblem* state_problem) {
   const double stated = state_problem->probe_noise_um;
-  if (!(stated > 0.0) || !state.summary.IsSolutionUsable()) return false;
+  if (!(stated >= 0.0) || !state.summary.IsSolutionUsable()) return false;
   const double scatter = ScatterOfStateMisfit(*state_problem, state);
-  if (!(scatter > kNoiseContradictedShare * stated)) return false;
+  if (!(scatter >
+        std::max(kNoiseContradictedShare * stated, kExactDataScatterUm)))
+    return false;
   commanded->stated_probe_noise_um = commanded->probe_noise_um;
   commanded->probe_noise_um =
       scatter * std::sqrt(commanded->mean_teeth_averaged);

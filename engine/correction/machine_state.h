@@ -116,14 +116,18 @@ double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
 
 // A stated probe noise the measurement contradicts: the scatter of the state
 // fit `state` (ScatterOfStateMisfit) above kNoiseContradictedShare x the
-// stated sigma of `state_problem`. Then the scatter is the noise from here on:
-// `commanded`'s probe_noise_um (per tooth, the stated value kept in its
-// stated_probe_noise_um) and `state_problem`'s (of the teeth average); true.
-// A shop that states its probe's repeatability from the data sheet leaves
-// out the part's clamping and the gear's own scatter (robustness benchmark,
-// the noise told at half the probe's: the 2-sigma band covered 83-86 % and
-// parts at the noise were chased; BENCHMARKS.md).
+// stated sigma of `state_problem` (and above kExactDataScatterUm). Then the
+// scatter is the noise from here on: `commanded`'s probe_noise_um (per tooth,
+// the stated value kept in its stated_probe_noise_um) and `state_problem`'s (of
+// the teeth average); true. A shop that states its probe's repeatability from
+// the data sheet leaves out the part's clamping and the gear's own scatter
+// (robustness benchmark, the noise told at half the probe's: the 2-sigma band
+// covered 83-86 % and parts at the noise were chased; BENCHMARKS.md). Exact
+// data (sigma stated 0) is contradicted by a scatter above kExactDataScatterUm:
+// a measuring machine's probe scatters by a few hundredths of a um at best, a
+// noise-free simulation by far less.
 constexpr double kNoiseContradictedShare = 1.5;
+constexpr double kExactDataScatterUm = 0.01;
 bool RaiseContradictedNoise(const CorrectionResult& state,
                             CorrectionProblem* commanded,
                             CorrectionProblem* state_problem);

@@ -736,6 +736,38 @@ TEST(EstimatePredictionBand, SetsAsideAStatedNoiseTheMeasurementContradicts) {
   EXPECT_NEAR(sum_sigma / contradicted / kSigmaUm, 1.0, 0.3);
 }
 
+// Exact data (sigma stated 0) on a measurement that scatters by 0.3 um is
+// contradicted like any stated noise; on a noise-free one it stands (the band
+// then estimates its sigma from the misfit, as it always did for exact data).
+TEST(EstimatePredictionBand,
+     ExactDataStandsOnlyWhereTheMeasurementHasNoScatter) {
+  const SmoothModel model;
+  const int n = model.NumPoints();
+  Eigen::VectorXd hidden(5);
+  hidden << 2e-4, -1e-4, 1.5e-4, 1e-4, -0.8e-4;
+  ModelEvaluation real;
+  model.Evaluate(hidden, false, &real);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.0;
+  input.measured_um = real.deviations_um + SeededNoise(n, 11, 0.3);
+  CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  EXPECT_FALSE(result.summary.prediction_band.noise_stated);
+  EXPECT_EQ(result.summary.prediction_band.stated_noise_um, 0.0);
+  EXPECT_NEAR(result.summary.prediction_band.noise_sigma_um, 0.3, 0.1);
+  input.measured_um = real.deviations_um;
+  result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  EXPECT_TRUE(std::isnan(result.summary.prediction_band.stated_noise_um));
+  EXPECT_EQ(result.summary.machine_state_reason.find("contradicted"),
+            std::string::npos)
+      << result.summary.machine_state_reason;
+}
+
 // A row the measurement lacks counts at the model's flank: the true rms,
 // which has the row, stays inside the band (before, the band covered the
 // measured rows only: 32 of 100 draws inside, the expected rms a third of the
