@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/correction/correction.h"
@@ -79,6 +80,8 @@ class LinearModel : public GridModel {
  public:
   explicit LinearModel(unsigned seed)
       : jacobian_(SeededJacobian(seed, {1e-3, 1e-3, 1e-3, 1e-5, 1e-3})) {}
+  explicit LinearModel(Eigen::MatrixXd jacobian)
+      : jacobian_(std::move(jacobian)) {}
   int NumParameters() const override { return 5; }
   std::vector<ParameterBlock> ParameterBlocks() const override {
     return {{"P", "mm", 0, 3, true, 1e-3},
@@ -97,31 +100,22 @@ class LinearModel : public GridModel {
 
 // A linear machine whose five parameters move the flank smoothly, as a
 // grinder's axes do: 1, u, v, u v and v^2 over the grid (u across the face
-// width, v up the profile, both in [-1, 1]), 1 um per 1e-3.
-class SmoothModel : public GridModel {
+// width, v up the profile, both in [-1, 1]), 1 um per unit of correction size
+// (LinearModel's blocks).
+class SmoothModel : public LinearModel {
  public:
-  SmoothModel() : jacobian_(kPoints, 5) {
+  SmoothModel() : LinearModel(SmoothJacobian()) {}
+
+ private:
+  static Eigen::MatrixXd SmoothJacobian() {
+    Eigen::MatrixXd jacobian(kPoints, 5);
     for (int i = 0; i < kPoints; ++i) {
       const double u = ((i % kColumns) - 4.0) / 4.0;
       const double v = ((i / kColumns) - 2.0) / 2.0;
-      jacobian_.row(i) << 1.0, u, v, u * v, v * v;
+      jacobian.row(i) << 1e3, 1e3 * u, 1e3 * v, 1e5 * u * v, 1e3 * v * v;
     }
-    jacobian_ *= 1e3;
+    return jacobian;
   }
-  int NumParameters() const override { return 5; }
-  std::vector<ParameterBlock> ParameterBlocks() const override {
-    return {{"P", "mm", 0, 3, true, 1e-3},
-            {"s1", "mm", 3, 1, false, 1e-3},
-            {"s2", "mm", 4, 1, false, 1e-3}};
-  }
-  void Evaluate(const Eigen::VectorXd& parameters,
-                bool with_jacobian,
-                ModelEvaluation* e) const override {
-    LinearFlank(jacobian_, parameters, with_jacobian, e);
-  }
-
- private:
-  Eigen::MatrixXd jacobian_;
 };
 
 // n draws of Gaussian probe noise of `sigma_um` (fixed seed).
@@ -604,6 +598,29 @@ TEST(DropToothOutliers, LeavesOutAValueTheOtherTeethDoNotShare) {
   EXPECT_TRUE(DropToothOutliers(test, &one).empty());
 }
 
+// A part of `model` (five parameters) ground with hidden offsets drawn from
+// `offset` (the scalar block s1 a hundredth of that, in its own units) and
+// measured with `noise`, against target 0; the offsets in `*hidden`.
+CorrectionInput DrawnPart(const MachineModel& model,
+                          std::mt19937_64* rng,
+                          std::normal_distribution<double>* offset,
+                          std::normal_distribution<double>* noise,
+                          Eigen::VectorXd* hidden) {
+  hidden->resize(5);
+  for (int j = 0; j < 5; ++j) (*hidden)(j) = (*offset)(*rng);
+  (*hidden)(3) *= 1e-2;  // the scalar block in its own units
+  ModelEvaluation real;
+  model.Evaluate(*hidden, false, &real);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.measured_um = real.deviations_um;
+  for (int i = 0; i < model.NumPoints(); ++i)
+    input.measured_um(i) += (*noise)(*rng);
+  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
+  return input;
+}
+
 // The prediction band (prediction_band.h) in simulation: a linear machine
 // with a hidden offset, measured with known noise (stated in every other
 // draw), corrected once, `draws` seeded draws. `unmeasured_row` >= 0: that
@@ -622,18 +639,9 @@ BandDraws SimulateBand(int draws, int unmeasured_row, double sigma_um) {
   std::normal_distribution<double> noise(0.0, sigma_um), offset(0.0, 2e-3);
   BandDraws out;
   for (int draw = 0; draw < draws; ++draw) {
-    Eigen::VectorXd hidden(5);
-    for (int j = 0; j < 5; ++j) hidden(j) = offset(rng);
-    hidden(3) *= 1e-2;  // the scalar block in its own units
-    ModelEvaluation real;
-    model.Evaluate(hidden, false, &real);
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    input.measured_um = real.deviations_um;
-    for (int i = 0; i < n; ++i) input.measured_um(i) += noise(rng);
+    Eigen::VectorXd hidden;
+    CorrectionInput input = DrawnPart(model, &rng, &offset, &noise, &hidden);
     // A target the machine can only partly make.
-    input.target_um = Eigen::VectorXd::Zero(n);
     for (int i = 0; i < n; ++i) input.target_um(i) = 0.5 * ((i % 9) - 4) / 4.0;
     if (unmeasured_row >= 0) {
       for (int c = 0; c < GridModel::kColumns; ++c) {
@@ -700,16 +708,9 @@ TEST(EstimatePredictionBand, SetsAsideAStatedNoiseTheMeasurementContradicts) {
   int inside = 0, contradicted = 0;
   double sum_sigma = 0.0;
   for (int draw = 0; draw < kDraws; ++draw) {
-    Eigen::VectorXd hidden(5);
-    for (int j = 0; j < 5; ++j) hidden(j) = offset(rng);
-    ModelEvaluation real;
-    model.Evaluate(hidden, false, &real);
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    input.measured_um = real.deviations_um;
-    for (int i = 0; i < n; ++i) input.measured_um(i) += noise(rng);
-    input.target_um = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd hidden;
+    const CorrectionInput input =
+        DrawnPart(model, &rng, &offset, &noise, &hidden);
     CorrectionOptions options;
     options.probe_noise_um = kStatedUm;
     const CorrectionResult result = ComputeCorrection(options, input);
@@ -744,7 +745,7 @@ TEST(EstimatePredictionBand,
   const SmoothModel model;
   const int n = model.NumPoints();
   Eigen::VectorXd hidden(5);
-  hidden << 2e-4, -1e-4, 1.5e-4, 1e-4, -0.8e-4;
+  hidden << 2e-4, -1e-4, 1.5e-4, 1e-6, -0.8e-4;
   ModelEvaluation real;
   model.Evaluate(hidden, false, &real);
   CorrectionInput input;
@@ -950,7 +951,7 @@ TEST(ScatterOfStateMisfit, SeesTheProbesNoiseButNotASmoothMisfit) {
   const SmoothModel model;
   const int n = model.NumPoints();
   Eigen::VectorXd hidden(5);
-  hidden << 2e-3, -1e-3, 5e-4, 1.5e-3, -8e-4;
+  hidden << 2e-3, -1e-3, 5e-4, 1.5e-5, -8e-4;
   ModelEvaluation ran;
   model.Evaluate(hidden, false, &ran);
   Eigen::VectorXd bow(n);
