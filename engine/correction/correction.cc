@@ -116,6 +116,9 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   *test = TestMachineState(options, problem, state_problem, state);
   test->fit_made = true;
   if (raised) test->reason += "; " + ContradictedNoiseReason(problem);
+  const std::string quieter =
+      QuieterThanStatedNote(state_problem, state, problem.mean_teeth_averaged);
+  if (!quieter.empty()) test->reason += "; " + quieter;
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
   LeaveOutTheStateFitsOutliers(state, &at_state);

@@ -191,6 +191,23 @@ std::string ContradictedNoiseReason(const CorrectionProblem& commanded) {
   return out.str();
 }
 
+std::string QuieterThanStatedNote(const CorrectionProblem& state_problem,
+                                  const CorrectionResult& state,
+                                  double mean_teeth_averaged) {
+  const double stated = state_problem.probe_noise_um;
+  if (!(stated > 0.0) || !state.summary.IsSolutionUsable()) return "";
+  const double scatter = ScatterOfStateMisfit(state_problem, state);
+  if (!(scatter * kNoiseContradictedShare < stated)) return "";
+  std::ostringstream out;
+  out << std::setprecision(3) << "the measurement scatters "
+      << scatter * std::sqrt(mean_teeth_averaged)
+      << " um from point to point, less than the "
+      << stated * std::sqrt(mean_teeth_averaged)
+      << " um probe noise stated: the stated noise is kept (a smaller one, "
+         "if the probe is that good, lets the correction reach further)";
+  return out.str();
+}
+
 void ReportMachineStateTest(const MachineStateTest& test,
                             CorrectionSummary* summary) {
   summary->machine_state_test = test.test;

@@ -769,6 +769,31 @@ TEST(EstimatePredictionBand,
       << result.summary.machine_state_reason;
 }
 
+// A noise stated three times the probe's is kept (the correction is only more
+// careful), and the answer says the measurement scatters less.
+TEST(EstimatePredictionBand,
+     KeepsANoiseStatedLargerAndSaysTheMeasurementIsQuieter) {
+  const SmoothModel model;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.1), offset(0.0, 2e-3);
+  Eigen::VectorXd hidden;
+  const CorrectionInput input =
+      DrawnPart(model, &rng, &offset, &noise, &hidden);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.3;
+  const CorrectionResult result = ComputeCorrection(options, input);
+  ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+  const PredictionBand& band = result.summary.prediction_band;
+  EXPECT_TRUE(band.noise_stated);
+  EXPECT_EQ(band.noise_sigma_um, 0.3);
+  EXPECT_TRUE(std::isnan(band.stated_noise_um));
+  EXPECT_NE(result.summary.machine_state_reason.find(
+                "um from point to point, less than the 0.3 um probe noise "
+                "stated: the stated noise is kept"),
+            std::string::npos)
+      << result.summary.machine_state_reason;
+}
+
 // A row the measurement lacks counts at the model's flank: the true rms,
 // which has the row, stays inside the band (before, the band covered the
 // measured rows only: 32 of 100 draws inside, the expected rms a third of the
