@@ -183,10 +183,12 @@ std::string ContradictedNoiseReason(const CorrectionProblem& commanded) {
   out << std::setprecision(3) << "the stated probe noise "
       << commanded.stated_probe_noise_um
       << " um is contradicted by the measurement: the state fit's misfit "
-         "scatters more than "
-      << kNoiseContradictedShare
-      << " times as much from point to point (second differences across the "
-         "face width); "
+         "scatters ";
+  if (commanded.stated_probe_noise_um > 0.0)
+    out << "more than " << kNoiseContradictedShare << " times as much";
+  else
+    out << "by more than " << kExactDataScatterUm << " um";
+  out << " from point to point (second differences across the face width); "
       << commanded.probe_noise_um << " um is used as the probe noise";
   return out.str();
 }

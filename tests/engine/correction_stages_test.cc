@@ -759,6 +759,12 @@ TEST(EstimatePredictionBand,
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
   EXPECT_FALSE(result.summary.prediction_band.noise_stated);
   EXPECT_EQ(result.summary.prediction_band.stated_noise_um, 0.0);
+  EXPECT_NE(result.summary.machine_state_reason.find(
+                "the stated probe noise 0 um is contradicted by the "
+                "measurement: the state fit's misfit scatters by more than "
+                "0.01 um from point to point"),
+            std::string::npos)
+      << result.summary.machine_state_reason;
   EXPECT_NEAR(result.summary.prediction_band.noise_sigma_um, 0.3, 0.1);
   input.measured_um = real.deviations_um;
   result = ComputeCorrection(options, input);
