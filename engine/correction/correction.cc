@@ -33,7 +33,6 @@
 #include "engine/correction/machine_state.h"
 #include "engine/correction/order_choice.h"
 #include "engine/correction/problem.h"
-#include "engine/correction/regularisation.h"
 #include "engine/correction/solve_problem.h"
 
 namespace gearloop {
@@ -91,15 +90,16 @@ bool SolveAtMachineState(const CorrectionOptions& options,
     return false;
   }
   *state_fit = SolveProblem(options, state_problem);
+  // The probe's scatter in the first fit's misfit, once: it may contradict
+  // the stated noise (then the state is refitted with it) or show the probe
+  // quieter than stated.
+  const double scatter_um =
+      state_fit->summary.IsSolutionUsable()
+          ? ScatterOfStateMisfit(state_problem, *state_fit)
+          : kNaN;
   const bool raised =
-      RaiseContradictedNoise(*state_fit, &problem, &state_problem);
+      RaiseContradictedNoise(options, scatter_um, &problem, &state_problem);
   if (raised) {
-    // The level's rule as if the scatter had been stated (exact data stated
-    // had the discrepancy principle).
-    CorrectionOptions as_stated = options;
-    as_stated.probe_noise_um = problem.probe_noise_um;
-    problem.rule = ChooseRegularisationRule(as_stated);
-    state_problem.rule = problem.rule;
     *noise_um = problem.probe_noise_um;
     *state_fit = SolveProblem(options, state_problem);
   }
@@ -115,10 +115,11 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   *noise_um = SignalNoise(problem, state.summary);
   *test = TestMachineState(options, problem, state_problem, state);
   test->fit_made = true;
-  if (raised) test->reason += "; " + ContradictedNoiseReason(problem);
-  const std::string quieter =
-      QuieterThanStatedNote(state_problem, state, problem.mean_teeth_averaged);
-  if (!quieter.empty()) test->reason += "; " + quieter;
+  const std::string noise_note =
+      raised ? ContradictedNoiseReason(problem)
+             : QuieterThanStatedNote(
+                   state_problem, scatter_um, problem.mean_teeth_averaged);
+  if (!noise_note.empty()) test->reason += "; " + noise_note;
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
   LeaveOutTheStateFitsOutliers(state, &at_state);

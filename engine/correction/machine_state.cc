@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "engine/correction/regularisation.h"
 #include "engine/correction/safe_step.h"
 
 namespace gearloop {
@@ -162,19 +163,25 @@ double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
   return std::sqrt(sum / (6.0 * count));
 }
 
-bool RaiseContradictedNoise(const CorrectionResult& state,
+bool RaiseContradictedNoise(const CorrectionOptions& options,
+                            double scatter_um,
                             CorrectionProblem* commanded,
                             CorrectionProblem* state_problem) {
   const double stated = state_problem->probe_noise_um;
-  if (!(stated >= 0.0) || !state.summary.IsSolutionUsable()) return false;
-  const double scatter = ScatterOfStateMisfit(*state_problem, state);
-  if (!(scatter >
+  if (!(stated >= 0.0) ||
+      !(scatter_um >
         std::max(kNoiseContradictedShare * stated, kExactDataScatterUm)))
     return false;
   commanded->stated_probe_noise_um = commanded->probe_noise_um;
   commanded->probe_noise_um =
-      scatter * std::sqrt(commanded->mean_teeth_averaged);
-  state_problem->probe_noise_um = scatter;
+      scatter_um * std::sqrt(commanded->mean_teeth_averaged);
+  state_problem->probe_noise_um = scatter_um;
+  // The level's rule as if the scatter had been stated (exact data stated
+  // had the discrepancy principle).
+  CorrectionOptions as_stated = options;
+  as_stated.probe_noise_um = commanded->probe_noise_um;
+  commanded->rule = ChooseRegularisationRule(as_stated);
+  state_problem->rule = commanded->rule;
   return true;
 }
 
@@ -194,15 +201,14 @@ std::string ContradictedNoiseReason(const CorrectionProblem& commanded) {
 }
 
 std::string QuieterThanStatedNote(const CorrectionProblem& state_problem,
-                                  const CorrectionResult& state,
+                                  double scatter_um,
                                   double mean_teeth_averaged) {
   const double stated = state_problem.probe_noise_um;
-  if (!(stated > 0.0) || !state.summary.IsSolutionUsable()) return "";
-  const double scatter = ScatterOfStateMisfit(state_problem, state);
-  if (!(scatter * kNoiseContradictedShare < stated)) return "";
+  if (!(stated > 0.0) || !(scatter_um * kNoiseContradictedShare < stated))
+    return "";
   std::ostringstream out;
   out << std::setprecision(3) << "the measurement scatters "
-      << scatter * std::sqrt(mean_teeth_averaged)
+      << scatter_um * std::sqrt(mean_teeth_averaged)
       << " um from point to point, less than the "
       << stated * std::sqrt(mean_teeth_averaged)
       << " um probe noise stated: the stated noise is kept (a smaller one, "

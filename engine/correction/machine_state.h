@@ -114,33 +114,36 @@ constexpr int kScatterMinDifferences = 12;
 double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
                             const CorrectionResult& state);
 
-// A stated probe noise the measurement contradicts: the scatter of the state
-// fit `state` (ScatterOfStateMisfit) above kNoiseContradictedShare x the
-// stated sigma of `state_problem` (and above kExactDataScatterUm). Then the
-// scatter is the noise from here on: `commanded`'s probe_noise_um (per tooth,
-// the stated value kept in its stated_probe_noise_um) and `state_problem`'s (of
-// the teeth average); true. A shop that states its probe's repeatability from
-// the data sheet leaves out the part's clamping and the gear's own scatter
-// (robustness benchmark, the noise told at half the probe's: the 2-sigma band
-// covered 83-86 % and parts at the noise were chased; BENCHMARKS.md). Exact
-// data (sigma stated 0) is contradicted by a scatter above kExactDataScatterUm:
-// a measuring machine's probe scatters by a few hundredths of a um at best, a
-// noise-free simulation by far less.
+// A stated probe noise the measurement contradicts: `scatter_um`
+// (ScatterOfStateMisfit of the state fit of `state_problem`; NaN: none)
+// above kNoiseContradictedShare x the stated sigma of `state_problem` (and
+// above kExactDataScatterUm). Then the scatter is the noise from here on:
+// `commanded`'s probe_noise_um (per tooth, the stated value kept in its
+// stated_probe_noise_um) and `state_problem`'s (of the teeth average), and
+// both take the regularisation rule `options` would give it stated; true.
+// A shop that states its probe's repeatability from the data sheet leaves
+// out the part's clamping and the gear's own scatter (robustness benchmark,
+// the noise told at half the probe's: the 2-sigma band covered 83-86 % and
+// parts at the noise were chased; BENCHMARKS.md). Exact data (sigma stated 0)
+// is contradicted by a scatter above kExactDataScatterUm: a measuring
+// machine's probe scatters by a few hundredths of a um at best, a noise-free
+// simulation by far less.
 constexpr double kNoiseContradictedShare = 1.5;
 constexpr double kExactDataScatterUm = 0.01;
-bool RaiseContradictedNoise(const CorrectionResult& state,
+bool RaiseContradictedNoise(const CorrectionOptions& options,
+                            double scatter_um,
                             CorrectionProblem* commanded,
                             CorrectionProblem* state_problem);
 // What RaiseContradictedNoise did to `commanded`, in words.
 std::string ContradictedNoiseReason(const CorrectionProblem& commanded);
-// Where the state fit's scatter is below the stated sigma of `state_problem`
-// by kNoiseContradictedShare, a note saying so in words (per tooth, with
+// Where `scatter_um` is below the stated sigma of `state_problem` by
+// kNoiseContradictedShare, a note saying so in words (per tooth, with
 // `mean_teeth_averaged`); "" otherwise. The stated noise is kept: a noise
 // stated larger than the probe's makes the correction more careful, and the
 // robustness benchmark with every told noise at twice the probe's lost reach
 // (within 1.2 x best + noise 193 -> 188 of 200, seed 2026), not parts.
 std::string QuieterThanStatedNote(const CorrectionProblem& state_problem,
-                                  const CorrectionResult& state,
+                                  double scatter_um,
                                   double mean_teeth_averaged);
 
 // The state's correction size and misfit into `summary`
