@@ -598,6 +598,20 @@ TEST(DropToothOutliers, LeavesOutAValueTheOtherTeethDoNotShare) {
   EXPECT_TRUE(DropToothOutliers(test, &one).empty());
 }
 
+// A part of `model` ground at `hidden` (from the zero settings) and measured
+// without noise, against target 0.
+CorrectionInput PartGroundWith(const MachineModel& model,
+                               const Eigen::VectorXd& hidden) {
+  ModelEvaluation real;
+  model.Evaluate(hidden, false, &real);
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(model.NumParameters());
+  input.measured_um = real.deviations_um;
+  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
+  return input;
+}
+
 // A part of `model` (five parameters) ground with hidden offsets drawn from
 // `offset` (the scalar block s1 a hundredth of that, in its own units) and
 // measured with `noise`, against target 0; the offsets in `*hidden`.
@@ -609,15 +623,9 @@ CorrectionInput DrawnPart(const MachineModel& model,
   hidden->resize(5);
   for (int j = 0; j < 5; ++j) (*hidden)(j) = (*offset)(*rng);
   (*hidden)(3) *= 1e-2;  // the scalar block in its own units
-  ModelEvaluation real;
-  model.Evaluate(*hidden, false, &real);
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
-  input.measured_um = real.deviations_um;
+  CorrectionInput input = PartGroundWith(model, *hidden);
   for (int i = 0; i < model.NumPoints(); ++i)
     input.measured_um(i) += (*noise)(*rng);
-  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
   return input;
 }
 
@@ -746,15 +754,11 @@ TEST(EstimatePredictionBand,
   const int n = model.NumPoints();
   Eigen::VectorXd hidden(5);
   hidden << 2e-4, -1e-4, 1.5e-4, 1e-6, -0.8e-4;
-  ModelEvaluation real;
-  model.Evaluate(hidden, false, &real);
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
-  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionInput input = PartGroundWith(model, hidden);
+  const Eigen::VectorXd flank_um = input.measured_um;
   CorrectionOptions options;
   options.probe_noise_um = 0.0;
-  input.measured_um = real.deviations_um + SeededNoise(n, 11, 0.3);
+  input.measured_um = flank_um + SeededNoise(n, 11, 0.3);
   CorrectionResult result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
   EXPECT_FALSE(result.summary.prediction_band.noise_stated);
@@ -766,7 +770,7 @@ TEST(EstimatePredictionBand,
             std::string::npos)
       << result.summary.machine_state_reason;
   EXPECT_NEAR(result.summary.prediction_band.noise_sigma_um, 0.3, 0.1);
-  input.measured_um = real.deviations_um;
+  input.measured_um = flank_um;
   result = ComputeCorrection(options, input);
   ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
   EXPECT_TRUE(std::isnan(result.summary.prediction_band.stated_noise_um));
@@ -1815,15 +1819,10 @@ TEST(TestMachineState, UsesTheStateOnlyWhereItExplainsMoreThanTheNoise) {
   const Eigen::VectorXd noise = SeededNoise(n, 5, 0.3);
   Eigen::VectorXd hidden = Eigen::VectorXd::Zero(5);
   hidden << 2e-3, -1e-3, 0.0, 3e-5, 1e-3;
-  ModelEvaluation ran;
-  model.Evaluate(hidden, false, &ran);
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = Eigen::VectorXd::Zero(5);
-  input.target_um = Eigen::VectorXd::Zero(n);
+  CorrectionInput input = PartGroundWith(model, hidden);
+  input.measured_um += noise;
   CorrectionOptions options;
   options.probe_noise_um = 0.3;
-  input.measured_um = ran.deviations_um + noise;
   CorrectionResult result = ComputeCorrection(options, input);
   EXPECT_TRUE(result.summary.machine_state_estimated);
   EXPECT_EQ(result.summary.machine_state_test, "chi-square");
