@@ -93,12 +93,14 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   // The probe's scatter in the first fit's misfit, once: it may contradict
   // the stated noise (then the state is refitted with it) or show the probe
   // quieter than stated.
+  double scatter_relative_error = kNaN;
   const double scatter_um =
       state_fit->summary.IsSolutionUsable()
-          ? ScatterOfStateMisfit(state_problem, *state_fit)
+          ? ScatterOfStateMisfit(
+                state_problem, *state_fit, &scatter_relative_error)
           : kNaN;
-  const bool raised =
-      RaiseContradictedNoise(options, scatter_um, &problem, &state_problem);
+  const bool raised = RaiseContradictedNoise(
+      options, scatter_um, scatter_relative_error, &problem, &state_problem);
   if (raised) {
     *noise_um = problem.probe_noise_um;
     *state_fit = SolveProblem(options, state_problem);

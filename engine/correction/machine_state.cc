@@ -140,7 +140,9 @@ double PlausibleShare(const CorrectionProblem& state_problem,
 }
 
 double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
-                            const CorrectionResult& state) {
+                            const CorrectionResult& state,
+                            double* relative_error) {
+  if (relative_error != nullptr) *relative_error = kNaN;
   const Eigen::VectorXd& r = state.predicted_residual_um;
   const int columns = state_problem.model->GridColumns();
   const int rows = state_problem.model->GridRows();
@@ -150,21 +152,38 @@ double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
   for (int i : state.summary.outlier_indices) usable[i] = false;
   double sum = 0.0;
   int count = 0;
+  // Pairs of differences one and two columns apart in a row: white noise
+  // correlates them (covariances -4 and 1 sigma^2), which widens the spread
+  // of the sum of squares beyond that of independent terms.
+  int lag1_pairs = 0, lag2_pairs = 0;
   for (int row = 0; row < rows; ++row) {
+    std::vector<bool> has(columns, false);
     for (int c = 1; c + 1 < columns; ++c) {
       const int i = row * columns + c;
       if (!usable[i - 1] || !usable[i] || !usable[i + 1]) continue;
       const double d = r(i - 1) - 2.0 * r(i) + r(i + 1);
       sum += d * d;
       ++count;
+      has[c] = true;
+      if (has[c - 1]) ++lag1_pairs;
+      if (c >= 2 && has[c - 2]) ++lag2_pairs;
     }
   }
   if (count < kScatterMinDifferences) return kNaN;
+  if (relative_error != nullptr) {
+    // Var(sum d^2) = 2 sum_jk Cov(d_j, d_k)^2 for Gaussian noise: 72 sigma^4
+    // per difference, 2 x 32 per pair one apart, 2 x 2 per pair two apart;
+    // the mean of d^2 is 6 sigma^2 each, and sigma = sqrt(mean / 6) has half
+    // the relative error of the mean.
+    const double variance = 72.0 * count + 64.0 * lag1_pairs + 4.0 * lag2_pairs;
+    *relative_error = 0.5 * std::sqrt(variance) / (6.0 * count);
+  }
   return std::sqrt(sum / (6.0 * count));
 }
 
 bool RaiseContradictedNoise(const CorrectionOptions& options,
                             double scatter_um,
+                            double scatter_relative_error,
                             CorrectionProblem* commanded,
                             CorrectionProblem* state_problem) {
   const double stated = state_problem->probe_noise_um;
@@ -172,10 +191,15 @@ bool RaiseContradictedNoise(const CorrectionOptions& options,
       !(scatter_um >
         std::max(kNoiseContradictedShare * stated, kExactDataScatterUm)))
     return false;
+  const double noise_um =
+      scatter_um *
+      (1.0 +
+       (std::isfinite(scatter_relative_error) ? scatter_relative_error : 0.0));
+  const double per_tooth = std::sqrt(commanded->mean_teeth_averaged);
   commanded->stated_probe_noise_um = commanded->probe_noise_um;
-  commanded->probe_noise_um =
-      scatter_um * std::sqrt(commanded->mean_teeth_averaged);
-  state_problem->probe_noise_um = scatter_um;
+  commanded->probe_scatter_um = scatter_um * per_tooth;
+  commanded->probe_noise_um = noise_um * per_tooth;
+  state_problem->probe_noise_um = noise_um;
   // The level's rule as if the scatter had been stated (exact data stated
   // had the discrepancy principle).
   CorrectionOptions as_stated = options;
@@ -195,8 +219,10 @@ std::string ContradictedNoiseReason(const CorrectionProblem& commanded) {
     out << "more than " << kNoiseContradictedShare << " times as much";
   else
     out << "by more than " << kExactDataScatterUm << " um";
-  out << " from point to point (second differences across the face width); "
-      << commanded.probe_noise_um << " um is used as the probe noise";
+  out << " from point to point (second differences across the face width): "
+      << commanded.probe_scatter_um << " um; " << commanded.probe_noise_um
+      << " um (the scatter and one standard error of it) is used as the "
+         "probe noise";
   return out.str();
 }
 

@@ -59,6 +59,9 @@ struct CorrectionProblem {
   // The stated sigma [um] where the state fit's scatter contradicted it and
   // replaced it in probe_noise_um (RaiseContradictedNoise); NaN otherwise.
   double stated_probe_noise_um = kNaN;
+  // The state fit's scatter that contradicted it (per tooth) [um]; NaN
+  // otherwise.
+  double probe_scatter_um = kNaN;
   // > 0: the regularised solve filters each direction by its own signal to
   // noise (regularisation.h, SignalFilter) at this sigma [um] of one grid (the
   // stated noise, or the one estimated from the machine-state fit), down to
