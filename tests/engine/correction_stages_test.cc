@@ -978,6 +978,44 @@ TEST(MachineStateProblem, RecoversAHiddenOffset) {
       result.parameters.isApprox(input.current_parameters + result.delta));
 }
 
+// The state fit of a SmoothModel part at zero settings measured as
+// `measured`, with `stated_um` stated: its scatter (ScatterOfStateMisfit; the
+// relative standard error into `relative_error`) and its misfit rms into
+// `misfit_um`.
+double StateFitScatter(const SmoothModel& model,
+                       const Eigen::VectorXd& measured,
+                       double stated_um,
+                       double* misfit_um,
+                       double* relative_error) {
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(5);
+  input.measured_um = measured;
+  input.target_um = Eigen::VectorXd::Zero(model.NumPoints());
+  CorrectionOptions options;
+  options.probe_noise_um = stated_um;
+  CorrectionProblem problem, state;
+  CorrectionSummary summary;
+  std::string error;
+  EXPECT_TRUE(
+      PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+      << error;
+  EXPECT_TRUE(MachineStateProblem(problem, &state));
+  const CorrectionResult fit = SolveProblem(options, state);
+  EXPECT_TRUE(fit.summary.IsSolutionUsable()) << fit.summary.message;
+  *misfit_um = fit.summary.residual_rms_um;
+  return ScatterOfStateMisfit(state, fit, relative_error);
+}
+
+// The noise-free flank of SmoothModel at a small hidden offset.
+Eigen::VectorXd SmoothFlankAtOffset(const SmoothModel& model) {
+  Eigen::VectorXd hidden(5);
+  hidden << 2e-3, -1e-3, 5e-4, 1.5e-5, -8e-4;
+  ModelEvaluation ran;
+  model.Evaluate(hidden, false, &ran);
+  return ran.deviations_um;
+}
+
 // The state fit's misfit scatters from point to point as the probe does:
 // white noise of 0.3 um reads 0.3 um (within 25 %); a smooth misfit the
 // model cannot represent (a 2 um bow across the face width, no noise) reads
@@ -985,40 +1023,21 @@ TEST(MachineStateProblem, RecoversAHiddenOffset) {
 TEST(ScatterOfStateMisfit, SeesTheProbesNoiseButNotASmoothMisfit) {
   const SmoothModel model;
   const int n = model.NumPoints();
-  Eigen::VectorXd hidden(5);
-  hidden << 2e-3, -1e-3, 5e-4, 1.5e-5, -8e-4;
-  ModelEvaluation ran;
-  model.Evaluate(hidden, false, &ran);
+  const Eigen::VectorXd flank_um = SmoothFlankAtOffset(model);
   Eigen::VectorXd bow(n);
   for (int i = 0; i < n; ++i) {
     const double u = ((i % GridModel::kColumns) - 4.0) / 4.0;
     bow(i) = 2.0 * u * u;
   }
-  auto scatter = [&](const Eigen::VectorXd& measured, double* misfit_um) {
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    input.measured_um = measured;
-    input.target_um = Eigen::VectorXd::Zero(n);
-    CorrectionOptions options;
-    options.probe_noise_um = 0.1;
-    CorrectionProblem problem, state;
-    CorrectionSummary summary;
-    std::string error;
-    EXPECT_TRUE(
-        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-        << error;
-    EXPECT_TRUE(MachineStateProblem(problem, &state));
-    const CorrectionResult fit = SolveProblem(options, state);
-    EXPECT_TRUE(fit.summary.IsSolutionUsable()) << fit.summary.message;
-    *misfit_um = fit.summary.residual_rms_um;
-    return ScatterOfStateMisfit(state, fit);
-  };
-  double misfit_um = 0.0;
-  const double noise_um =
-      scatter(ran.deviations_um + SeededNoise(n, 5, 0.3), &misfit_um);
+  double misfit_um = 0.0, relative_error = 0.0;
+  const double noise_um = StateFitScatter(model,
+                                          flank_um + SeededNoise(n, 5, 0.3),
+                                          0.1,
+                                          &misfit_um,
+                                          &relative_error);
   EXPECT_NEAR(noise_um, 0.3, 0.25 * 0.3);
-  const double smooth_um = scatter(ran.deviations_um + bow, &misfit_um);
+  const double smooth_um =
+      StateFitScatter(model, flank_um + bow, 0.1, &misfit_um, &relative_error);
   EXPECT_GT(misfit_um, 0.3);
   EXPECT_LT(smooth_um, 0.2 * misfit_um);
 }
@@ -1033,35 +1052,19 @@ TEST(ScatterOfStateMisfit, StatesTheStandardErrorItHas) {
   constexpr int kDraws = 400;
   const SmoothModel model;
   const int n = model.NumPoints();
-  Eigen::VectorXd hidden(5);
-  hidden << 2e-3, -1e-3, 5e-4, 1.5e-5, -8e-4;
-  ModelEvaluation ran;
-  model.Evaluate(hidden, false, &ran);
-  CorrectionOptions options;
-  options.probe_noise_um = kSigmaUm;
+  const Eigen::VectorXd flank_um = SmoothFlankAtOffset(model);
   double sum = 0.0, sum2 = 0.0, stated_error = 0.0;
   for (int draw = 0; draw < kDraws; ++draw) {
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    input.measured_um =
-        ran.deviations_um + SeededNoise(n, 100 + draw, kSigmaUm);
-    input.target_um = Eigen::VectorXd::Zero(n);
-    CorrectionProblem problem, state;
-    CorrectionSummary summary;
-    std::string error;
-    ASSERT_TRUE(
-        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-        << error;
-    ASSERT_TRUE(MachineStateProblem(problem, &state));
-    const CorrectionResult fit = SolveProblem(options, state);
-    ASSERT_TRUE(fit.summary.IsSolutionUsable()) << fit.summary.message;
-    double relative_error = 0.0;
-    const double scatter_um = ScatterOfStateMisfit(state, fit, &relative_error);
+    double misfit_um = 0.0;
+    const double scatter_um =
+        StateFitScatter(model,
+                        flank_um + SeededNoise(n, 100 + draw, kSigmaUm),
+                        kSigmaUm,
+                        &misfit_um,
+                        &stated_error);
     ASSERT_TRUE(std::isfinite(scatter_um));
     sum += scatter_um / kSigmaUm;
     sum2 += (scatter_um / kSigmaUm) * (scatter_um / kSigmaUm);
-    stated_error = relative_error;
   }
   const double mean = sum / kDraws;
   const double spread = std::sqrt(sum2 / kDraws - mean * mean) / mean;
