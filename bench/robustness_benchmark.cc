@@ -345,8 +345,9 @@ void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
 }
 
 struct Summary {
-  int scenarios = 0, rounds = 0, worse = 0, unusable = 0, lost_points = 0,
-      motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
+  int scenarios = 0, rounds = 0, worse = 0, worse_on_common = 0,
+      worse_regained = 0, unusable = 0, lost_points = 0, motion_violations = 0,
+      within = 0, banded = 0, in_band[2] = {0, 0};
   std::vector<std::string> worse_list;
   std::vector<double> ratio, cpu, achieved_over_predicted,
       achieved_over_expected, best, final_rms, initial, max_linear, max_angular,
@@ -372,10 +373,24 @@ Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
       s.cpu.push_back(round.cpu_ms);
       if (round.worse) {
         ++s.worse;
+        s.worse_on_common += round.worse_on_common_points;
+        s.worse_regained += round.regained_points > 0;
+        std::string points;
+        if (round.regained_points > 0)
+          points += "; " + std::to_string(round.regained_points) +
+                    " point(s) the part lacked";
+        if (round.reached_after < round.reached_before)
+          points += "; " +
+                    std::to_string(round.reached_before - round.reached_after) +
+                    " point(s) lost";
+        if (!points.empty())
+          points += "; on the common points " +
+                    Num(round.common_rms_before_um) + " -> " +
+                    Num(round.common_rms_after_um);
         s.worse_list.push_back(
             std::to_string(o.scenario.index) + "/" + std::to_string(r + 1) +
             " (" + Num(round.rms_before_um) + " -> " + Num(round.rms_after_um) +
-            " um, predicted " + Num(round.predicted_rms_um) + ")");
+            " um, predicted " + Num(round.predicted_rms_um) + points + ")");
       }
       if (!round.usable) ++s.unusable;
       if (round.reached_after < round.reached_before) ++s.lost_points;
@@ -415,6 +430,11 @@ void PrintSummary(const Summary& s, const std::string& title) {
   std::printf("| rounds that made the part worse (goal 0) | %d of %d |\n",
               s.worse,
               s.rounds);
+  std::printf(
+      "| of them worse on the grid points both parts have / with points the "
+      "part lacked ground again | %d / %d |\n",
+      s.worse_on_common,
+      s.worse_regained);
   std::printf("| unusable corrections (settings kept) | %d |\n", s.unusable);
   std::printf(
       "| rounds that lost grid points (wheel no longer reaches) | %d |\n",
@@ -844,7 +864,9 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"expected_true_rms_um\": %s, \"band_1sigma_um\": [%s, %s], "
                "\"band_2sigma_um\": [%s, %s], \"at_state\": %s, "
                "\"motion_scale\": %s, \"step_fraction\": %s, "
-               "\"shortened_because\": %s}",
+               "\"shortened_because\": %s, \"regained_points\": %d, "
+               "\"common_rms_before_um\": %s, \"common_rms_after_um\": %s, "
+               "\"worse_on_common_points\": %s}",
                first ? "" : ", ",
                JsonNum(x.rms_before_um).c_str(),
                JsonNum(x.rms_after_um).c_str(),
@@ -868,7 +890,11 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                x.at_state ? "true" : "false",
                JsonNum(x.motion_scale).c_str(),
                JsonNum(x.step_fraction).c_str(),
-               JsonString(x.shortened_because).c_str());
+               JsonString(x.shortened_because).c_str(),
+               x.regained_points,
+               JsonNum(x.common_rms_before_um).c_str(),
+               JsonNum(x.common_rms_after_um).c_str(),
+               x.worse_on_common_points ? "true" : "false");
 }
 
 // One scenario under configuration k: its parts, rounds and reference.

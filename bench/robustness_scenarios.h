@@ -596,6 +596,29 @@ inline bool IsWorsePart(double current_rms_um, double next_rms_um) {
   return next_rms_um > current_rms_um + std::max(0.1, 0.1 * current_rms_um);
 }
 
+// The rms of `before` and of `after` over the entries finite in both, and
+// the count of entries finite in `after` only.
+inline void CommonPointsRms(const Eigen::VectorXd& before,
+                            const Eigen::VectorXd& after,
+                            double* before_rms,
+                            double* after_rms,
+                            int* regained) {
+  double sum_before = 0.0, sum_after = 0.0;
+  int n = 0;
+  *regained = 0;
+  for (int i = 0; i < before.size(); ++i) {
+    const bool had = std::isfinite(before(i)), has = std::isfinite(after(i));
+    if (has && !had) ++*regained;
+    if (!(had && has)) continue;
+    sum_before += before(i) * before(i);
+    sum_after += after(i) * after(i);
+    ++n;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  *before_rms = n > 0 ? std::sqrt(sum_before / n) : nan;
+  *after_rms = n > 0 ? std::sqrt(sum_after / n) : nan;
+}
+
 // CPU time of the calling thread [ms].
 inline double ThreadCpuMs() {
   timespec t{};
@@ -629,6 +652,17 @@ struct RoundRecord {
   double correction_size = 0.0;
   double cpu_ms = 0.0;  // thread CPU time of ComputeCorrection
   bool worse = false;   // IsWorsePart(rms_before, rms_after)
+  // Where the two parts differ in the points they have (the real machine's
+  // contact lost, or found again, at some point): the grid points the next
+  // part has that the current one lacked, and both parts' true rms over the
+  // points both have, with IsWorsePart on those. A round worse only through
+  // points the current part lacked made the part worse where the real machine
+  // had not been grinding it (the region is ground again, off the target);
+  // one worse on the common points made it worse where it was ground.
+  int regained_points = 0;
+  double common_rms_before_um = 0.0;
+  double common_rms_after_um = 0.0;
+  bool worse_on_common_points = false;
   // The exact-model search's outcome (summary exact_search) and its two
   // predictions [um].
   std::string exact_search;
@@ -739,12 +773,21 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
           round.max_angular_motion_rad <= kAngularMotionBoundRad;
       commanded = result.parameters;
     }
+    const Eigen::VectorXd error_before_um =
+        cmm.true_deviations_um - s.target_um;
     ++measurement.seed;
     cmm = SimulateMeasurement(model, commanded, s.hidden_errors, measurement);
     rms = FiniteRms(cmm.true_deviations_um - s.target_um, &reached);
     round.rms_after_um = rms;
     round.reached_after = reached;
     round.worse = IsWorsePart(round.rms_before_um, round.rms_after_um);
+    CommonPointsRms(error_before_um,
+                    cmm.true_deviations_um - s.target_um,
+                    &round.common_rms_before_um,
+                    &round.common_rms_after_um,
+                    &round.regained_points);
+    round.worse_on_common_points =
+        IsWorsePart(round.common_rms_before_um, round.common_rms_after_um);
     if (round.worse) ++loop.worse_rounds;
     loop.part_rms_um.push_back(rms);
     loop.rounds.push_back(round);

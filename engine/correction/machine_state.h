@@ -131,7 +131,7 @@ double ScatterOfStateMisfit(const CorrectionProblem& state_problem,
 // error, along directions where a little flank costs much axis motion
 // (robustness benchmark, noise stated 0, seed 12: scenario 103's part at
 // 0.141 um read a scatter of 0.26 um from a 0.34 um probe; the correction
-// moved X by 0.198 mm for 0.09 um of predicted gain and took a tip corner
+// moved X by 0.198 mm for 0.09 um of predicted gain and took a root-row corner
 // past the envelope's fold on the real machine, 89.7 um; scenario 90, 0.318
 // of 0.448 um, 3.69 -> 51.4 um). A standard error is about 16 % on a full
 // 5 x 9 grid.

@@ -7,6 +7,8 @@
 // (bench/robustness_benchmark.cc) also measures reach, prediction and CPU.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <string>
 
 #include "bench/robustness_scenarios.h"
@@ -49,6 +51,29 @@ bench::LoopRecord LoopMakingNoPartWorse(std::uint64_t seed, int index) {
                           << r.predicted_rms_um << " um";
   }
   return loop;
+}
+
+// A round is told apart by the points the two parts have: the rms of each
+// over the points both have, and the count of points the next part has that
+// the current one lacked (a region the real machine grinds again); a point the
+// next part lost is in neither.
+TEST(ClosedLoop, TellsThePointsThePartLackedFromTheCommonOnes) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Eigen::VectorXd before(5), after(5);
+  before << 1.0, nan, 2.0, 3.0, nan;
+  after << 3.0, 40.0, nan, 4.0, 50.0;
+  double before_rms = 0.0, after_rms = 0.0;
+  int regained = 0;
+  bench::CommonPointsRms(before, after, &before_rms, &after_rms, &regained);
+  EXPECT_EQ(regained, 2);
+  EXPECT_NEAR(before_rms, std::sqrt((1.0 + 9.0) / 2.0), 1e-12);
+  EXPECT_NEAR(after_rms, std::sqrt((9.0 + 16.0) / 2.0), 1e-12);
+  // Nothing in common: no figure.
+  before << nan, nan, nan, nan, nan;
+  bench::CommonPointsRms(before, after, &before_rms, &after_rms, &regained);
+  EXPECT_EQ(regained, 4);
+  EXPECT_TRUE(std::isnan(before_rms));
+  EXPECT_TRUE(std::isnan(after_rms));
 }
 
 // With the default options, every order 0-6 open, no round may make a part
