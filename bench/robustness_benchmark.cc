@@ -5,7 +5,10 @@
 // the best flank error reachable from the true hidden state
 // (bench/best_reachable.h). Reports rounds that made a part worse, final / best
 // reachable, prediction against achievement, axis motion against the bounds and
-// CPU per correction. A study, not a timing test (BENCHMARKS.md, "Robustness").
+// CPU per correction; each worse round with the points the next part has that
+// the current one lacked and both parts' rms over the points both have
+// (RoundRecord). A study, not a timing test (BENCHMARKS.md, "Robustness";
+// bench/round_probe.cc looks at one round in detail).
 //
 //   build/bench/robustness_benchmark
 //       [--scenarios 200] [--bevel 10] [--seed 2026]
