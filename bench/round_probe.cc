@@ -4,7 +4,7 @@
 // benchmark lists.
 //
 //   round_probe --seed 12 --scenario 103 --round 3 --told-noise-scale 0
-//               [--error-scale F] [--noise-scale F] [--point ROW,COL]
+//               [--error-scale F] [--noise-scale F] [--point ROW,COL] [--scan]
 //
 // Runs the closed loop to the part before `--round` (1 = the first
 // correction), corrects it as the loop does (default options), and prints:
@@ -16,6 +16,10 @@
 // state against the hidden errors; and, for `--point`, that point's
 // deviation, contact roll and contact margin along fractions of the step on
 // each of the three. Rows count from 0 at the root side (MODEL.md §4).
+// `--scan`: every grid point whose contact on the true machine is lost or
+// found by the step, or whose deviation there jumps by more than 20 um, at
+// fractions 0, 0.05, ..., 1 of the step (status, deviation and contact roll):
+// how the envelope solve behaves along the way.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -73,7 +77,7 @@ int Usage() {
   std::fprintf(stderr,
                "usage: round_probe --seed S --scenario I --round R "
                "[--told-noise-scale F] [--error-scale F] [--noise-scale F] "
-               "[--point ROW,COL]\n");
+               "[--point ROW,COL] [--scan]\n");
   return 2;
 }
 
@@ -85,8 +89,13 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 2026;
   int index = -1, round = 1, point_row = -1, point_column = -1;
   bench::StressOptions stress;
+  bool scan = false;
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
+    if (arg == "--scan") {
+      scan = true;
+      continue;
+    }
     if (a + 1 >= argc) return Usage();
     const char* value = argv[++a];
     char* end = nullptr;
@@ -195,6 +204,34 @@ int main(int argc, char** argv) {
     std::printf("the estimated state less the true one: %.4g mm, %.4g rad\n",
                 linear_mm,
                 angular_rad);
+  }
+
+  if (scan) {
+    ModelEvaluation start, end;
+    model.Evaluate(truth, false, &start);
+    model.Evaluate(truth + step, false, &end);
+    constexpr double kJumpUm = 20.0;
+    for (int i = 0; i < model.NumPoints(); ++i) {
+      const bool had = start.status[i] == PointStatus::kOk;
+      const bool has = end.status[i] == PointStatus::kOk;
+      if (had == has && !(had && std::abs(end.deviations_um(i) -
+                                          start.deviations_um(i)) > kJumpUm))
+        continue;
+      std::printf("\nthe true machine along the step, row %d, column %d:\n",
+                  i / model.GridColumns(),
+                  i % model.GridColumns());
+      for (int k = 0; k <= 20; ++k) {
+        ModelEvaluation eval;
+        model.Evaluate(truth + (k / 20.0) * step, false, &eval);
+        std::printf("  f = %4.2f: ", k / 20.0);
+        if (eval.status[i] == PointStatus::kOk)
+          std::printf("%9.3f um at roll %9.5f rad\n",
+                      eval.deviations_um(i) - s.target_um(i),
+                      eval.contact_roll_rad[i]);
+        else
+          std::printf("%s\n", PointStatusName(eval.status[i]));
+      }
+    }
   }
 
   if (point_row >= 0) {
