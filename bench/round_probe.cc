@@ -104,11 +104,14 @@ int main(int argc, char** argv) {
         return Usage();
       continue;
     }
+    if (arg == "--seed") {
+      seed = std::strtoull(value, &end, 10);
+      if (end == value || *end != '\0') return Usage();
+      continue;
+    }
     const double number = std::strtod(value, &end);
     if (end == value || *end != '\0') return Usage();
-    if (arg == "--seed") {
-      seed = static_cast<std::uint64_t>(number);
-    } else if (arg == "--scenario") {
+    if (arg == "--scenario") {
       index = static_cast<int>(number);
     } else if (arg == "--round") {
       round = static_cast<int>(number);
