@@ -294,6 +294,7 @@ class GearloopServer::Impl {
   void Stop() { http_.stop(); }
   int port() const { return port_; }
   bool IsRunning() const { return http_.is_running(); }
+  int OpenConnections() const { return http_.OpenConnections(); }
   long long QueuedBatchItems() const {
     return static_cast<long long>(batches_->Queued());
   }
@@ -740,6 +741,7 @@ void GearloopServer::Serve() { impl_->Serve(); }
 void GearloopServer::Stop() { impl_->Stop(); }
 int GearloopServer::port() const { return impl_->port(); }
 bool GearloopServer::IsRunning() const { return impl_->IsRunning(); }
+int GearloopServer::OpenConnections() const { return impl_->OpenConnections(); }
 long long GearloopServer::QueuedBatchItems() const {
   return impl_->QueuedBatchItems();
 }

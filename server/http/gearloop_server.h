@@ -90,6 +90,9 @@ class GearloopServer {
   bool IsRunning() const;
   // Number of batch items waiting for a worker.
   long long QueuedBatchItems() const;
+  // Connections admitted and not yet closed (each counted against its
+  // client's max_connections_per_client).
+  int OpenConnections() const;
 
  private:
   class Impl;

@@ -151,6 +151,15 @@ TEST(Connections, CutsOffATricklingClientAtTheRequestDeadline) {
   EXPECT_LT(SecondsSince(start), 4.0);
 }
 
+// Whether the server's open connections come to `count` within 10 s.
+bool OpenConnectionsReach(RunningServer& running, int count) {
+  for (int i = 0; i < 1000; ++i) {
+    if (running.server()->OpenConnections() == count) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 // One address may hold max_connections_per_client connections; the next is
 // answered 503 at once, and a slot freed is usable again.
 TEST(Connections, CapsTheConnectionsOfOneClient) {
@@ -165,14 +174,17 @@ TEST(Connections, CapsTheConnectionsOfOneClient) {
     held.push_back(std::make_unique<RawConnection>(running.port()));
     held.back()->Send("GET /healthz HTTP/1.1\r\n");
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // The server admits each connection on a worker of its own; a fixed pause
+  // was not always enough under ASan on a loaded machine (the fifth was
+  // admitted before one of the four and waited for its head).
+  ASSERT_TRUE(OpenConnectionsReach(running, 4));
   RawConnection extra(running.port(), 3);
   const auto start = std::chrono::steady_clock::now();
   const std::string head = extra.ReceiveHead();
   EXPECT_EQ(head.rfind("HTTP/1.1 503", 0), 0u) << head;
   EXPECT_LT(SecondsSince(start), 1.0);
   held.pop_back();
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(OpenConnectionsReach(running, 3));
   double seconds = 0;
   EXPECT_EQ(TimedGet(running.port(), "/healthz", &seconds), 200);
 }
@@ -191,7 +203,10 @@ TEST(Connections, CapsTheConnectionsInTotal) {
     held.push_back(std::make_unique<RawConnection>(running.port()));
     held.back()->Send("GET /healthz HTTP/1.1\r\n");
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // The server admits each connection on a worker of its own; a fixed pause
+  // was not always enough under ASan on a loaded machine (the fifth was
+  // admitted before one of the four and waited for its head).
+  ASSERT_TRUE(OpenConnectionsReach(running, 4));
   RawConnection extra(running.port(), 3);
   const auto start = std::chrono::steady_clock::now();
   const std::string head = extra.ReceiveHead();
