@@ -711,14 +711,35 @@ inline void MaxAxisMotion(const MachineModel& model,
 // part. The solver is told the scenario's noise (or -1) and the measured teeth;
 // the measuring machine's seed advances by one per part. An unusable correction
 // leaves the settings as they were.
+// The correction the loop asks for the part measured as `cmm` (commanded
+// `commanded`, `teeth` teeth measured): the probe noise told as the scenario
+// tells it (told_noise_scale x sigma, or -1 unknown) into `options`, and the
+// input with every tooth where several were measured.
+inline CorrectionInput LoopCorrectionInput(const Scenario& s,
+                                           const Eigen::VectorXd& commanded,
+                                           const SimulatedMeasurement& cmm,
+                                           int teeth,
+                                           CorrectionOptions* options) {
+  options->probe_noise_um =
+      s.noise_told ? s.told_noise_scale * s.probe_noise_um : -1.0;
+  CorrectionInput input;
+  input.model = s.model.get();
+  input.current_parameters = commanded;
+  if (teeth > 1) {
+    input.measured_teeth_um = cmm.teeth_um;
+  } else {
+    input.measured_um = cmm.measured_um;
+  }
+  input.target_um = s.target_um;
+  return input;
+}
+
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {
   LoopRecord loop;
   const MachineModel& model = *s.model;
   CorrectionOptions options = base_options;
-  options.probe_noise_um =
-      s.noise_told ? s.told_noise_scale * s.probe_noise_um : -1.0;
   Eigen::VectorXd commanded = s.initial_parameters;
   MeasurementSimulationOptions measurement = s.measurement;
   SimulatedMeasurement cmm =
@@ -730,15 +751,8 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
     RoundRecord round;
     round.rms_before_um = rms;
     round.reached_before = reached;
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = commanded;
-    if (measurement.teeth > 1) {
-      input.measured_teeth_um = cmm.teeth_um;
-    } else {
-      input.measured_um = cmm.measured_um;
-    }
-    input.target_um = s.target_um;
+    const CorrectionInput input =
+        LoopCorrectionInput(s, commanded, cmm, measurement.teeth, &options);
     const double start = ThreadCpuMs();
     const CorrectionResult result = ComputeCorrection(options, input);
     round.cpu_ms = ThreadCpuMs() - start;

@@ -81,81 +81,164 @@ int Usage() {
   return 2;
 }
 
+struct ProbeArguments {
+  std::uint64_t seed = 2026;
+  int index = -1;
+  int round = 1;
+  int point_row = -1;  // < 0: no --point
+  int point_column = -1;
+  bool scan = false;
+  bench::StressOptions stress;
+};
+
+// False on anything the usage does not name.
+bool ParseArguments(int argc, char** argv, ProbeArguments* args) {
+  for (int a = 1; a < argc; ++a) {
+    const std::string arg = argv[a];
+    if (arg == "--scan") {
+      args->scan = true;
+      continue;
+    }
+    if (a + 1 >= argc) return false;
+    const char* value = argv[++a];
+    char* end = nullptr;
+    if (arg == "--point") {
+      if (std::sscanf(value, "%d,%d", &args->point_row, &args->point_column) !=
+          2)
+        return false;
+      continue;
+    }
+    if (arg == "--seed") {
+      args->seed = std::strtoull(value, &end, 10);
+      if (end == value || *end != '\0') return false;
+      continue;
+    }
+    const double number = std::strtod(value, &end);
+    if (end == value || *end != '\0') return false;
+    if (arg == "--scenario") {
+      args->index = static_cast<int>(number);
+    } else if (arg == "--round") {
+      args->round = static_cast<int>(number);
+    } else if (arg == "--told-noise-scale") {
+      args->stress.told_noise_scale = number;
+    } else if (arg == "--error-scale") {
+      args->stress.error_scale = number;
+    } else if (arg == "--noise-scale") {
+      args->stress.noise_scale = number;
+    } else {
+      return false;
+    }
+  }
+  return args->index >= 0 && args->round >= 1;
+}
+
+// The model at `parameters` and at `parameters` + `step`, as two grids.
+void PrintBeforeAndAfter(const char* name,
+                         const MachineModel& model,
+                         const Eigen::VectorXd& parameters,
+                         const Eigen::VectorXd& step,
+                         const Eigen::VectorXd& target_um,
+                         ModelEvaluation* before,
+                         ModelEvaluation* after) {
+  model.Evaluate(parameters, false, before);
+  model.Evaluate(parameters + step, false, after);
+  PrintGrid((std::string(name) + ", before the step").c_str(),
+            model,
+            *before,
+            target_um);
+  PrintGrid((std::string(name) + ", after the step").c_str(),
+            model,
+            *after,
+            target_um);
+}
+
+void PrintMotion(const char* what,
+                 const bench::Scenario& s,
+                 const Eigen::VectorXd& change) {
+  double linear_mm = 0.0, angular_rad = 0.0;
+  bench::MaxAxisMotion(*s.model,
+                       change,
+                       s.roll_min_rad,
+                       s.roll_max_rad,
+                       &linear_mm,
+                       &angular_rad);
+  std::printf("%s: %.4g mm, %.4g rad\n", what, linear_mm, angular_rad);
+}
+
+// `--scan`: the true machine's points whose contact the step loses or finds,
+// or whose deviation jumps by more than kJumpUm, along 21 fractions.
+void PrintScan(const MachineModel& model,
+               const Eigen::VectorXd& truth,
+               const Eigen::VectorXd& step,
+               const Eigen::VectorXd& target_um,
+               const ModelEvaluation& start,
+               const ModelEvaluation& end) {
+  constexpr double kJumpUm = 20.0;
+  for (int i = 0; i < model.NumPoints(); ++i) {
+    const bool had = start.status[i] == PointStatus::kOk;
+    const bool has = end.status[i] == PointStatus::kOk;
+    if (had == has && !(had && std::abs(end.deviations_um(i) -
+                                        start.deviations_um(i)) > kJumpUm))
+      continue;
+    std::printf("\nthe true machine along the step, row %d, column %d:\n",
+                i / model.GridColumns(),
+                i % model.GridColumns());
+    for (int k = 0; k <= 20; ++k) {
+      ModelEvaluation eval;
+      model.Evaluate(truth + (k / 20.0) * step, false, &eval);
+      std::printf("  f = %4.2f: ", k / 20.0);
+      if (eval.status[i] == PointStatus::kOk)
+        std::printf("%9.3f um at roll %9.5f rad\n",
+                    eval.deviations_um(i) - target_um(i),
+                    eval.contact_roll_rad[i]);
+      else
+        std::printf("%s\n", PointStatusName(eval.status[i]));
+    }
+  }
+}
+
+// The part before round `round` (from 1), as the loop makes and measures
+// it (its commanded settings into `commanded`), and its correction.
+CorrectionResult CorrectTheRound(const bench::Scenario& s,
+                                 int round,
+                                 Eigen::VectorXd* commanded) {
+  CorrectionOptions options;
+  *commanded = s.initial_parameters;
+  if (round > 1)
+    *commanded = bench::RunClosedLoop(s, options, round - 1).final_parameters;
+  MeasurementSimulationOptions measurement = s.measurement;
+  measurement.seed += round - 1;
+  const SimulatedMeasurement cmm =
+      SimulateMeasurement(*s.model, *commanded, s.hidden_errors, measurement);
+  const CorrectionInput input = bench::LoopCorrectionInput(
+      s, *commanded, cmm, measurement.teeth, &options);
+  return ComputeCorrection(options, input);
+}
+
 }  // namespace
 }  // namespace gearloop
 
 int main(int argc, char** argv) {
   using namespace gearloop;
-  std::uint64_t seed = 2026;
-  int index = -1, round = 1, point_row = -1, point_column = -1;
-  bench::StressOptions stress;
-  bool scan = false;
-  for (int a = 1; a < argc; ++a) {
-    const std::string arg = argv[a];
-    if (arg == "--scan") {
-      scan = true;
-      continue;
-    }
-    if (a + 1 >= argc) return Usage();
-    const char* value = argv[++a];
-    char* end = nullptr;
-    if (arg == "--point") {
-      if (std::sscanf(value, "%d,%d", &point_row, &point_column) != 2)
-        return Usage();
-      continue;
-    }
-    if (arg == "--seed") {
-      seed = std::strtoull(value, &end, 10);
-      if (end == value || *end != '\0') return Usage();
-      continue;
-    }
-    const double number = std::strtod(value, &end);
-    if (end == value || *end != '\0') return Usage();
-    if (arg == "--scenario") {
-      index = static_cast<int>(number);
-    } else if (arg == "--round") {
-      round = static_cast<int>(number);
-    } else if (arg == "--told-noise-scale") {
-      stress.told_noise_scale = number;
-    } else if (arg == "--error-scale") {
-      stress.error_scale = number;
-    } else if (arg == "--noise-scale") {
-      stress.noise_scale = number;
-    } else {
-      return Usage();
-    }
-  }
-  if (index < 0 || round < 1) return Usage();
-
-  const bench::Scenario s = bench::DrawGrinderScenario(seed, index, stress);
+  ProbeArguments args;
+  if (!ParseArguments(argc, argv, &args)) return Usage();
+  const bench::Scenario s =
+      bench::DrawGrinderScenario(args.seed, args.index, args.stress);
   const MachineModel& model = *s.model;
+  const int columns = model.GridColumns();
+  const int point = args.point_row * columns + args.point_column;
+  if (args.point_row >= 0 &&
+      (args.point_column < 0 || args.point_column >= columns ||
+       point >= model.NumPoints()))
+    return Usage();
   std::printf("seed %llu, scenario %d, round %d: %s\n",
-              static_cast<unsigned long long>(seed),
-              index,
-              round,
+              static_cast<unsigned long long>(args.seed),
+              args.index,
+              args.round,
               s.Describe().c_str());
 
-  // The part before this round, as the loop makes and measures it.
-  const CorrectionOptions options;
-  Eigen::VectorXd commanded = s.initial_parameters;
-  if (round > 1)
-    commanded = bench::RunClosedLoop(s, options, round - 1).final_parameters;
-  MeasurementSimulationOptions measurement = s.measurement;
-  measurement.seed += round - 1;
-  const SimulatedMeasurement cmm =
-      SimulateMeasurement(model, commanded, s.hidden_errors, measurement);
-  CorrectionOptions asked = options;
-  asked.probe_noise_um =
-      s.noise_told ? s.told_noise_scale * s.probe_noise_um : -1.0;
-  CorrectionInput input;
-  input.model = &model;
-  input.current_parameters = commanded;
-  if (measurement.teeth > 1)
-    input.measured_teeth_um = cmm.teeth_um;
-  else
-    input.measured_um = cmm.measured_um;
-  input.target_um = s.target_um;
-  const CorrectionResult result = ComputeCorrection(asked, input);
+  Eigen::VectorXd commanded;
+  const CorrectionResult result = CorrectTheRound(s, args.round, &commanded);
   std::printf("\n%s\n\n", result.summary.BriefReport().c_str());
   if (!result.summary.IsSolutionUsable()) return 0;
 
@@ -163,87 +246,47 @@ int main(int argc, char** argv) {
   const Eigen::VectorXd& step = result.delta;
   const bool at_state = result.linearised_at.size() == truth.size() &&
                         result.summary.machine_state_estimated;
-  ModelEvaluation before, after;
-  model.Evaluate(truth, false, &before);
-  model.Evaluate(truth + step, false, &after);
   std::printf("roll range of the nominal contacts %.5f .. %.5f rad\n",
               s.roll_min_rad,
               s.roll_max_rad);
-  PrintGrid("the true machine, before the step", model, before, s.target_um);
-  PrintGrid("the true machine, after the step", model, after, s.target_um);
-  if (at_state) {
-    model.Evaluate(result.linearised_at, false, &before);
-    model.Evaluate(result.linearised_at + step, false, &after);
-    PrintGrid("the estimated state, before", model, before, s.target_um);
-    PrintGrid("the estimated state, after", model, after, s.target_um);
-  }
-  model.Evaluate(commanded, false, &before);
-  model.Evaluate(commanded + step, false, &after);
-  PrintGrid("the commanded settings, before", model, before, s.target_um);
-  PrintGrid("the commanded settings, after", model, after, s.target_um);
+  ModelEvaluation true_before, true_after, before, after;
+  PrintBeforeAndAfter("the true machine",
+                      model,
+                      truth,
+                      step,
+                      s.target_um,
+                      &true_before,
+                      &true_after);
+  if (at_state)
+    PrintBeforeAndAfter("the estimated state",
+                        model,
+                        result.linearised_at,
+                        step,
+                        s.target_um,
+                        &before,
+                        &after);
+  PrintBeforeAndAfter("the commanded settings",
+                      model,
+                      commanded,
+                      step,
+                      s.target_um,
+                      &before,
+                      &after);
 
-  double linear_mm = 0.0, angular_rad = 0.0;
-  bench::MaxAxisMotion(
-      model, step, s.roll_min_rad, s.roll_max_rad, &linear_mm, &angular_rad);
-  std::printf(
-      "\nthe step's largest axis motion over the roll range: %.4g mm, "
-      "%.4g rad\n",
-      linear_mm,
-      angular_rad);
-  bench::MaxAxisMotion(model,
-                       s.hidden_errors,
-                       s.roll_min_rad,
-                       s.roll_max_rad,
-                       &linear_mm,
-                       &angular_rad);
-  std::printf("the hidden errors: %.4g mm, %.4g rad\n", linear_mm, angular_rad);
-  if (at_state) {
-    bench::MaxAxisMotion(model,
-                         result.linearised_at - truth,
-                         s.roll_min_rad,
-                         s.roll_max_rad,
-                         &linear_mm,
-                         &angular_rad);
-    std::printf("the estimated state less the true one: %.4g mm, %.4g rad\n",
-                linear_mm,
-                angular_rad);
-  }
+  std::printf("\n");
+  PrintMotion("the step's largest axis motion over the roll range", s, step);
+  PrintMotion("the hidden errors", s, s.hidden_errors);
+  if (at_state)
+    PrintMotion("the estimated state less the true one",
+                s,
+                result.linearised_at - truth);
 
-  if (scan) {
-    ModelEvaluation start, end;
-    model.Evaluate(truth, false, &start);
-    model.Evaluate(truth + step, false, &end);
-    constexpr double kJumpUm = 20.0;
-    for (int i = 0; i < model.NumPoints(); ++i) {
-      const bool had = start.status[i] == PointStatus::kOk;
-      const bool has = end.status[i] == PointStatus::kOk;
-      if (had == has && !(had && std::abs(end.deviations_um(i) -
-                                          start.deviations_um(i)) > kJumpUm))
-        continue;
-      std::printf("\nthe true machine along the step, row %d, column %d:\n",
-                  i / model.GridColumns(),
-                  i % model.GridColumns());
-      for (int k = 0; k <= 20; ++k) {
-        ModelEvaluation eval;
-        model.Evaluate(truth + (k / 20.0) * step, false, &eval);
-        std::printf("  f = %4.2f: ", k / 20.0);
-        if (eval.status[i] == PointStatus::kOk)
-          std::printf("%9.3f um at roll %9.5f rad\n",
-                      eval.deviations_um(i) - s.target_um(i),
-                      eval.contact_roll_rad[i]);
-        else
-          std::printf("%s\n", PointStatusName(eval.status[i]));
-      }
-    }
-  }
-
-  if (point_row >= 0) {
-    const int point = point_row * model.GridColumns() + point_column;
-    if (point_column < 0 || point_column >= model.GridColumns() ||
-        point >= model.NumPoints())
-      return Usage();
-    std::printf(
-        "\npoint row %d, column %d along the step:\n", point_row, point_column);
+  if (args.scan)
+    PrintScan(model, truth, step, s.target_um, true_before, true_after);
+  if (args.point_row >= 0) {
+    std::printf("\npoint row %d, column %d along the step:\n",
+                args.point_row,
+                args.point_column);
     PrintAlongStep("true", model, truth, step, s.target_um, point);
     if (at_state)
       PrintAlongStep(

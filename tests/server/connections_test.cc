@@ -151,7 +151,10 @@ TEST(Connections, CutsOffATricklingClientAtTheRequestDeadline) {
   EXPECT_LT(SecondsSince(start), 4.0);
 }
 
-// Whether the server's open connections come to `count` within 10 s.
+// Whether the server's open connections come to `count` within 10 s. The
+// server admits each connection on a worker of its own: a fixed pause before
+// the next one was not always enough under ASan on a loaded machine (the
+// fifth was admitted before one of the four and waited for its head).
 bool OpenConnectionsReach(RunningServer& running, int count) {
   for (int i = 0; i < 1000; ++i) {
     if (running.server()->OpenConnections() == count) return true;
@@ -174,9 +177,6 @@ TEST(Connections, CapsTheConnectionsOfOneClient) {
     held.push_back(std::make_unique<RawConnection>(running.port()));
     held.back()->Send("GET /healthz HTTP/1.1\r\n");
   }
-  // The server admits each connection on a worker of its own; a fixed pause
-  // was not always enough under ASan on a loaded machine (the fifth was
-  // admitted before one of the four and waited for its head).
   ASSERT_TRUE(OpenConnectionsReach(running, 4));
   RawConnection extra(running.port(), 3);
   const auto start = std::chrono::steady_clock::now();
@@ -203,9 +203,6 @@ TEST(Connections, CapsTheConnectionsInTotal) {
     held.push_back(std::make_unique<RawConnection>(running.port()));
     held.back()->Send("GET /healthz HTTP/1.1\r\n");
   }
-  // The server admits each connection on a worker of its own; a fixed pause
-  // was not always enough under ASan on a loaded machine (the fifth was
-  // admitted before one of the four and waited for its head).
   ASSERT_TRUE(OpenConnectionsReach(running, 4));
   RawConnection extra(running.port(), 3);
   const auto start = std::chrono::steady_clock::now();
