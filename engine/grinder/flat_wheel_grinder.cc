@@ -338,6 +338,15 @@ Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
   return local;
 }
 
+// How far beyond the rim a contact may lie and still count as on it [mm]:
+// rounding, far below any grinding tolerance.
+constexpr double kRimToleranceMm = 1e-9;
+
+// How far from its nominal contact's roll a contact may lie before the solve
+// also follows it from the nominal settings [rad], and in how many stages.
+constexpr double kNearContactRollRad = 0.02;
+constexpr int kContinuationStages = 4;
+
 double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
 
 // What the contacts of one set of settings share: the chain constants, the
@@ -371,17 +380,15 @@ ContactFrame MakeContactFrame(const GrindingSetup& setup,
   return frame;
 }
 
-// FlatWheelGrinder::SolveContact in a frame made once for all grid points.
-EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
-                                    const EnvelopeOptions& options,
-                                    const MachineSettings& settings,
-                                    const FlankGridPoint& point) {
+// The plane-wheel first guess of SolveContactInFrame: phi1 turns the point's
+// normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
+// carried into the wheel frame at that roll, gives u_w and phi_w.
+EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
+                                const MachineSettings& settings,
+                                const FlankGridPoint& point) {
   const ChainConstants& c = frame.c;
   EnvelopeContact contact;
 
-  // First guess: the nominal contact of the plane wheel. phi1 turns the point's
-  // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
-  // carried into the wheel frame, gives u_w and phi_w.
   const Eigen::Vector3d& n = point.normal;
   double roll =
       WrapAngle(frame.wheel_normal_angle_rad - std::atan2(n.z(), n.y()));
@@ -407,17 +414,30 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
     contact.wheel_u_mm = c.wheel_radius_mm - std::hypot(wx, wy);
     contact.wheel_phi_rad = std::atan2(wx, wy);
   }
+  contact.roll_rad = roll;
+  return contact;
+}
 
-  const double roll_guess = roll;
-  Eigen::Vector4d x(contact.wheel_u_mm, contact.wheel_phi_rad, roll, 0.0);
+// FlatWheelGrinder::SolveContact in a frame made once for all grid points,
+// Newton from `start` (the point's contact at the nominal settings, or the
+// plane-wheel guess where that did not converge).
+EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
+                                    const EnvelopeOptions& options,
+                                    const MachineSettings& settings,
+                                    const FlankGridPoint& point,
+                                    const EnvelopeContact& start,
+                                    double max_step_mm) {
+  const ChainConstants& c = frame.c;
+  EnvelopeContact contact;
+  const double roll_guess = start.roll_rad;
+  Eigen::Vector4d x(start.wheel_u_mm, start.wheel_phi_rad, start.roll_rad, 0.0);
   const double r_j = frame.pitch_radius_mm;
   const Eigen::Vector4d step_scale(
       1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
   const engine_internal::DampedNewtonSummary newton =
       engine_internal::DampedNewton<4>(
-          engine_internal::DampedNewtonOptions{options.max_iterations,
-                                               options.step_tolerance_mm,
-                                               options.max_step_mm},
+          engine_internal::DampedNewtonOptions{
+              options.max_iterations, options.step_tolerance_mm, max_step_mm},
           step_scale,
           [&](const Eigen::Vector4d& x,
               Eigen::Vector4d* g,
@@ -435,14 +455,96 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
       std::abs(x(2) - roll_guess) > options.max_roll_excursion_rad ||
       std::abs(x(3)) > options.max_deviation_mm) {
     contact.status = PointStatus::kNotConverged;
-  } else if (x(0) < 0.0 || x(0) > c.wheel_radius_mm) {
+  } else if (x(0) < -kRimToleranceMm ||
+             x(0) > c.wheel_radius_mm + kRimToleranceMm) {
     // The contact lies beyond the rim (or past the wheel centre): the real
-    // wheel does not reach it.
+    // wheel does not reach it. A contact on the rim itself (a grid beginning
+    // at the form point) stays reached whichever side of it the last Newton
+    // step's rounding leaves u_w.
     contact.status = PointStatus::kNotReached;
   } else {
     contact.status = PointStatus::kOk;
   }
   return contact;
+}
+
+// Where Newton starts for `point` at any settings: its contact at the nominal
+// settings (from the plane-wheel guess), or that guess where the nominal
+// contact did not converge. Starting every solve there keeps each grid point
+// on the branch of its nominal contact: from the plane-wheel guess, up to 0.1
+// rad of roll away near the grid's corners, Newton found the near contact at
+// one setting and another root (14 um more stock) a micrometre of axis motion
+// later (robustness benchmark, seed 2026, scenario 67).
+EnvelopeContact NominalStart(const ContactFrame& nominal_frame,
+                             const EnvelopeOptions& options,
+                             const MachineSettings& nominal,
+                             const FlankGridPoint& point) {
+  const EnvelopeContact guess = PlaneWheelGuess(nominal_frame, nominal, point);
+  const EnvelopeContact contact = SolveContactInFrame(
+      nominal_frame, options, nominal, point, guess, options.max_step_mm);
+  return contact.status == PointStatus::kNotConverged ? guess : contact;
+}
+
+// How a contact ranks as the ground surface: a reached contact before one
+// beyond the rim before none; among equals, the smaller deviation (the wheel
+// position that cuts deeper leaves the surface).
+bool GroundsDeeper(const EnvelopeContact& a, const EnvelopeContact& b) {
+  const auto rank = [](PointStatus status) {
+    return status == PointStatus::kOk           ? 0
+           : status == PointStatus::kNotReached ? 1
+                                                : 2;
+  };
+  if (rank(a.status) != rank(b.status)) return rank(a.status) < rank(b.status);
+  return a.status != PointStatus::kNotConverged &&
+         a.deviation_mm < b.deviation_mm;
+}
+
+// The contact at `settings` that grinds `point`: Newton from `start` (its
+// contact at the nominal settings) in steps of at most
+// max_step_from_nominal_mm. Where that fails or ends more than
+// kNearContactRollRad from the start, the contact is also followed from the
+// nominal settings to `settings` in kContinuationStages equal stages (each
+// Newton from the last stage's contact), and the deeper of the two is kept
+// (GroundsDeeper): both are stationary points of the deviation along the roll,
+// and of two the lower is the one the wheel leaves. Seed 2026, scenario 176: a
+// 0.14 mm correction moves a root-row contact from roll 0.275 to 0.167 rad;
+// Newton from 0.275 went to the other stationary point at 0.393 rad (8 um
+// more stock), the stages follow the contact to 0.167.
+EnvelopeContact SolveGroundContact(const GrindingSetup& setup,
+                                   const ContactFrame& frame,
+                                   const EnvelopeOptions& options,
+                                   const MachineSettings& nominal,
+                                   const MachineSettings& settings,
+                                   const FlankGridPoint& point,
+                                   const EnvelopeContact& start) {
+  const double max_step_mm = options.max_step_from_nominal_mm;
+  EnvelopeContact direct =
+      SolveContactInFrame(frame, options, settings, point, start, max_step_mm);
+  if (direct.status != PointStatus::kNotConverged &&
+      std::abs(direct.roll_rad - start.roll_rad) <= kNearContactRollRad)
+    return direct;
+  const Eigen::VectorXd from = nominal.ToVector();
+  const Eigen::VectorXd change = settings.ToVector() - from;
+  EnvelopeContact followed = start;
+  int iterations = direct.iterations;
+  for (int stage = 1; stage <= kContinuationStages; ++stage) {
+    const bool last = stage == kContinuationStages;
+    const MachineSettings at =
+        last ? settings
+             : MachineSettings::FromVector(
+                   from + (double(stage) / kContinuationStages) * change);
+    followed = SolveContactInFrame(last ? frame : MakeContactFrame(setup, at),
+                                   options,
+                                   at,
+                                   point,
+                                   followed,
+                                   max_step_mm);
+    iterations += followed.iterations;
+    if (followed.status == PointStatus::kNotConverged) break;
+  }
+  EnvelopeContact& kept = GroundsDeeper(followed, direct) ? followed : direct;
+  kept.iterations = iterations;
+  return kept;
 }
 
 }  // namespace
@@ -467,8 +569,11 @@ FlatWheelGrinder::FlatWheelGrinder(const GrindingSetup& setup,
       nominal_(NominalSettings(setup)) {
   roll_min_rad_ = std::numeric_limits<double>::infinity();
   roll_max_rad_ = -std::numeric_limits<double>::infinity();
+  const ContactFrame frame = MakeContactFrame(setup_, nominal_);
+  nominal_starts_.reserve(grid_.points.size());
   for (const FlankGridPoint& point : grid_.points) {
-    const EnvelopeContact contact = SolveContact(nominal_, point);
+    nominal_starts_.push_back(NominalStart(frame, options_, nominal_, point));
+    const EnvelopeContact& contact = nominal_starts_.back();
     if (contact.status == PointStatus::kNotConverged) continue;
     roll_min_rad_ = std::min(roll_min_rad_, contact.roll_rad);
     roll_max_rad_ = std::max(roll_max_rad_, contact.roll_rad);
@@ -548,8 +653,15 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
 
 EnvelopeContact FlatWheelGrinder::SolveContact(
     const MachineSettings& settings, const FlankGridPoint& point) const {
-  return SolveContactInFrame(
-      MakeContactFrame(setup_, settings), options_, settings, point);
+  const EnvelopeContact start = NominalStart(
+      MakeContactFrame(setup_, nominal_), options_, nominal_, point);
+  return SolveGroundContact(setup_,
+                            MakeContactFrame(setup_, settings),
+                            options_,
+                            nominal_,
+                            settings,
+                            point,
+                            start);
 }
 
 Eigen::Matrix<double, 1, kNumGrinderParameters>
@@ -626,12 +738,16 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
   const double wheel_radius_mm = frame.c.wheel_radius_mm;
   for (int i = 0; i < n; ++i) {
     const FlankGridPoint& point = grid_.points[i];
-    const EnvelopeContact contact =
-        SolveContactInFrame(frame, options_, settings, point);
+    const EnvelopeContact contact = SolveGroundContact(
+        setup_, frame, options_, nominal_, settings, point, nominal_starts_[i]);
     evaluation->status[i] = contact.status;
     if (contact.status != PointStatus::kNotConverged) {
-      evaluation->contact_margin_mm[i] =
+      const double margin_mm =
           std::min(contact.wheel_u_mm, wheel_radius_mm - contact.wheel_u_mm);
+      // A reached contact on the rim (within kRimToleranceMm) has margin 0.
+      evaluation->contact_margin_mm[i] = contact.status == PointStatus::kOk
+                                             ? std::max(margin_mm, 0.0)
+                                             : margin_mm;
     }
     if (contact.status != PointStatus::kOk) continue;
     evaluation->deviations_um(i) = contact.deviation_mm * kMmToUm;

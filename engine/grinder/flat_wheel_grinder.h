@@ -73,9 +73,16 @@ struct EnvelopeOptions {
   // circle).
   double step_tolerance_mm = 1e-11;
   // A Newton step larger than this in u_w [mm] (or, scaled by R_w, in phi_w; by
-  // r_j, in phi1) is shortened to it: keeps Newton on the branch of the nominal
-  // contact.
+  // r_j, in phi1) is shortened to it, in the solve at the nominal settings from
+  // the plane-wheel guess.
   double max_step_mm = 20.0;
+  // The same for the solve at any settings from the point's nominal contact:
+  // the contact moves by micrometres to a few tenths of a millimetre, and a
+  // longer step near a fold of the envelope (an almost singular Jacobian)
+  // leaves for another root. With 20 mm, 9 rounds of 3000 made a part worse
+  // on the robustness benchmark (fifteen seeds, noise told right), most of
+  // them a point jumping to another root; with 2 mm, 2 (BENCHMARKS.md).
+  double max_step_from_nominal_mm = 2.0;
   // Far from the nominal flank the 4 x 4 system has other solutions (other
   // branches of the envelope, or the wheel's far side). A converged contact
   // whose roll angle lies more than this from the first guess [rad], or whose
@@ -121,7 +128,9 @@ class FlatWheelGrinder : public MachineModel {
   void AddJacobian(const Eigen::VectorXd& parameters,
                    ModelEvaluation* evaluation) const override;
 
-  // The envelope contact at theoretical flank point `point` for `settings`.
+  // The envelope contact at theoretical flank point `point` for `settings`:
+  // Newton from the point's contact at the nominal settings (the branch of the
+  // nominal contact).
   EnvelopeContact SolveContact(const MachineSettings& settings,
                                const FlankGridPoint& point) const;
 
@@ -156,6 +165,8 @@ class FlatWheelGrinder : public MachineModel {
   EnvelopeOptions options_;
   FlankGrid grid_;
   MachineSettings nominal_;
+  // Per grid point, where its contact Newton starts (NominalStart).
+  std::vector<EnvelopeContact> nominal_starts_;
   double roll_min_rad_ = 0.0;
   double roll_max_rad_ = 0.0;
 };
