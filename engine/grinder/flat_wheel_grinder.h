@@ -79,9 +79,11 @@ struct EnvelopeOptions {
   // The same for the solve at any settings from the point's nominal contact:
   // the contact moves by micrometres to a few tenths of a millimetre, and a
   // longer step near a fold of the envelope (an almost singular Jacobian)
-  // leaves for another root. With 20 mm, 9 rounds of 3000 made a part worse
-  // on the robustness benchmark (fifteen seeds, noise told right), most of
-  // them a point jumping to another root; with 2 mm, 2 (BENCHMARKS.md).
+  // leaves for another root. From the nominal contact with 20 mm steps, 9
+  // rounds of 3000 made a part worse on the robustness benchmark (fifteen
+  // seeds, noise told right), most of them a point jumping to another root;
+  // with 2 mm, 2 (before the staged solve of SolveContact; BENCHMARKS.md,
+  // "Each contact followed on its branch").
   double max_step_from_nominal_mm = 2.0;
   // Far from the nominal flank the 4 x 4 system has other solutions (other
   // branches of the envelope, or the wheel's far side). A converged contact
@@ -129,8 +131,10 @@ class FlatWheelGrinder : public MachineModel {
                    ModelEvaluation* evaluation) const override;
 
   // The envelope contact at theoretical flank point `point` for `settings`:
-  // Newton from the point's contact at the nominal settings (the branch of the
-  // nominal contact).
+  // Newton from the point's contact at the nominal settings; where that fails
+  // or ends more than 0.02 rad of roll away, also the contact followed from
+  // the nominal settings in four stages, and the deeper of the two (the
+  // branch of the nominal contact; Evaluate finds the same).
   EnvelopeContact SolveContact(const MachineSettings& settings,
                                const FlankGridPoint& point) const;
 
