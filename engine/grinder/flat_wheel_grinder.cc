@@ -473,8 +473,8 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
 // contact did not converge. Starting every solve there keeps each grid point
 // on the branch of its nominal contact: from the plane-wheel guess, up to 0.1
 // rad of roll away near the grid's corners, Newton found the near contact at
-// one setting and another root (14 um more stock) a micrometre of axis motion
-// later (robustness benchmark, seed 2026, scenario 67).
+// one setting and another root (14 um more stock) 3 nm of axis motion later
+// (robustness benchmark, seed 2026, scenario 67, row 0, column 8).
 EnvelopeContact NominalStart(const ContactFrame& nominal_frame,
                              const EnvelopeOptions& options,
                              const MachineSettings& nominal,
