@@ -394,13 +394,13 @@ TEST(ExactSearch, IsNotRunNearTheNoise) {
 }
 
 // The envelope solve follows each grid point's contact from its contact at the
-// nominal settings (flat_wheel_grinder.cc, SolveGroundContact). The ground
-// flank is then a continuous function of the settings: along the straight
-// path from the nominal settings to twice the first part's true settings (the
-// target's settings with the hidden errors) of the benchmark's 200 scenarios,
-// in 100 equal steps, no reached point's deviation jumps (its second
-// difference stays under kJumpUm). The solve from the plane-wheel guess, with
-// 20 mm steps, jumped at scenario 131 (row 2, column 0: 12.2 -> 18.9 um at
+// nominal settings (flat_wheel_grinder.cc, SolveGroundContact), so the ground
+// flank follows the settings without jumping to another root: along the
+// straight path from the nominal settings to twice the first part's true
+// settings (the target's settings with the hidden errors) of the benchmark's
+// 200 scenarios, in 100 equal steps, no reached point's deviation jumps (its
+// second difference stays under kJumpUm). The solve from the plane-wheel guess,
+// with 20 mm steps, jumped at scenario 131 (row 2, column 0: 12.2 -> 18.9 um at
 // 1.96 x); past 2 x that point still lands on a maximum of the deviation
 // along the roll (2.1 x; BENCHMARKS.md).
 TEST(EnvelopeSolve, FollowsEachContactOnItsBranch) {
