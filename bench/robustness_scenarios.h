@@ -707,10 +707,6 @@ inline void MaxAxisMotion(const MachineModel& model,
   }
 }
 
-// Grind -> measure -> correct, `rounds` times, then grind and measure the last
-// part. The solver is told the scenario's noise (or -1) and the measured teeth;
-// the measuring machine's seed advances by one per part. An unusable correction
-// leaves the settings as they were.
 // The correction the loop asks for the part measured as `cmm` (commanded
 // `commanded`, `teeth` teeth measured): the probe noise told as the scenario
 // tells it (told_noise_scale x sigma, or -1 unknown) into `options`, and the
@@ -734,6 +730,10 @@ inline CorrectionInput LoopCorrectionInput(const Scenario& s,
   return input;
 }
 
+// Grind -> measure -> correct, `rounds` times, then grind and measure the last
+// part. The solver is told the scenario's noise (or -1) and the measured teeth;
+// the measuring machine's seed advances by one per part. An unusable correction
+// leaves the settings as they were.
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {
