@@ -131,8 +131,8 @@ bool SolveAtMachineState(const CorrectionOptions& options,
     std::ostringstream plausible;
     plausible << std::setprecision(2) << share;
     test->reason +=
-        "; it fits to the noise: the safe step asks about lost points and the "
-        "models' agreement no farther than " +
+        "; it fits to the noise: the safe step asks about lost points no "
+        "farther than " +
         plausible.str() + " of the way to the commanded settings";
   }
   if (options.signal_filter) at_state.signal_noise_um = *noise_um;

@@ -1591,29 +1591,39 @@ class ScaledAxisModel : public GridModel {
 // commanded settings (p0 = 0) it is J delta: they disagree by 1.5 times the
 // state's change. A step in orders 1-3 (the default freedom) is taken whole
 // on the state's word; the same step with an order-5 part must also agree at
-// the commanded settings, and no fraction of it does.
+// the commanded settings, and no fraction of it does. The same where the
+// state fits to the noise and the machine plausibly runs no farther than 0.02
+// of the way to the commanded settings (p0 = -2.94 there: the models would
+// agree within 3 %): the agreement is still asked at the commanded settings
+// (robustness benchmark, seed 34, scenario 97: a share of 0.02, and the real
+// part went 6.27 -> 17.9 um while it was asked at the plausible end).
 TEST(ChooseSafeStep, AsksTheCommandedSettingsOnlyOfOrdersAboveCubic) {
   const ScaledAxisModel model;
   CorrectionOptions options;
   options.default_max_order = 6;
   Eigen::VectorXd state = Eigen::VectorXd::Zero(model.NumParameters());
   state(0) = -3.0;
-  for (const bool order_five : {false, true}) {
-    Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
-    step(1) = 1e-3;
-    step(3) = -2e-3;
-    if (order_five) step(5) = 1e-3;
-    CorrectionProblem at_state =
-        RelinearisedAt(SafeStepProblem(model, step, options), state);
-    // The part the state's step removes exactly: e = -(-2 J step).
-    ModelEvaluation after;
-    model.Evaluate(state + step, false, &after);
-    at_state.error_um = -(after.deviations_um - at_state.d0());
-    SafeStepOutcome outcome;
-    const Eigen::VectorXd kept =
-        ChooseSafeStep(options, at_state, step, &outcome);
-    EXPECT_EQ(outcome.improved, !order_five) << "order 5: " << order_five;
-    EXPECT_EQ(kept, order_five ? Eigen::VectorXd::Zero(step.size()) : step);
+  for (const double plausible_share : {1.0, 0.02}) {
+    for (const bool order_five : {false, true}) {
+      Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
+      step(1) = 1e-3;
+      step(3) = -2e-3;
+      if (order_five) step(5) = 1e-3;
+      CorrectionProblem at_state =
+          RelinearisedAt(SafeStepProblem(model, step, options), state);
+      at_state.plausible_share = plausible_share;
+      // The part the state's step removes exactly: e = -(-2 J step).
+      ModelEvaluation after;
+      model.Evaluate(state + step, false, &after);
+      at_state.error_um = -(after.deviations_um - at_state.d0());
+      SafeStepOutcome outcome;
+      const Eigen::VectorXd kept =
+          ChooseSafeStep(options, at_state, step, &outcome);
+      EXPECT_EQ(outcome.improved, !order_five)
+          << "order 5: " << order_five << ", plausible share "
+          << plausible_share;
+      EXPECT_EQ(kept, order_five ? Eigen::VectorXd::Zero(step.size()) : step);
+    }
   }
 }
 

@@ -130,6 +130,10 @@ TEST(RobustnessSubset, ScenariosThatOnceMadeAPartWorseNoLongerDo) {
       {14, 132, 6, "each contact followed on its branch from the nominal"},
       {17, 129, 6, "each contact followed on its branch from the nominal"},
       {20, 106, 6, "each contact followed on its branch from the nominal"},
+      {34, 97, 6, "orders 4-6 agree at the commanded end, not the plausible"},
+      {36, 42, 6, "orders 4-6 agree at the commanded end, not the plausible"},
+      {41, 69, 6, "orders 4-6 agree at the commanded end, not the plausible"},
+      {49, 168, 6, "orders 4-6 agree at the commanded end, not the plausible"},
   };
   for (const RegressionScenario& r : kScenarios) {
     const bench::Scenario s = bench::DrawGrinderScenario(r.seed, r.index);
@@ -312,20 +316,23 @@ TEST(SafeStep, AsksThePlausibleEndWhereTheStateFitsToTheNoise) {
 }
 
 // The orders 4-6 margin scaled to the measured part (order_choice.cc,
-// OrderGainMinUm). Seed 4, scenario 7 (z 88, b = 23 mm, helix slope, profile
-// crowning and diagonal end relief; sigma 0.11 um): after the first round
-// the part is at 0.18 um, and orders 4-6 predict 0.09 um, a gain of 0.09 um
-// that a fixed 0.1 um margin refused (the loop ended at 0.149 um, the
-// reference 0.0049 um); now they answer and the loop ends within 1.2 x the
-// reference + the noise. Seed 4, scenario 21 (a 29.2 um part): orders 4-6
-// predict 0.36 um against 0.45 held to the cubic terms, within 20 % + 0.05
-// um, but 1 % of 29.2 um is 0.29 um: the cubic answer stands, and the first
-// round makes under 1 um (with a flat 0.05 um margin it made 4.21 um).
+// OrderGainMinUm). Seed 4, scenario 50: after the first round the part is at
+// 0.22 um, and orders 4-6 answer a gain a fixed 0.1 um margin refused (with
+// it the loop ends above 1.2 x the reference + the noise; with the margin
+// scaled to the part, at 0.11 um). Seed 4, scenario 7 stood here until the
+// safe step asked the agreement of orders 4-6 at the commanded settings:
+// there they change that part's flank by 1.5 times what they do at the
+// state, and the cubic answer stands at 0.149 um (BENCHMARKS.md, "The
+// models' agreement at the commanded end"). Seed 4, scenario 21 (a 29.2 um
+// part): orders 4-6 predict 0.36 um against 0.45 held to the cubic terms,
+// within 20 % + 0.05 um, but 1 % of 29.2 um is 0.29 um: the cubic answer
+// stands, and the first round makes under 1 um (with a flat 0.05 um margin
+// it made 4.21 um).
 TEST(OrderChoice, MarginScalesWithTheMeasuredPart) {
   {
-    const bench::LoopRecord loop = LoopMakingNoPartWorse(4, 7);
-    const double noise_um = bench::DrawGrinderScenario(4, 7).probe_noise_um;
-    constexpr double kReferenceUm = 0.0049;  // robustness benchmark, seed 4
+    const bench::LoopRecord loop = LoopMakingNoPartWorse(4, 50);
+    const double noise_um = bench::DrawGrinderScenario(4, 50).probe_noise_um;
+    constexpr double kReferenceUm = 0.0165;  // robustness benchmark, seed 4
     EXPECT_LE(loop.part_rms_um.back(), 1.2 * kReferenceUm + noise_um);
   }
   {
