@@ -181,10 +181,10 @@ const ModelEvaluation* AfterAtPlausibleEnd(
 // axes): seed 34, scenario 97, a share of 0.02, the root row's change -13.9
 // um at the state, -26 at the commanded settings, -49 on the real machine
 // (6.27 -> 17.9 um). At the commanded end, quick count, told noise right:
-// rounds worse 11 -> 7 of 3000 (seeds 22-36), 8 -> 4 (37-51), 3 -> 3
+// rounds worse 11 -> 7 of 9000 (seeds 22-36), 8 -> 4 (37-51), 3 -> 3
 // (the tuned seeds 2026, 7, 1, 4, 11, 12-21); within 1.2 x best + noise
-// 2973 -> 2971, 2963 -> 2958, 2973 -> 2973 (BENCHMARKS.md, "The models'
-// agreement at the commanded end").
+// 2973 -> 2971, 2963 -> 2958, 2973 -> 2973 of 3000 (BENCHMARKS.md, "The
+// models' agreement at the commanded end").
 // The contacts at the commanded end are joined into [*roll_lo, *roll_hi].
 // Why they disagree, or null.
 const char* ModelsDisagree(const CorrectionProblem& problem,
