@@ -167,12 +167,12 @@ const ModelEvaluation* AfterAtPlausibleEnd(
 // point nearing the edge and the halfway point are then asked at the
 // plausible end (the halfway point at the nearer of the two), the contact's
 // branch and the agreement of orders 4-6 still at the commanded end. Seed 7,
-// scenario 168: the
-// step lost two grid rows at the commanded settings and halfway, so every
-// fraction was refused at 10.3 um; at the state (F 321 over a threshold of
-// 4: a share of 0.11) it keeps them, and the real part went to 2.85 um. The
-// branch test at the plausible end let seed 1's 146 go 2.41 -> 36 um (the
-// wheel's parabola, which the state cannot see, moved the real contacts).
+// scenario 168: the step lost two grid rows at the commanded settings and
+// halfway, so every fraction was refused at 10.3 um; at the state (F 321
+// over a threshold of 4: a share of 0.11) it keeps them, and the real part
+// went to 2.85 um. The branch test at the plausible end let seed 1's 146 go
+// 2.41 -> 36 um (the wheel's parabola, which the state cannot see, moved
+// the real contacts).
 // Five seeds x 200 scenarios, default options: within 1.2 x best + noise
 // 191, 191, 191, 186, 193 -> 191, 193, 192, 188, 194; rounds worse unchanged.
 // Asked at the plausible end, the agreement let steps of orders 4-6 through
