@@ -663,6 +663,9 @@ struct RoundRecord {
   double common_rms_before_um = 0.0;
   double common_rms_after_um = 0.0;
   bool worse_on_common_points = false;
+  // Why the machine-state estimate was used or not (summary
+  // machine_state_reason).
+  std::string machine_state_reason;
   // The exact-model search's outcome (summary exact_search) and its two
   // predictions [um].
   std::string exact_search;
@@ -767,6 +770,7 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
       round.band_high_um[k] = band.true_rms_high_um[k];
     }
     round.correction_size = result.summary.correction_size;
+    round.machine_state_reason = result.summary.machine_state_reason;
     round.exact_search = result.summary.exact_search;
     round.exact_search_before_rms_um =
         result.summary.exact_search_before_rms_um;
