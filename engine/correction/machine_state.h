@@ -4,7 +4,10 @@
 // as the "measurement" and the measured flank as the "target" (same freedom, no
 // bounds, next-part mode, the probe noise of the teeth average): its change is
 // an estimate h^ of h within the reachable directions. The correction is then
-// linearised and refined at commanded + h^ (RelinearisedAt, problem.h).
+// linearised and refined at commanded + h^ (RelinearisedAt, problem.h). A
+// measured grid point the commanded settings do not reach is not in this fit;
+// where commanded + h^ reaches such points, the state is fitted again
+// linearised there (correction.cc, RefitWhereTheStateReachesMore).
 //
 //   CorrectionProblem state_problem;
 //   if (MachineStateProblem(problem, &state_problem)) {
