@@ -99,8 +99,9 @@ TEST(RobustnessSubset, EveryAxisHeldToItsCubicTermMakesNoPartWorse) {
 }
 
 // Scenarios of other seeds where a round made the part worse until a rule of
-// the safe step or the order choice (docs/correction-safety.md) or of the
-// envelope solve was added; each names the rule it guards. Seed 1, scenario
+// the safe step, the order choice or the machine-state fit
+// (docs/correction-safety.md) or of the envelope solve was added; each names
+// the rule it guards. Seed 1, scenario
 // 146 left the list when the envelope solve began to follow each contact from
 // the nominal settings (flat_wheel_grinder.cc, SolveGroundContact): the rule
 // it was listed for caught the old solve's jump to another root at the
