@@ -76,32 +76,31 @@ void LeaveOutTheStateFitsOutliers(const CorrectionResult& state,
 // point the commanded settings do not reach is out of it, whatever the state
 // does there. Where the accepted state reaches such points, the state is
 // fitted again, linearised at the state, with them (the same problem, next-
-// part mode, no bounds), and `*state_parameters` becomes the second fit's,
-// as long as it keeps every measured point the first state reaches
-// (AcceptMachineState). The count of points the second fit added, 0 when it
-// did not run or was not kept. Robustness benchmark, seed 49, scenario 64
-// (round 2): the commanded settings leave the root row without a contact,
-// the state reaches it 8 um from the measurement, and a step that changed it
-// by 0.11 um there changed it by 2.2 um on the real machine (0.287 -> 0.96
-// um); BENCHMARKS.md, "The state fitted again where it reaches more".
+// part mode, no bounds); `*state_parameters` becomes the second fit's and
+// `*at_state` the problem linearised there, as long as it keeps every
+// measured point the first state reaches (AcceptMachineState). The count of
+// points the second fit added, 0 when it did not run or was not kept.
+// Robustness benchmark, seed 49, scenario 64 (round 2): the commanded
+// settings leave the root row without a contact, the state reaches it 8 um
+// from the measurement, and a step that changed it by 0.11 um there changed
+// it by 2.2 um on the real machine (0.287 -> 0.96 um); BENCHMARKS.md, "The
+// state fitted again where it reaches more".
 int RefitWhereTheStateReachesMore(const CorrectionOptions& options,
                                   const CorrectionProblem& commanded,
-                                  Eigen::VectorXd* state_parameters) {
-  const CorrectionProblem at_state =
-      RelinearisedAt(commanded, *state_parameters);
-  int added = 0;
-  for (int i = 0; i < commanded.num_points; ++i) {
-    if (std::isfinite(commanded.error_um(i)) && commanded.weights(i) > 0.0 &&
-        commanded.evaluation.status[i] != PointStatus::kOk &&
-        at_state.evaluation.status[i] == PointStatus::kOk)
-      ++added;
-  }
+                                  Eigen::VectorXd* state_parameters,
+                                  CorrectionProblem* at_state) {
+  const auto& not_reached = commanded.measured_not_reached;
+  const int added = static_cast<int>(
+      std::count_if(not_reached.begin(), not_reached.end(), [&](int i) {
+        return at_state->evaluation.status[i] == PointStatus::kOk;
+      }));
   CorrectionProblem second_problem;
-  if (added == 0 || !MachineStateProblem(at_state, &second_problem)) return 0;
+  if (added == 0 || !MachineStateProblem(*at_state, &second_problem)) return 0;
   const CorrectionResult second = SolveProblem(options, second_problem);
   Eigen::VectorXd second_parameters;
-  if (!AcceptMachineState(at_state, second, &second_parameters)) return 0;
+  if (!AcceptMachineState(*at_state, second, &second_parameters)) return 0;
   *state_parameters = second_parameters;
+  *at_state = RelinearisedAt(commanded, *state_parameters);
   return added;
 }
 
@@ -157,15 +156,15 @@ bool SolveAtMachineState(const CorrectionOptions& options,
                    state_problem, scatter_um, problem.mean_teeth_averaged);
   if (!noise_note.empty()) test->reason += "; " + noise_note;
   if (!test->used) return false;
-  const int refitted_with =
-      RefitWhereTheStateReachesMore(options, problem, &state_parameters);
+  CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
+  const int refitted_with = RefitWhereTheStateReachesMore(
+      options, problem, &state_parameters, &at_state);
   if (refitted_with > 0) {
     test->reason += "; fitted again at the state with " +
                     std::to_string(refitted_with) +
                     " measured grid point(s) the commanded settings do not "
                     "reach";
   }
-  CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
   LeaveOutTheStateFitsOutliers(state, &at_state);
   const double share = PlausibleShare(state_problem, state, *test, *noise_um);
   at_state.plausible_share = share;
