@@ -5,9 +5,12 @@
 // bounds, next-part mode, the probe noise of the teeth average): its change is
 // an estimate h^ of h within the reachable directions. The correction is then
 // linearised and refined at commanded + h^ (RelinearisedAt, problem.h). A
-// measured grid point the commanded settings do not reach is not in this fit;
-// where commanded + h^ reaches such points, the state is fitted again
-// linearised there (correction.cc, RefitWhereTheStateReachesMore).
+// measured grid point the commanded settings do not reach is not in this fit,
+// and where the flank bends between the commanded settings and the state the
+// fit stops short: the state is fitted again linearised at commanded + h^
+// where it reaches such points or leaves half the misfit there, Gauss-Newton
+// passes while each lowers the misfit (correction.cc,
+// FitTheStateAgainAtTheState).
 //
 //   CorrectionProblem state_problem;
 //   if (MachineStateProblem(problem, &state_problem)) {
