@@ -33,6 +33,7 @@
 #include "engine/correction/machine_state.h"
 #include "engine/correction/order_choice.h"
 #include "engine/correction/problem.h"
+#include "engine/correction/regularisation.h"
 #include "engine/correction/solve_problem.h"
 
 namespace gearloop {
@@ -99,6 +100,20 @@ void LeaveOutTheStateFitsOutliers(const CorrectionResult& state,
 // and after the passes. BENCHMARKS.md, "The state fitted again where it
 // reaches more" and "The state fit as Gauss-Newton".
 constexpr double kStateRefitMisfitShare = 0.5;
+// The rms over the used points of what the regularised linear fit of
+// `problem` leaves (e + S delta).
+double LinearMisfit(const CorrectionOptions& options,
+                    const CorrectionProblem& problem) {
+  const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
+  double sum = 0.0;
+  for (size_t r = 0; r < problem.used.size(); ++r) {
+    const double w = problem.weights(problem.used[r]);
+    if (w > 0.0)
+      sum += ls.residual(static_cast<int>(r)) *
+             ls.residual(static_cast<int>(r)) / w;
+  }
+  return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
+}
 constexpr double kStatePassMisfitShare = 0.8;
 constexpr int kStatePasses = 4;
 int FitTheStateAgainAtTheState(const CorrectionOptions& options,
@@ -116,6 +131,14 @@ int FitTheStateAgainAtTheState(const CorrectionOptions& options,
   for (int pass = 0; pass < kStatePasses; ++pass) {
     CorrectionProblem again_problem;
     if (!MachineStateProblem(*at_state, &again_problem)) break;
+    // Where no measured point is added, the pass is worth its solve only
+    // if its linear fit (the same rule, on the same points) leaves less
+    // than kStateRefitMisfitShare of the misfit at the state.
+    if (pass == 0 && *added == 0 &&
+        !(LinearMisfit(options, again_problem) <
+          kStateRefitMisfitShare *
+              Rms(again_problem.error_um, again_problem.used)))
+      break;
     const CorrectionResult again = SolveProblem(options, again_problem);
     Eigen::VectorXd again_parameters;
     if (!AcceptMachineState(*at_state, again, &again_parameters)) break;
