@@ -355,6 +355,17 @@ TEST(MachineState, FittedAgainWhereTheFirstFitStopsShort) {
       << second.rms_before_um << " -> " << second.rms_after_um;
 }
 
+// An unknown noise estimated from the state's last pass (correction.cc,
+// SolveAtMachineState). Seed 22, scenario 170 (z 126, b = 17 mm, root relief
+// and lead crowning; hidden X0, A0, Z0, Z1, B1, C3; the noise unknown): from
+// round 2 on the state is fitted again at itself, and with the noise taken
+// from the first fit's misfit the filter held the part at 2.17 and 2.07 um;
+// from the last pass's, round 3 makes 0.315 um.
+TEST(MachineState, EstimatesTheNoiseFromTheLastPass) {
+  const bench::LoopRecord loop = LoopMakingNoPartWorse(22, 170);
+  EXPECT_LT(loop.part_rms_um.back(), 1.0) << loop.part_rms_um.back();
+}
+
 // The orders 4-6 margin scaled to the measured part (order_choice.cc,
 // OrderGainMinUm). Seed 4, scenario 50: after the first round the part is at
 // 0.22 um, and orders 4-6 answer a gain a fixed 0.1 um margin refused (with
