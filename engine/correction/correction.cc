@@ -110,8 +110,8 @@ double LinearMisfit(const CorrectionOptions& options,
 // linear fit, one linear solve: the whole solve only where that leaves less;
 // it gave the same parts as the whole solve in all but 2 of 15 000 robustness
 // scenarios); later passes go on while each leaves less than
-// kStatePassMisfitShare of the one before, at
-// most kStatePasses in all. `*state_parameters` and `*at_state` (the problem
+// kStatePassMisfitShare of the one before, at most kStatePasses in all.
+// `*state_parameters` and `*at_state` (the problem
 // linearised at the state) become the last pass kept's. Returns the passes
 // kept; `*added`, the measured points the commanded settings do not reach
 // that the kept state does; `*misfit_um`, the rms misfit at the state before
@@ -228,11 +228,11 @@ bool SolveAtMachineState(const CorrectionOptions& options,
                                                 &added,
                                                 misfit_um,
                                                 &last_pass);
-  // The noise, where it is estimated, from the last pass kept: the first
-  // fit's misfit carried what its linearisation could not follow (seed 75,
-  // scenario 169: 1.37 um against a probe of 0.15).
-  if (passes > 0) *noise_um = SignalNoise(problem, last_pass);
   if (passes > 0) {
+    // The noise, where it is estimated, from the last pass kept: the first
+    // fit's misfit carried what its linearisation could not follow (seed 75,
+    // scenario 169: 1.37 um against a probe of 0.15).
+    *noise_um = SignalNoise(problem, last_pass);
     std::ostringstream again;
     again << std::setprecision(3) << "; fitted again at the state (" << passes
           << " pass(es), misfit " << misfit_um[0] << " -> " << misfit_um[1]
