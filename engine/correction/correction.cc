@@ -73,18 +73,18 @@ void LeaveOutTheStateFitsOutliers(const CorrectionResult& state,
 }
 
 // The rms over the used points of what the regularised linear fit of
-// `problem` leaves (e + S delta).
+// `problem` leaves (e + S delta: its weighted residual unweighted, as
+// ReportLinearSolve does with the best reachable).
 double LinearMisfit(const CorrectionOptions& options,
                     const CorrectionProblem& problem) {
   const LinearSolve ls = SolveRegularisedLinear(options, problem, problem.used);
-  double sum = 0.0;
+  Eigen::VectorXd misfit_um = Eigen::VectorXd::Zero(problem.num_points);
   for (size_t r = 0; r < problem.used.size(); ++r) {
-    const double w = problem.weights(problem.used[r]);
-    if (w > 0.0)
-      sum += ls.residual(static_cast<int>(r)) *
-             ls.residual(static_cast<int>(r)) / w;
+    const int i = problem.used[r];
+    misfit_um(i) =
+        ls.residual(static_cast<int>(r)) / std::sqrt(problem.weights(i));
   }
-  return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
+  return Rms(misfit_um, problem.used);
 }
 
 // Step 0's further passes: Gauss-Newton on the state fit. The first fit is
