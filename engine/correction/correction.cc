@@ -165,6 +165,39 @@ int FitTheStateAgainAtTheState(const CorrectionOptions& options,
   return kept;
 }
 
+// FitTheStateAgainAtTheState for SolveAtMachineState: where a pass is kept,
+// the noise, where it is estimated, comes from the last pass kept (the first
+// fit's misfit carried what its linearisation could not follow: seed 75,
+// scenario 169, 1.37 um against a probe of 0.15), and the state's reason
+// names the passes.
+void FitTheStateAgainAndSaySo(const CorrectionOptions& options,
+                              const CorrectionProblem& commanded,
+                              Eigen::VectorXd* state_parameters,
+                              CorrectionProblem* at_state,
+                              double* noise_um,
+                              MachineStateTest* test) {
+  int added = 0;
+  double misfit_um[2] = {kNaN, kNaN};
+  CorrectionSummary last_pass;
+  const int passes = FitTheStateAgainAtTheState(options,
+                                                commanded,
+                                                state_parameters,
+                                                at_state,
+                                                &added,
+                                                misfit_um,
+                                                &last_pass);
+  if (passes == 0) return;
+  *noise_um = SignalNoise(commanded, last_pass);
+  std::ostringstream again;
+  again << std::setprecision(3) << "; fitted again at the state (" << passes
+        << " pass(es), misfit " << misfit_um[0] << " -> " << misfit_um[1]
+        << " um)";
+  if (added > 0)
+    again << " with " << added
+          << " measured grid point(s) the commanded settings do not reach";
+  test->reason += again.str();
+}
+
 // Step 0 and the correction at the estimated state; false when the state is
 // not used (then the correction is computed at the commanded parameters, with
 // the test's outcome and the noise the state fit estimated in `test` and
@@ -218,30 +251,8 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   if (!noise_note.empty()) test->reason += "; " + noise_note;
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
-  int added = 0;
-  double misfit_um[2] = {kNaN, kNaN};
-  CorrectionSummary last_pass;
-  const int passes = FitTheStateAgainAtTheState(options,
-                                                problem,
-                                                &state_parameters,
-                                                &at_state,
-                                                &added,
-                                                misfit_um,
-                                                &last_pass);
-  if (passes > 0) {
-    // The noise, where it is estimated, from the last pass kept: the first
-    // fit's misfit carried what its linearisation could not follow (seed 75,
-    // scenario 169: 1.37 um against a probe of 0.15).
-    *noise_um = SignalNoise(problem, last_pass);
-    std::ostringstream again;
-    again << std::setprecision(3) << "; fitted again at the state (" << passes
-          << " pass(es), misfit " << misfit_um[0] << " -> " << misfit_um[1]
-          << " um)";
-    if (added > 0)
-      again << " with " << added
-            << " measured grid point(s) the commanded settings do not reach";
-    test->reason += again.str();
-  }
+  FitTheStateAgainAndSaySo(
+      options, problem, &state_parameters, &at_state, noise_um, test);
   LeaveOutTheStateFitsOutliers(state, &at_state);
   const double share = PlausibleShare(state_problem, state, *test, *noise_um);
   at_state.plausible_share = share;
