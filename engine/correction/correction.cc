@@ -168,14 +168,18 @@ int FitTheStateAgainAtTheState(const CorrectionOptions& options,
 // FitTheStateAgainAtTheState for SolveAtMachineState: where a pass is kept,
 // the noise, where it is estimated, comes from the last pass kept (the first
 // fit's misfit carried what its linearisation could not follow: seed 75,
-// scenario 169, 1.37 um against a probe of 0.15), and the state's reason
-// names the passes.
+// scenario 169, 1.37 um against a probe of 0.15), the state's reason names
+// the passes, and `*reported` (the state the answer reports: machine_state's
+// size, misfit and dof, and through them the prediction band's estimated
+// noise) becomes the state the passes reached: its size from the commanded
+// settings, the last pass's misfit and dof.
 void FitTheStateAgainAndSaySo(const CorrectionOptions& options,
                               const CorrectionProblem& commanded,
                               Eigen::VectorXd* state_parameters,
                               CorrectionProblem* at_state,
                               double* noise_um,
-                              MachineStateTest* test) {
+                              MachineStateTest* test,
+                              CorrectionSummary* reported) {
   int added = 0;
   double misfit_um[2] = {kNaN, kNaN};
   CorrectionSummary last_pass;
@@ -188,6 +192,14 @@ void FitTheStateAgainAndSaySo(const CorrectionOptions& options,
                                                 &last_pass);
   if (passes == 0) return;
   *noise_um = SignalNoise(commanded, last_pass);
+  reported->residual_rms_um = last_pass.residual_rms_um;
+  reported->effective_dof = last_pass.effective_dof;
+  reported->correction_size =
+      CorrectionSize(commanded.blocks,
+                     *state_parameters - commanded.parameters,
+                     commanded.roll_min_rad,
+                     commanded.roll_max_rad,
+                     options.block_scales);
   std::ostringstream again;
   again << std::setprecision(3) << "; fitted again at the state (" << passes
         << " pass(es), misfit " << misfit_um[0] << " -> " << misfit_um[1]
@@ -251,8 +263,14 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   if (!noise_note.empty()) test->reason += "; " + noise_note;
   if (!test->used) return false;
   CorrectionProblem at_state = RelinearisedAt(problem, state_parameters);
-  FitTheStateAgainAndSaySo(
-      options, problem, &state_parameters, &at_state, noise_um, test);
+  CorrectionResult reported = state;
+  FitTheStateAgainAndSaySo(options,
+                           problem,
+                           &state_parameters,
+                           &at_state,
+                           noise_um,
+                           test,
+                           &reported.summary);
   LeaveOutTheStateFitsOutliers(state, &at_state);
   const double share = PlausibleShare(state_problem, state, *test, *noise_um);
   at_state.plausible_share = share;
@@ -265,7 +283,7 @@ bool SolveAtMachineState(const CorrectionOptions& options,
         plausible.str() + " of the way to the commanded settings";
   }
   if (options.signal_filter) at_state.signal_noise_um = *noise_um;
-  *result = SolveProblem(options, std::move(at_state), &state);
+  *result = SolveProblem(options, std::move(at_state), &reported);
   ReportMachineStateTest(*test, &result->summary);
   if (!result->summary.IsSolutionUsable()) {
     test->reason = "the correction at the state is not usable";

@@ -431,7 +431,8 @@ struct CorrectionSummary {
 
   // The estimated machine state (estimate_machine_state): whether it was used,
   // its correction size relative to the commanded parameters, and the rms flank
-  // misfit it leaves (um).
+  // misfit it leaves (um); where the state was fitted again at itself, the
+  // state the last pass reached.
   bool machine_state_estimated = false;
   double machine_state_size = 0.0;
   double machine_state_misfit_rms_um = 0.0;

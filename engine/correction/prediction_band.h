@@ -17,8 +17,12 @@
 // probe noise (or, where the measurement contradicts it, the state fit's
 // point-to-point scatter: machine_state.h, RaiseContradictedNoise), else
 // estimated from the machine-state fit's misfit (pure noise
-// when the model explains the part) or, without a state, from the correction's
-// own linear misfit (which also holds what the machine cannot reach: wider).
+// when the model explains the part; the state the passes reached) or,
+// without a state, from the correction's own linear misfit (which also holds
+// what the machine cannot reach: wider). A state's estimate above
+// kStateNoiseCeilingUm (machine_state.h) is more than a probe scatters: the
+// bands reach over it read as noise and read as the ceiling's noise with the
+// rest as flank the next part keeps; the expected value stays the first's.
 // The model's own error (a wrong state estimate) enters only through k_m;
 // the robustness benchmark measures how often the achieved rms falls inside.
 // The points the model grinds after the step without a measurement the

@@ -366,6 +366,64 @@ TEST(MachineState, EstimatesTheNoiseFromTheLastPass) {
   EXPECT_LT(loop.part_rms_um.back(), 1.0) << loop.part_rms_um.back();
 }
 
+// The state the answer reports is the one the passes reached (correction.cc,
+// FitTheStateAgainAndSaySo): machine_state's misfit is the last pass's, the
+// figure its reason ends on, not the first fit's. Seed 75, scenario 169,
+// round 2 (see FittedAgainWhereTheFirstFitStopsShort): the first fit left
+// 1.31 um, the pass 0.12 um; the prediction band's estimated noise follows
+// (expected 1.15 -> 1.69 um for a part of 1.43 um, in both bands).
+TEST(MachineState, ReportsTheStateThePassesReached) {
+  const bench::Scenario s = bench::DrawGrinderScenario(75, 169);
+  CorrectionOptions options;
+  const Eigen::VectorXd commanded =
+      bench::RunClosedLoop(s, options, 1).final_parameters;
+  MeasurementSimulationOptions measurement = s.measurement;
+  measurement.seed += 1;  // round 2's measurement, as RunClosedLoop draws it
+  const SimulatedMeasurement cmm =
+      SimulateMeasurement(*s.model, commanded, s.hidden_errors, measurement);
+  const CorrectionInput input = bench::LoopCorrectionInput(
+      s, commanded, cmm, measurement.teeth, &options);
+  const CorrectionSummary summary = ComputeCorrection(options, input).summary;
+  ASSERT_TRUE(summary.machine_state_estimated) << summary.BriefReport();
+  const std::string& reason = summary.machine_state_reason;
+  const size_t misfit = reason.find(" pass(es), misfit ");
+  ASSERT_NE(misfit, std::string::npos) << reason;
+  const size_t arrow = reason.find(" -> ", misfit);
+  ASSERT_NE(arrow, std::string::npos) << reason;
+  const double first_um = std::stod(reason.substr(misfit + 18));
+  const double last_um = std::stod(reason.substr(arrow + 4));
+  EXPECT_LT(last_um, 0.5 * first_um) << reason;
+  constexpr double kPrintedDigits = 5e-3;  // the reason prints 3 digits
+  EXPECT_NEAR(
+      summary.machine_state_misfit_rms_um, last_um, kPrintedDigits * last_um)
+      << reason;
+}
+
+// A noise estimated from the state's misfit above what a probe scatters
+// (kStateNoiseCeilingUm) may be flank the state cannot explain or measurement
+// the part does not have: the band reaches over both readings
+// (prediction_band.cc, EstimatePredictionBand). Seed 11, scenario 138 (z 17,
+// b = 37 mm, spur, end relief; hidden A0, A3, B2, Z0 and the wheel's
+// parabola; the noise unknown): the state, fitted again with 9 more measured
+// points, leaves 3.9 um; read only as noise, the band said 0 .. 3.57 um for a
+// part that stays at 4.02 um. Seed 22, scenario 70 (outliers, the noise
+// unknown): a part of 1.13 um measured at 5.49 um; read only as flank, the
+// band said 5.08 .. 5.69 um.
+TEST(PredictionBand, ReachesOverNoiseAndFlankAboveWhatAProbeScatters) {
+  for (const auto& [seed, index] : {std::pair<int, int>{11, 138}, {22, 70}}) {
+    const bench::LoopRecord loop = LoopMakingNoPartWorse(seed, index);
+    for (int round = 1; round < kRounds; ++round) {
+      const bench::RoundRecord& r = loop.rounds[round];
+      EXPECT_GE(r.rms_after_um, r.band_low_um[1])
+          << "seed " << seed << ", scenario " << index << ", round "
+          << round + 1;
+      EXPECT_LE(r.rms_after_um, r.band_high_um[1])
+          << "seed " << seed << ", scenario " << index << ", round "
+          << round + 1;
+    }
+  }
+}
+
 // The orders 4-6 margin scaled to the measured part (order_choice.cc,
 // OrderGainMinUm). Seed 4, scenario 50: after the first round the part is at
 // 0.22 um, and orders 4-6 answer a gain a fixed 0.1 um margin refused (with
