@@ -386,12 +386,14 @@ TEST(MachineState, ReportsTheStateThePassesReached) {
   const CorrectionSummary summary = ComputeCorrection(options, input).summary;
   ASSERT_TRUE(summary.machine_state_estimated) << summary.BriefReport();
   const std::string& reason = summary.machine_state_reason;
-  const size_t misfit = reason.find(" pass(es), misfit ");
+  const std::string before = " pass(es), misfit ";
+  const std::string after = " -> ";
+  const size_t misfit = reason.find(before);
   ASSERT_NE(misfit, std::string::npos) << reason;
-  const size_t arrow = reason.find(" -> ", misfit);
+  const size_t arrow = reason.find(after, misfit);
   ASSERT_NE(arrow, std::string::npos) << reason;
-  const double first_um = std::stod(reason.substr(misfit + 18));
-  const double last_um = std::stod(reason.substr(arrow + 4));
+  const double first_um = std::stod(reason.substr(misfit + before.size()));
+  const double last_um = std::stod(reason.substr(arrow + after.size()));
   EXPECT_LT(last_um, 0.5 * first_um) << reason;
   constexpr double kPrintedDigits = 5e-3;  // the reason prints 3 digits
   EXPECT_NEAR(
