@@ -198,7 +198,8 @@ class Client:
 
         A valid request whose solve does not converge is still a job (check result["status"]).
         result["exact_search"] says what the exact-model search did ("outcome": "not run: ...",
-        "taken: ...", "kept the regularised answer: ...", "" for lsq-plain and pso) with its two
+        "taken: ...", "kept the regularised answer: ...", "refused by the safe step (...): ...", ""
+        for lsq-plain and pso) with its two
         exact predictions in um ("regularised_predicted_rms_um", "searched_predicted_rms_um"; None
         when not computed); a job stored before the field existed has no "exact_search".
         """

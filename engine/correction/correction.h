@@ -459,8 +459,10 @@ struct CorrectionSummary {
   PredictionBand prediction_band;
 
   // The exact-model search (exact_search.h): what it did ("not run: ...",
-  // "taken: ...", "kept the regularised answer: ...", "" when the solver has
-  // none), and the exact predictions at the linearisation point of the
+  // "taken: ...", "kept the regularised answer: ...", "refused by the safe
+  // step (...): ..." where no fraction of the search's answer was safe and the
+  // regularised answer went through the safe step instead, "" when the solver
+  // has none), and the exact predictions at the linearisation point of the
   // regularised answer and of the search's [um] (NaN when not computed).
   std::string exact_search;
   double exact_search_before_rms_um = std::numeric_limits<double>::quiet_NaN();

@@ -16,7 +16,9 @@
 // search's answer; it replaces the regularised one only where its exact
 // prediction at the linearisation point is below (1 - kSearchGainShare) x the
 // regularised answer's - kSearchGainMinUm (20 % and 0.02 um lower); either
-// then goes through the safe step. It runs
+// then goes through the safe step, and where it refuses every fraction of the
+// search's answer the regularised one goes through it instead
+// (solve_problem.cc). It runs
 // only where the regularised answer's linear and exact predictions both stay
 // above the filter's noise + 0.05 um. The wide search only where no order
 // 4-6 is free.

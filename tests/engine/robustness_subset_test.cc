@@ -252,6 +252,26 @@ TEST(ExactSearch, TakesAGainNearTheNoiseButNoWideSearchAtOrdersAboveCubic) {
   }
 }
 
+// The regularised answer where the search's is refused (solve_problem.cc,
+// RegularisedAnswerWhereTheSearchsIsRefused). Seed 47, scenario 113 (z 144, a
+// 3.9 um tip relief, the root rows not measured; the noise unknown): the
+// search's answer fails the safe step in rounds 1 and 2, and answering that
+// refusal kept the part at 51.0 um; the regularised answer is safe and the loop
+// ends within 1.2 x the reference + the probe noise, no round worse.
+TEST(ExactSearch, RefusedBySafeStepLeavesTheRegularisedAnswer) {
+  const bench::Scenario s = bench::DrawGrinderScenario(47, 113);
+  const bench::LoopRecord loop = LoopMakingNoPartWorse(47, 113);
+  const bench::RoundRecord& first = loop.rounds[0];
+  EXPECT_EQ(first.exact_search.rfind("refused by the safe step", 0), 0u)
+      << first.exact_search;
+  EXPECT_EQ(first.status, "converged") << first.exact_search;
+  constexpr double kPartMadeUm = 1.0;  // the first round made 0.76 um
+  EXPECT_LT(first.rms_after_um, kPartMadeUm);
+  // The rough reference (--reach-iterations 1), seed 47.
+  constexpr double kReferenceUm = 0.0666;
+  EXPECT_LE(loop.part_rms_um.back(), 1.2 * kReferenceUm + s.probe_noise_um);
+}
+
 // The per-direction filter at the commanded settings where the state fit
 // explains nothing (correction.cc, Correct). Seed 8, scenario 42 (z 36, b =
 // 45 mm, a user grid; hidden C1 and X0; sigma 0.40 told, outliers): by the
