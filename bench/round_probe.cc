@@ -5,6 +5,7 @@
 //
 //   round_probe --seed 12 --scenario 103 --round 3 --told-noise-scale 0
 //               [--error-scale F] [--noise-scale F] [--point ROW,COL] [--scan]
+//               [--state-error]
 //
 // Runs the closed loop to the part before `--round` (1 = the first
 // correction), corrects it as the loop does (default options), and prints:
@@ -20,11 +21,21 @@
 // found by the step, or whose deviation there jumps by more than 20 um, at
 // fractions 0, 0.05, ..., 1 of the step (status, deviation and contact roll):
 // how the envelope solve behaves along the way.
+// `--state-error` (linearised at an estimated state p): how the step's
+// outcome depends on the machine's state. The next part (rms over the points
+// the true machine and the state both grind; the true part's deviations as the
+// measurement, without noise) at states along the line from p to the commanded
+// settings and at the true machine; at the true machine to first order in the
+// state's error v = truth - p, e + d(p + step) - d(p) + (J(p + step) - J(p)) v
+// (the exact Jacobians at the two ends of the step); the true machine's flank
+// less the state's before the step; and v in correction-size coordinates
+// (MODEL.md §6), block by block.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "bench/robustness_scenarios.h"
 
@@ -73,11 +84,96 @@ void PrintAlongStep(const char* name,
   }
 }
 
+// The rms over `used` of e + d(at + step) - d(at); -1 where a point is lost.
+double NextPartRms(const MachineModel& model,
+                   const Eigen::VectorXd& at,
+                   const Eigen::VectorXd& step,
+                   const Eigen::VectorXd& e_um,
+                   const std::vector<int>& used) {
+  ModelEvaluation before, after;
+  model.Evaluate(at, false, &before);
+  model.Evaluate(at + step, false, &after);
+  double sum = 0.0;
+  for (int i : used) {
+    if (after.status[i] != PointStatus::kOk ||
+        before.status[i] != PointStatus::kOk)
+      return -1.0;
+    const double r = e_um(i) + after.deviations_um(i) - before.deviations_um(i);
+    sum += r * r;
+  }
+  return std::sqrt(sum / static_cast<double>(used.size()));
+}
+
+// `--state-error` (see the file comment).
+void PrintStateError(const bench::Scenario& s,
+                     const Eigen::VectorXd& state,
+                     const Eigen::VectorXd& commanded,
+                     const Eigen::VectorXd& truth,
+                     const Eigen::VectorXd& step) {
+  const MachineModel& model = *s.model;
+  ModelEvaluation true_part, at_state, after_step;
+  model.Evaluate(truth, false, &true_part);
+  model.Evaluate(state, true, &at_state);
+  model.Evaluate(state + step, true, &after_step);
+  std::vector<int> used;
+  Eigen::VectorXd e_um = Eigen::VectorXd::Zero(model.NumPoints());
+  for (int i = 0; i < model.NumPoints(); ++i) {
+    if (true_part.status[i] != PointStatus::kOk ||
+        at_state.status[i] != PointStatus::kOk ||
+        after_step.status[i] != PointStatus::kOk)
+      continue;
+    used.push_back(i);
+    e_um(i) = true_part.deviations_um(i) - s.target_um(i);
+  }
+  if (used.empty()) return;
+  const double n = static_cast<double>(used.size());
+  std::printf(
+      "\nthe next part over %d points both grind (the true part now %.3f "
+      "um):\n",
+      static_cast<int>(used.size()),
+      std::sqrt(e_um.squaredNorm() / n));
+  for (double t : {0.0, 0.05, 0.15, 0.5, 1.0}) {
+    std::printf(
+        "  at the state moved %4.2f of the way to the commanded settings: %.3f "
+        "um\n",
+        t,
+        NextPartRms(model, state + t * (commanded - state), step, e_um, used));
+  }
+  std::printf("  at the true machine: %.3f um\n",
+              NextPartRms(model, truth, step, e_um, used));
+  const Eigen::VectorXd v = truth - state;
+  double first_order = 0.0, shown = 0.0;
+  for (int i : used) {
+    const double r =
+        e_um(i) + after_step.deviations_um(i) - at_state.deviations_um(i) +
+        (after_step.jacobian_um.row(i) - at_state.jacobian_um.row(i)).dot(v);
+    first_order += r * r;
+    const double x = true_part.deviations_um(i) - at_state.deviations_um(i);
+    shown += x * x;
+  }
+  std::printf(
+      "  at the true machine to first order in the state's error: %.3f um\n",
+      std::sqrt(first_order / n));
+  std::printf("the true machine's flank less the state's: %.3f um rms\n",
+              std::sqrt(shown / n));
+  const std::vector<ParameterBlock> blocks = model.ParameterBlocks();
+  const Eigen::VectorXd y =
+      CorrectionCoordinates(blocks, v, s.roll_min_rad, s.roll_max_rad);
+  std::printf(
+      "the state's error in correction-size coordinates: %.3g; by block:",
+      y.norm());
+  for (const ParameterBlock& b : blocks)
+    std::printf(" %s %.3g",
+                b.name.c_str(),
+                y.segment(b.first_index, b.num_coefficients).norm());
+  std::printf("\n");
+}
+
 int Usage() {
   std::fprintf(stderr,
                "usage: round_probe --seed S --scenario I --round R "
                "[--told-noise-scale F] [--error-scale F] [--noise-scale F] "
-               "[--point ROW,COL] [--scan]\n");
+               "[--point ROW,COL] [--scan] [--state-error]\n");
   return 2;
 }
 
@@ -88,6 +184,7 @@ struct ProbeArguments {
   int point_row = -1;  // < 0: no --point
   int point_column = -1;
   bool scan = false;
+  bool state_error = false;
   bench::StressOptions stress;
 };
 
@@ -97,6 +194,10 @@ bool ParseArguments(int argc, char** argv, ProbeArguments* args) {
     const std::string arg = argv[a];
     if (arg == "--scan") {
       args->scan = true;
+      continue;
+    }
+    if (arg == "--state-error") {
+      args->state_error = true;
       continue;
     }
     if (a + 1 >= argc) return false;
@@ -281,6 +382,8 @@ int main(int argc, char** argv) {
                 s,
                 result.linearised_at - truth);
 
+  if (args.state_error && at_state)
+    PrintStateError(s, result.linearised_at, commanded, truth, step);
   if (args.scan)
     PrintScan(model, truth, step, s.target_um, true_before, true_after);
   if (args.point_row >= 0) {
