@@ -221,13 +221,14 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
 // "The regularised answer where the search's is refused"): rounds worse
 // unchanged (18 of 30 000), within 1.2 x best + noise 9888 -> 9891 of 10 000;
 // 10 final parts better by more than 5 %, 4 worse.
-// Otherwise the search's refusal stands: `*summary`, `*no_safe_improvement`
-// and `*outcome` are left as they are and `refused` (zero) is returned.
-Eigen::VectorXd RegularisedAnswerWhereTheSearchsIsRefused(
+// Where it is, `*delta` becomes its safe step; otherwise the search's refusal
+// stands and `*delta`, `*summary`, `*no_safe_improvement` and `*outcome` are
+// left as they are.
+void TakeRegularisedAnswerWhereTheSearchsIsRefused(
     const CorrectionOptions& options,
     const CorrectionProblem& problem,
     const Eigen::VectorXd& regularised,
-    const Eigen::VectorXd& refused,
+    Eigen::VectorXd* delta,
     CorrectionSummary* summary,
     std::string* no_safe_improvement,
     SafeStepOutcome* outcome) {
@@ -240,7 +241,7 @@ Eigen::VectorXd RegularisedAnswerWhereTheSearchsIsRefused(
                                             &regularised_summary,
                                             &regularised_refusal,
                                             &regularised_outcome);
-  if (!regularised_outcome.improved) return refused;
+  if (!regularised_outcome.improved) return;
   const std::string taken = "taken: ";
   std::string searched = summary->exact_search;
   if (searched.rfind(taken, 0) == 0) searched.erase(0, taken.size());
@@ -252,7 +253,7 @@ Eigen::VectorXd RegularisedAnswerWhereTheSearchsIsRefused(
       searched;
   no_safe_improvement->clear();
   *outcome = std::move(regularised_outcome);
-  return step;
+  *delta = step;
 }
 
 }  // namespace
@@ -305,13 +306,13 @@ CorrectionResult SolveProblem(const CorrectionOptions& options,
     delta = MakeStepSafe(
         options, problem, delta, &summary, &no_safe_improvement, &outcome);
     if (!outcome.improved && regularised.size() > 0) {
-      delta = RegularisedAnswerWhereTheSearchsIsRefused(options,
-                                                        problem,
-                                                        regularised,
-                                                        delta,
-                                                        &summary,
-                                                        &no_safe_improvement,
-                                                        &outcome);
+      TakeRegularisedAnswerWhereTheSearchsIsRefused(options,
+                                                    problem,
+                                                    regularised,
+                                                    &delta,
+                                                    &summary,
+                                                    &no_safe_improvement,
+                                                    &outcome);
     }
   }
   const ModelEvaluation* at_new_parameters =

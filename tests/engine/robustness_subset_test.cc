@@ -253,8 +253,8 @@ TEST(ExactSearch, TakesAGainNearTheNoiseButNoWideSearchAtOrdersAboveCubic) {
 }
 
 // The regularised answer where the search's is refused (solve_problem.cc,
-// RegularisedAnswerWhereTheSearchsIsRefused). Seed 47, scenario 113 (z 144, a
-// 3.9 um tip relief, the root rows not measured; the noise unknown): the
+// TakeRegularisedAnswerWhereTheSearchsIsRefused). Seed 47, scenario 113 (z
+// 144, a 3.9 um tip relief, the root rows not measured; the noise unknown): the
 // search's answer fails the safe step in rounds 1 and 2, and answering that
 // refusal kept the part at 51.0 um; the regularised answer is safe and the loop
 // ends within 1.2 x the reference + the probe noise, no round worse.
