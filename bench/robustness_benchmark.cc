@@ -869,7 +869,9 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"motion_scale\": %s, \"step_fraction\": %s, "
                "\"shortened_because\": %s, \"regained_points\": %d, "
                "\"common_rms_before_um\": %s, \"common_rms_after_um\": %s, "
-               "\"worse_on_common_points\": %s}",
+               "\"worse_on_common_points\": %s, \"order_choice\": %s, "
+               "\"motion_bound_beyond_roll_range\": %s, "
+               "\"roll_range_rad\": [%s, %s]}",
                first ? "" : ", ",
                JsonNum(x.rms_before_um).c_str(),
                JsonNum(x.rms_after_um).c_str(),
@@ -897,7 +899,11 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                x.regained_points,
                JsonNum(x.common_rms_before_um).c_str(),
                JsonNum(x.common_rms_after_um).c_str(),
-               x.worse_on_common_points ? "true" : "false");
+               x.worse_on_common_points ? "true" : "false",
+               JsonString(x.order_choice).c_str(),
+               JsonString(x.motion_bound_beyond_roll_range).c_str(),
+               JsonNum(x.roll_min_rad).c_str(),
+               JsonNum(x.roll_max_rad).c_str());
 }
 
 // One scenario under configuration k: its parts, rounds and reference.

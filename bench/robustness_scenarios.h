@@ -677,6 +677,13 @@ struct RoundRecord {
   double motion_scale = 1.0;
   std::string shortened_because;
   bool at_state = false;
+  // The orders used and why (summary order_choice), where the motion bound was
+  // held beyond the roll range (summary motion_bound_beyond_roll_range), and
+  // the roll range the correction's motion bound was held over [rad].
+  std::string order_choice;
+  std::string motion_bound_beyond_roll_range;
+  double roll_min_rad = 0.0;
+  double roll_max_rad = 0.0;
 };
 
 struct LoopRecord {
@@ -778,6 +785,11 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
     round.step_fraction = result.summary.step_fraction;
     round.motion_scale = result.summary.motion_scale;
     round.shortened_because = result.summary.safe_step_shortened;
+    round.order_choice = result.summary.order_choice;
+    round.motion_bound_beyond_roll_range =
+        result.summary.motion_bound_beyond_roll_range;
+    round.roll_min_rad = result.summary.roll_min_rad;
+    round.roll_max_rad = result.summary.roll_max_rad;
     round.at_state = result.summary.machine_state_estimated;
     if (round.usable) {
       MaxAxisMotion(model,

@@ -5,7 +5,7 @@
 //
 //   round_probe --seed 12 --scenario 103 --round 3 --told-noise-scale 0
 //               [--error-scale F] [--noise-scale F] [--point ROW,COL] [--scan]
-//               [--state-error]
+//               [--state-error] [--reach]
 //
 // Runs the closed loop to the part before `--round` (1 = the first
 // correction), corrects it as the loop does (default options), and prints:
@@ -30,13 +30,19 @@
 // (the exact Jacobians at the two ends of the step); the true machine's flank
 // less the state's before the step; and v in correction-size coordinates
 // (MODEL.md §6), block by block.
+// `--reach`: how far the exact model reaches from the true machine and from
+// the estimated state (the benchmark's reference optimiser, every order to 6,
+// started at no change, the least-squares steps and the step): what the
+// correction left on the table, and whether its state would have found it.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include "bench/best_reachable.h"
 #include "bench/robustness_scenarios.h"
 
 namespace gearloop {
@@ -173,7 +179,7 @@ int Usage() {
   std::fprintf(stderr,
                "usage: round_probe --seed S --scenario I --round R "
                "[--told-noise-scale F] [--error-scale F] [--noise-scale F] "
-               "[--point ROW,COL] [--scan] [--state-error]\n");
+               "[--point ROW,COL] [--scan] [--state-error] [--reach]\n");
   return 2;
 }
 
@@ -185,6 +191,7 @@ struct ProbeArguments {
   int point_column = -1;
   bool scan = false;
   bool state_error = false;
+  bool reach = false;
   bench::StressOptions stress;
 };
 
@@ -198,6 +205,10 @@ bool ParseArguments(int argc, char** argv, ProbeArguments* args) {
     }
     if (arg == "--state-error") {
       args->state_error = true;
+      continue;
+    }
+    if (arg == "--reach") {
+      args->reach = true;
       continue;
     }
     if (a + 1 >= argc) return false;
@@ -298,6 +309,58 @@ void PrintScan(const MachineModel& model,
   }
 }
 
+// `--reach`: the benchmark's reference optimiser (bench/best_reachable.h,
+// every order to 6, the wheel's parabola held as the benchmark's
+// --reference-fix does, no random starts) from `from`, started at no change,
+// the two least-squares steps and the step; each start's end, the best
+// change's axis motion and wheel changes, and that change applied at the true
+// machine `truth`.
+void PrintReach(const char* name,
+                const bench::Scenario& s,
+                const Eigen::VectorXd& from,
+                const Eigen::VectorXd& truth,
+                const Eigen::VectorXd& step) {
+  const MachineModel& model = *s.model;
+  bench::ReachOptions reach;
+  reach.max_order = 6;  // the default options' highest order
+  reach.fixed_blocks = {"parabola_coefficient", "parabola_vertex"};
+  reach.random_starts = 0;
+  const bench::ReachResult r = bench::BestReachable(model,
+                                                    from,
+                                                    s.target_um,
+                                                    s.roll_min_rad,
+                                                    s.roll_max_rad,
+                                                    {{"step", step}},
+                                                    reach);
+  std::printf("\nreach from %s (every order to 6, the wheel's cone free):\n",
+              name);
+  for (const bench::ReachStart& start : r.starts)
+    std::printf("  start %s: %.4g -> %.4g um in %d iterations\n",
+                start.name.c_str(),
+                start.start_rms_um,
+                start.rms_um,
+                start.iterations);
+  if (r.delta.size() != model.NumParameters()) return;
+  PrintMotion("  the best change's largest axis motion", s, r.delta);
+  for (const ParameterBlock& b : model.ParameterBlocks()) {
+    if (b.is_polynomial) continue;
+    std::printf("  %s changed by %.4g %s (the step: %.4g)\n",
+                b.name.c_str(),
+                r.delta(b.first_index),
+                b.unit.c_str(),
+                step(b.first_index));
+  }
+  ModelEvaluation e;
+  model.Evaluate(truth + r.delta, false, &e);
+  Eigen::VectorXd residual_um = Eigen::VectorXd::Constant(
+      e.deviations_um.size(), std::numeric_limits<double>::quiet_NaN());
+  for (int i = 0; i < residual_um.size(); ++i)
+    if (e.status[i] == PointStatus::kOk)
+      residual_um(i) = e.deviations_um(i) - s.target_um(i);
+  std::printf("  that change at the true machine: %.4g um rms\n",
+              bench::FiniteRms(residual_um));
+}
+
 // The part before round `round` (from 1), as the loop makes and measures
 // it (its commanded settings into `commanded`), and its correction.
 CorrectionResult CorrectTheRound(const bench::Scenario& s,
@@ -384,6 +447,11 @@ int main(int argc, char** argv) {
 
   if (args.state_error && at_state)
     PrintStateError(s, result.linearised_at, commanded, truth, step);
+  if (args.reach) {
+    PrintReach("the true machine", s, truth, truth, step);
+    if (at_state)
+      PrintReach("the estimated state", s, result.linearised_at, truth, step);
+  }
   if (args.scan)
     PrintScan(model, truth, step, s.target_um, true_before, true_after);
   if (args.point_row >= 0) {

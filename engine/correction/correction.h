@@ -495,6 +495,12 @@ struct CorrectionSummary {
   // computed or not usable). highest_order_moved: the highest polynomial
   // order the correction changes on any axis (-1: none).
   std::string order_choice;
+  // Where an answer with orders 4-6 moved an axis beyond its bound at roll
+  // angles outside the roll range that its own next-part contacts reach, the
+  // solve held the bound there as well (solve_problem.cc,
+  // HoldTheBoundWhereTheContactsGo): the roll angles [deg] and how often it
+  // solved again; "" otherwise.
+  std::string motion_bound_beyond_roll_range;
   double cubic_orders_predicted_rms_um =
       std::numeric_limits<double>::quiet_NaN();
   double all_orders_predicted_rms_um = std::numeric_limits<double>::quiet_NaN();

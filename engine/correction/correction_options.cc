@@ -166,6 +166,8 @@ std::string CorrectionSummary::BriefReport() const {
     if (!machine_state_reason.empty())
       out << " (" << machine_state_reason << ")";
     if (!order_choice.empty()) out << ", " << order_choice;
+    if (!motion_bound_beyond_roll_range.empty())
+      out << ", motion bound " << motion_bound_beyond_roll_range;
     if (!exact_search.empty()) out << ", exact search " << exact_search;
     if (safe_step_checked) {
       out << ", safe step: motion x" << motion_scale << ", fraction "

@@ -97,6 +97,27 @@ constexpr int kOutsideSamples = 9;
 // samples inside keep it to kMotionFill of the bound).
 constexpr double kOutsideMotionTolerance = 0.01;
 
+// The motion rows (problem.motion_rows') at kOutsideSamples roll angles over
+// each stretch of [lo, hi] outside the problem's roll range; none where there
+// is no such stretch.
+Eigen::MatrixXd MotionRowsOutsideRollRange(const CorrectionOptions& options,
+                                           const CorrectionProblem& problem,
+                                           double lo,
+                                           double hi) {
+  std::vector<double> rolls_rad;
+  for (int s = 0; s < kOutsideSamples; ++s) {
+    const double t = (s + 1.0) / kOutsideSamples;
+    if (lo < problem.roll_min_rad)
+      rolls_rad.push_back(problem.roll_min_rad -
+                          t * (problem.roll_min_rad - lo));
+    if (hi > problem.roll_max_rad)
+      rolls_rad.push_back(problem.roll_max_rad +
+                          t * (hi - problem.roll_max_rad));
+  }
+  if (rolls_rad.empty()) return Eigen::MatrixXd(0, problem.num_parameters);
+  return MotionRowsAt(options, problem, rolls_rad);
+}
+
 // Whether `delta` moves an axis by more than its bound anywhere in [lo, hi]
 // outside the problem's roll range, where the solve's motion bound did not
 // look. The next part's contacts may lie there (the step itself moves them):
@@ -109,18 +130,8 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
                                       const Eigen::VectorXd& delta,
                                       double lo,
                                       double hi) {
-  std::vector<double> rolls_rad;
-  for (int s = 0; s < kOutsideSamples; ++s) {
-    const double t = (s + 1.0) / kOutsideSamples;
-    if (lo < problem.roll_min_rad)
-      rolls_rad.push_back(problem.roll_min_rad -
-                          t * (problem.roll_min_rad - lo));
-    if (hi > problem.roll_max_rad)
-      rolls_rad.push_back(problem.roll_max_rad +
-                          t * (hi - problem.roll_max_rad));
-  }
-  if (rolls_rad.empty()) return false;
-  const Eigen::MatrixXd rows = MotionRowsAt(options, problem, rolls_rad);
+  const Eigen::MatrixXd rows =
+      MotionRowsOutsideRollRange(options, problem, lo, hi);
   return rows.rows() > 0 &&
          (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
 }
@@ -375,6 +386,38 @@ double AxisMotionRatio(const CorrectionOptions& options,
   const Eigen::MatrixXd rows =
       RelativeMotionRows(options, problem, kMotionSamples);
   return rows.rows() > 0 ? (rows * delta).cwiseAbs().maxCoeff() : 0.0;
+}
+
+Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(
+    const CorrectionOptions& options,
+    const CorrectionProblem& problem,
+    const Eigen::VectorXd& delta,
+    double* lo_rad,
+    double* hi_rad) {
+  const Eigen::MatrixXd none(0, problem.num_parameters);
+  if (problem.motion_rows.rows() == 0 ||
+      delta.size() != problem.num_parameters ||
+      !UsesOrdersAboveCubic(problem, delta))
+    return none;
+  // The contacts at the linearisation point + delta and, at an estimated
+  // state, at the commanded settings + delta (where the safe step looks).
+  ModelEvaluation eval;
+  problem.model->Evaluate(problem.parameters + delta, false, &eval);
+  double lo = problem.roll_min_rad, hi = problem.roll_max_rad;
+  JoinContactRolls(problem, eval, &lo, &hi);
+  if (problem.commanded_parameters.size() == problem.parameters.size() &&
+      problem.commanded_parameters != problem.parameters) {
+    problem.model->Evaluate(problem.commanded_parameters + delta, false, &eval);
+    JoinContactRolls(problem, eval, &lo, &hi);
+  }
+  const Eigen::MatrixXd rows =
+      MotionRowsOutsideRollRange(options, problem, lo, hi);
+  if (rows.rows() == 0 ||
+      !((rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance))
+    return none;
+  if (lo_rad != nullptr) *lo_rad = lo;
+  if (hi_rad != nullptr) *hi_rad = hi;
+  return rows;
 }
 
 Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,

@@ -75,6 +75,23 @@ double AxisMotionRatio(const CorrectionOptions& options,
                        const CorrectionProblem& problem,
                        const Eigen::VectorXd& delta);
 
+// Where `delta` (with orders above the cubic, in a problem with a motion
+// bound) moves an axis beyond its bound at roll angles outside the problem's
+// roll range where it moves the next part's contacts (the exact model at the
+// linearisation point + delta and, at an estimated state, at the commanded
+// settings + delta, as the safe step asks): motion rows (problem.motion_rows')
+// sampling those stretches, for the solve to hold the bound there as well; no
+// rows otherwise. The safe step would shorten such a change until it keeps the
+// bound there (ChooseSafeStep). With rows, `*lo_rad` and `*hi_rad` (when
+// given) get the roll range the next part's contacts span, the problem's
+// range joined.
+Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(
+    const CorrectionOptions& options,
+    const CorrectionProblem& problem,
+    const Eigen::VectorXd& delta,
+    double* lo_rad = nullptr,
+    double* hi_rad = nullptr);
+
 Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
                                 const CorrectionProblem& problem,
                                 const Eigen::VectorXd& delta,

@@ -469,7 +469,8 @@ nlohmann::json OrdersJson(const CorrectionSummary& s) {
       {"highest_moved", s.highest_order_moved},
       {"choice", s.order_choice},
       {"cubic_predicted_rms_um", FiniteOrNull(s.cubic_orders_predicted_rms_um)},
-      {"all_predicted_rms_um", FiniteOrNull(s.all_orders_predicted_rms_um)}};
+      {"all_predicted_rms_um", FiniteOrNull(s.all_orders_predicted_rms_um)},
+      {"motion_bound_beyond_roll_range", s.motion_bound_beyond_roll_range}};
 }
 
 // The exact-model search's outcome and its two predictions.

@@ -1531,6 +1531,47 @@ TEST(ChooseSafeStep, HoldsTheMotionBoundWhereTheStepMovesTheContacts) {
   }
 }
 
+// The rows the solve holds the motion bound at where the answer carries the
+// next part's contacts out of the roll range (safe_step.h,
+// MotionRowsWhereTheNextContactsGo). The same model and order-5 step: with s
+// the last contact rolls to 1.0 rad, where P moves 1 mm, 5 x the 0.2 mm bound:
+// kOutsideSamples rows over (0.3, 1.0] rad, the last at 1.0 rad. Without s the
+// contacts stay in the range; a cubic step, or a problem with no motion bound
+// (the state fit's), gets no rows either.
+TEST(MotionRowsWhereTheNextContactsGo, SampleWhereTheAnswerTakesTheContacts) {
+  const RollingContactModel model;
+  CorrectionOptions options;
+  options.default_max_order = 6;
+  Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
+  step(5) = 1.0;
+  step(7) = 1e-3;
+  CorrectionProblem problem = SafeStepProblem(model, step, options);
+  ASSERT_NEAR(problem.roll_max_rad, 0.3, 1e-12);
+  const Eigen::MatrixXd rows =
+      MotionRowsWhereTheNextContactsGo(options, problem, step);
+  constexpr int kOutsideSamples = 9;  // safe_step.cc
+  ASSERT_EQ(rows.rows(), kOutsideSamples);
+  ASSERT_EQ(rows.cols(), model.NumParameters());
+  constexpr double kRatioAtOneRad = 1.0 / 0.2;  // 1 mm against 0.2 mm
+  EXPECT_NEAR((rows * step).cwiseAbs().maxCoeff(), kRatioAtOneRad, 1e-9);
+  // The first sample lies a ninth of the way from 0.3 to 1.0 rad.
+  const double first_rad = 0.3 + (1.0 - 0.3) / kOutsideSamples;
+  EXPECT_NEAR(
+      std::abs(rows.row(0).dot(step)), std::pow(first_rad, 5) / 0.2, 1e-9);
+
+  Eigen::VectorXd in_range = step;
+  in_range(7) = 0.0;
+  EXPECT_EQ(MotionRowsWhereTheNextContactsGo(options, problem, in_range).rows(),
+            0);
+  Eigen::VectorXd cubic = Eigen::VectorXd::Zero(model.NumParameters());
+  cubic(3) = 1.0;
+  cubic(7) = 1e-3;
+  EXPECT_EQ(MotionRowsWhereTheNextContactsGo(options, problem, cubic).rows(),
+            0);
+  problem.motion_rows.resize(0, model.NumParameters());
+  EXPECT_EQ(MotionRowsWhereTheNextContactsGo(options, problem, step).rows(), 0);
+}
+
 // A state that loses a grid point is refused when the point was measured and
 // accepted when the measurement lacks it (the real machine may no longer
 // grind it: seed 2026, scenario 199, where the refused state left the solver

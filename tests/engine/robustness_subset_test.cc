@@ -272,6 +272,30 @@ TEST(ExactSearch, RefusedBySafeStepLeavesTheRegularisedAnswer) {
   EXPECT_LE(loop.part_rms_um.back(), 1.2 * kReferenceUm + s.probe_noise_um);
 }
 
+// The solve holds the motion bound where an orders 4-6 answer takes the next
+// part's contacts beyond the roll range (solve_problem.cc,
+// HoldTheBoundWhereTheContactsGo). Seed 2026, scenario 167 (z 89, b = 69 mm,
+// an 18 um root relief and a 21 um lead crowning, hidden Y2, sigma 0.21 um
+// told): the every-order answer predicted 0.36 um, but its contacts ran past
+// the roll range where orders 4-6 grow; the safe step kept half of it (0.63
+// um), the cubic answer stood, and the loop ended at 0.75 um. Solved again
+// with the bound held there, orders 4-6 answer and the loop ends within 1.2 x
+// the reference + the probe noise, no round worse.
+TEST(OrderChoice, HoldsTheBoundWhereTheNextContactsGo) {
+  const bench::Scenario s = bench::DrawGrinderScenario(2026, 167);
+  const bench::LoopRecord loop = LoopMakingNoPartWorse(2026, 167);
+  int held = 0;
+  for (const bench::RoundRecord& r : loop.rounds) {
+    held += !r.motion_bound_beyond_roll_range.empty() &&
+            r.order_choice.rfind("orders 4-6 used", 0) == 0;
+  }
+  EXPECT_GE(held, 1);
+  // The full reference (BENCHMARKS.md, "The motion bound where the next
+  // contacts go"), seed 2026.
+  constexpr double kReferenceUm = 0.216;
+  EXPECT_LE(loop.part_rms_um.back(), 1.2 * kReferenceUm + s.probe_noise_um);
+}
+
 // The per-direction filter at the commanded settings where the state fit
 // explains nothing (correction.cc, Correct). Seed 8, scenario 42 (z 36, b =
 // 45 mm, a user grid; hidden C1 and X0; sigma 0.40 told, outliers): by the
