@@ -290,6 +290,13 @@ struct CorrectionOptions {
   // Ceres refinement (regularised solver): iterations of Levenberg-Marquardt (0
   // = no refinement).
   int max_num_iterations = 20;
+  // Set by the order choice for its every-order solve (order_choice.cc), NaN
+  // otherwise: the exact prediction [um] that answer must stay below to be
+  // taken over the cubic one. The solve asks it before solving again to hold
+  // the motion bound where the answer moves the next part's contacts
+  // (solve_problem.cc, HoldTheBoundWhereTheContactsGo): an answer predicted
+  // no lower before that bound is added is not solved again. Callers leave it.
+  double orders_above_cubic_bar_um = std::numeric_limits<double>::quiet_NaN();
   // Rework mode: re-linearisations of the constrained problem on the exact
   // model.
   int max_rework_passes = 4;

@@ -290,8 +290,17 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
     cubic.summary.cubic_orders_predicted_rms_um = cubic.summary.residual_rms_um;
     return cubic;
   }
-  CorrectionResult full = correct(options, input);
   const bool cubic_usable = cubic.summary.IsSolutionUsable();
+  const double min_um = OrderGainMinUm(cubic.summary.initial_rms_um);
+  const double margin =
+      cubic_usable
+          ? std::max(min_um, kOrderGainShare * cubic.summary.residual_rms_um)
+          : kNaN;
+  CorrectionOptions every_order = options;
+  if (cubic_usable)
+    every_order.orders_above_cubic_bar_um =
+        cubic.summary.residual_rms_um - margin;
+  CorrectionResult full = correct(every_order, input);
   const bool full_usable =
       full.summary.IsSolutionUsable() &&
       full.summary.status != CorrectionStatus::kNoSafeImprovement;
@@ -302,8 +311,6 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
       cubic_usable && full_usable ? PointsLeftOutOnlyBy(full, cubic) : 0;
   const double full_compared =
       left_out > 0 ? RmsOverThePointsCubicKeeps(full, cubic) : full_rms;
-  const double min_um = OrderGainMinUm(cubic.summary.initial_rms_um);
-  const double margin = std::max(min_um, kOrderGainShare * cubic_rms);
   bool use_full = false;
   if (!cubic_usable) {
     use_full = true;

@@ -122,6 +122,22 @@ Eigen::VectorXd SolveAndSearch(const CorrectionOptions& options,
   return delta;
 }
 
+// The rms over the used points of the exact prediction e + d(p + delta) -
+// d(p) at the linearisation point; infinity where a used point is lost.
+double ExactPredictionRms(const CorrectionProblem& problem,
+                          const Eigen::VectorXd& delta) {
+  ModelEvaluation eval;
+  problem.model->Evaluate(problem.parameters + delta, false, &eval);
+  double sum = 0.0;
+  for (int i : problem.used) {
+    if (eval.status[i] != PointStatus::kOk) return kInf;
+    const double r =
+        problem.error_um(i) + eval.deviations_um(i) - problem.d0()(i);
+    sum += r * r;
+  }
+  return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
+}
+
 // Whether every grid point is measured and reached by the model at the
 // linearisation point and at the commanded settings
 // (HoldTheBoundWhereTheContactsGo asks it: where the part lacks points, the
@@ -148,7 +164,12 @@ bool EveryPointMeasuredAndReached(const CorrectionProblem& problem) {
 // where the part lacked points as well, 3 rounds of 39 000 on 65 seeds came
 // out worse, each regrinding rows the part lacked, and one more on the
 // common points where the commanded settings did not reach 9 measured
-// points); summary->motion_bound_beyond_roll_range says where and how often.
+// points), and only where the answer is predicted below the bar the order
+// choice sets (options.orders_above_cubic_bar_um: an every-order answer no
+// lower than the cubic answer's prediction less the margin is not taken
+// anyway; solving those again cost 0.7-1 ms per correction on average, seed
+// 2026, one thread); summary->motion_bound_beyond_roll_range says where and
+// how often.
 // The safe
 // step would otherwise only shorten such an answer: robustness benchmark,
 // seed 2026, scenario 167 (z 89, a root relief and an 18 um lead crowning,
@@ -158,8 +179,8 @@ bool EveryPointMeasuredAndReached(const CorrectionProblem& problem) {
 // state reaches 0.22. Now orders 4-6 answer in round 1 and the loop ends at
 // 0.34 um. Full reference, seeds 2026, 7, 1, 4, 11 (BENCHMARKS.md, "The
 // motion bound where the next contacts go"): within 1.2 x best + noise 954 ->
-// 966 of 1000, rounds worse unchanged (1 of 3000); quick count, 65 seeds:
-// within 12 852 -> 12 877 of 13 000, the same 27 worse rounds of 39 000.
+// 965 of 1000, rounds worse unchanged (1 of 3000); quick count, 65 seeds:
+// within 12 852 -> 12 874 of 13 000, the same 27 worse rounds of 39 000.
 constexpr int kContactRangeSolves = 2;
 Eigen::VectorXd HoldTheBoundWhereTheContactsGo(const CorrectionOptions& options,
                                                CorrectionProblem* problem,
@@ -169,13 +190,24 @@ Eigen::VectorXd HoldTheBoundWhereTheContactsGo(const CorrectionOptions& options,
                                                std::string* not_converged,
                                                Eigen::VectorXd* regularised) {
   if (!EveryPointMeasuredAndReached(*problem)) return delta;
+  const double bar_um = options.orders_above_cubic_bar_um;
   double lo_rad = problem->roll_min_rad, hi_rad = problem->roll_max_rad;
   int solves = 0;
   for (; solves < kContactRangeSolves; ++solves) {
+    // Asked of the change the safe step will check (scaled into the bound
+    // over the roll range): the same model evaluations, kept in the memo.
+    SafeStepOutcome scaled;
+    const Eigen::VectorXd step =
+        BoundAxisMotion(options, *problem, delta, &scaled);
     double lo = kNaN, hi = kNaN;
     const Eigen::MatrixXd rows =
-        MotionRowsWhereTheNextContactsGo(options, *problem, delta, &lo, &hi);
+        MotionRowsWhereTheNextContactsGo(options, *problem, step, &lo, &hi);
     if (rows.rows() == 0) break;
+    // Solving again adds a bound: an answer predicted no lower than the bar
+    // the order choice set (the cubic answer's prediction less the margin)
+    // will not win by it.
+    if (std::isfinite(bar_um) && !(ExactPredictionRms(*problem, step) < bar_um))
+      break;
     lo_rad = std::min(lo_rad, lo);
     hi_rad = std::max(hi_rad, hi);
     Eigen::MatrixXd joined(problem->motion_rows.rows() + rows.rows(),
