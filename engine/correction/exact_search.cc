@@ -48,7 +48,7 @@ constexpr int kWideSearchPasses = 8;
 constexpr double kWideSearchStopShare = 1e-2;
 
 // The exact rms at the linearisation point over the used points of the model
-// `eval` (infinity when a used point is lost), and of the model after `delta`.
+// `eval` (infinity when a used point is lost).
 double ExactRmsOf(const CorrectionProblem& problem,
                   const ModelEvaluation& eval) {
   double sum = 0.0;
@@ -60,13 +60,6 @@ double ExactRmsOf(const CorrectionProblem& problem,
   }
   return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
 }
-double ExactRms(const CorrectionProblem& problem,
-                const Eigen::VectorXd& delta) {
-  ModelEvaluation eval;
-  problem.model->Evaluate(problem.parameters + delta, false, &eval);
-  return ExactRmsOf(problem, eval);
-}
-
 // The sequential QPs of the search (RefineWithinMotionBound) over the first
 // `directions` columns of the solve's V, each lightly damped
 // (kSearchDampingShare of its singular value, never below that share of the
@@ -152,6 +145,13 @@ std::string PredictionText(double um) {
 }
 
 }  // namespace
+
+double ExactRms(const CorrectionProblem& problem,
+                const Eigen::VectorXd& delta) {
+  ModelEvaluation eval;
+  problem.model->Evaluate(problem.parameters + delta, false, &eval);
+  return ExactRmsOf(problem, eval);
+}
 
 Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,

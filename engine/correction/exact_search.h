@@ -36,6 +36,10 @@
 namespace gearloop {
 namespace correction_internal {
 
+// The rms over the used points of the exact prediction e + d(p + delta) -
+// d(p) at the linearisation point p; infinity where a used point is lost.
+double ExactRms(const CorrectionProblem& problem, const Eigen::VectorXd& delta);
+
 Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    const LinearSolve& ls,

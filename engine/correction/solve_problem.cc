@@ -122,22 +122,6 @@ Eigen::VectorXd SolveAndSearch(const CorrectionOptions& options,
   return delta;
 }
 
-// The rms over the used points of the exact prediction e + d(p + delta) -
-// d(p) at the linearisation point; infinity where a used point is lost.
-double ExactPredictionRms(const CorrectionProblem& problem,
-                          const Eigen::VectorXd& delta) {
-  ModelEvaluation eval;
-  problem.model->Evaluate(problem.parameters + delta, false, &eval);
-  double sum = 0.0;
-  for (int i : problem.used) {
-    if (eval.status[i] != PointStatus::kOk) return kInf;
-    const double r =
-        problem.error_um(i) + eval.deviations_um(i) - problem.d0()(i);
-    sum += r * r;
-  }
-  return problem.used.empty() ? 0.0 : std::sqrt(sum / problem.used.size());
-}
-
 // Whether every grid point is measured and reached by the model at the
 // linearisation point and at the commanded settings
 // (HoldTheBoundWhereTheContactsGo asks it: where the part lacks points, the
@@ -169,9 +153,8 @@ bool EveryPointMeasuredAndReached(const CorrectionProblem& problem) {
 // lower than the cubic answer's prediction less the margin is not taken
 // anyway; solving those again cost 0.7-1 ms per correction on average, seed
 // 2026, one thread); summary->motion_bound_beyond_roll_range says where and
-// how often.
-// The safe
-// step would otherwise only shorten such an answer: robustness benchmark,
+// how often. The safe step would otherwise only shorten such an answer:
+// robustness benchmark,
 // seed 2026, scenario 167 (z 89, a root relief and an 18 um lead crowning,
 // sigma 0.21 um): the every-order answer predicted 0.36 um, its contacts ran
 // past the roll range where orders 4-6 grow, and half of it (0.63 um) lost to
@@ -206,8 +189,7 @@ Eigen::VectorXd HoldTheBoundWhereTheContactsGo(const CorrectionOptions& options,
     // Solving again adds a bound: an answer predicted no lower than the bar
     // the order choice set (the cubic answer's prediction less the margin)
     // will not win by it.
-    if (std::isfinite(bar_um) && !(ExactPredictionRms(*problem, step) < bar_um))
-      break;
+    if (std::isfinite(bar_um) && !(ExactRms(*problem, step) < bar_um)) break;
     lo_rad = std::min(lo_rad, lo);
     hi_rad = std::max(hi_rad, hi);
     Eigen::MatrixXd joined(problem->motion_rows.rows() + rows.rows(),
