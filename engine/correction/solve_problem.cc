@@ -129,11 +129,11 @@ Eigen::VectorXd SolveAndSearch(const CorrectionOptions& options,
 // far is left to the safe step's shortening).
 bool EveryPointMeasuredAndReached(const CorrectionProblem& problem) {
   if (!problem.measured_um.allFinite()) return false;
+  const bool has_commanded =
+      static_cast<int>(problem.commanded_status.size()) == problem.num_points;
   for (int i = 0; i < problem.num_points; ++i) {
     if (problem.evaluation.status[i] != PointStatus::kOk) return false;
-    if (static_cast<int>(problem.commanded_status.size()) ==
-            problem.num_points &&
-        problem.commanded_status[i] != PointStatus::kOk)
+    if (has_commanded && problem.commanded_status[i] != PointStatus::kOk)
       return false;
   }
   return true;
@@ -154,16 +154,16 @@ bool EveryPointMeasuredAndReached(const CorrectionProblem& problem) {
 // anyway; solving those again cost 0.7-1 ms per correction on average, seed
 // 2026, one thread); summary->motion_bound_beyond_roll_range says where and
 // how often. The safe step would otherwise only shorten such an answer:
-// robustness benchmark,
-// seed 2026, scenario 167 (z 89, a root relief and an 18 um lead crowning,
-// sigma 0.21 um): the every-order answer predicted 0.36 um, its contacts ran
-// past the roll range where orders 4-6 grow, and half of it (0.63 um) lost to
-// the cubic answer in every round; the loop ended at 0.75 um where the true
-// state reaches 0.22. Now orders 4-6 answer in round 1 and the loop ends at
-// 0.34 um. Full reference, seeds 2026, 7, 1, 4, 11 (BENCHMARKS.md, "The
-// motion bound where the next contacts go"): within 1.2 x best + noise 954 ->
-// 965 of 1000, rounds worse unchanged (1 of 3000); quick count, 65 seeds:
-// within 12 852 -> 12 874 of 13 000, the same 27 worse rounds of 39 000.
+// robustness benchmark, seed 2026, scenario 167 (z 89, a root relief and an
+// 18 um lead crowning, sigma 0.21 um): the every-order answer predicted 0.36
+// um, its contacts ran past the roll range where orders 4-6 grow, and half of
+// it (0.63 um) lost to the cubic answer in every round; the loop ended at 0.75
+// um where the true state reaches 0.22. Now orders 4-6 answer in round 1 and
+// the loop ends at 0.34 um. Full reference, seeds 2026, 7, 1, 4, 11
+// (BENCHMARKS.md, "The motion bound where the next contacts go"): within 1.2 x
+// best + noise 954 -> 965 of 1000, rounds worse unchanged (1 of 3000); quick
+// count, 65 seeds: within 12 852 -> 12 874 of 13 000, the same 27 worse rounds
+// of 39 000.
 constexpr int kContactRangeSolves = 2;
 Eigen::VectorXd HoldTheBoundWhereTheContactsGo(const CorrectionOptions& options,
                                                CorrectionProblem* problem,
