@@ -29,11 +29,15 @@
 // state's error v = truth - p, e + d(p + step) - d(p) + (J(p + step) - J(p)) v
 // (the exact Jacobians at the two ends of the step); the true machine's flank
 // less the state's before the step; and v in correction-size coordinates
-// (MODEL.md §6), block by block.
+// (MODEL.md §6), block by block; the next part at the state with one block
+// of it set to the true machine's; and the true wheel parabola taken up by
+// the axes (what the safe step's spread asks, safe_step.cc StateUncertainty):
+// the next part's error from it to first order.
 // `--reach`: how far the exact model reaches from the true machine and from
 // the estimated state (the benchmark's reference optimiser, every order to 6,
 // started at no change, the least-squares steps and the step): what the
 // correction left on the table, and whether its state would have found it.
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -173,6 +177,62 @@ void PrintStateError(const bench::Scenario& s,
                 b.name.c_str(),
                 y.segment(b.first_index, b.num_coefficients).norm());
   std::printf("\n");
+  std::printf("the next part at the state with the true machine's block:");
+  for (const ParameterBlock& b : blocks) {
+    Eigen::VectorXd at = state;
+    at.segment(b.first_index, b.num_coefficients) =
+        truth.segment(b.first_index, b.num_coefficients);
+    std::printf(
+        " %s %.3f", b.name.c_str(), NextPartRms(model, at, step, e_um, used));
+  }
+  std::printf(" um\n");
+  // The wheel's parabola (fixed: no fit sees it), taken up by the axes and
+  // the cone (orders 0-3, least squares): the next part's error from that at
+  // the true machine's parabola, to first order.
+  std::vector<int> free;
+  for (const ParameterBlock& b : blocks) {
+    for (int k = 0; k < std::min(b.num_coefficients, 4); ++k) {
+      if (b.is_polynomial || b.name == "cone_angle")
+        free.push_back(b.first_index + k);
+    }
+  }
+  const int np = model.NumParameters();
+  const int nf = static_cast<int>(free.size());
+  const int n_used = static_cast<int>(used.size());
+  const int ia = kParabolaCoefficientIndex;
+  Eigen::MatrixXd t(np, nf);  // correction-size coordinates -> parameters
+  for (int c = 0; c < nf; ++c) {
+    Eigen::VectorXd unit = Eigen::VectorXd::Zero(np);
+    unit(free[c]) = 1.0;
+    t.col(c) = DeltaFromCorrectionCoordinates(
+        blocks, unit, s.roll_min_rad, s.roll_max_rad);
+  }
+  Eigen::MatrixXd js(n_used, nf), dj(n_used, nf);
+  Eigen::VectorXd ja(n_used), dja(n_used);
+  for (int r = 0; r < n_used; ++r) {
+    const int i = used[r];
+    js.row(r) = at_state.jacobian_um.row(i) * t;
+    dj.row(r) = after_step.jacobian_um.row(i) * t - js.row(r);
+    ja(r) = at_state.jacobian_um(i, ia);
+    dja(r) = after_step.jacobian_um(i, ia) - ja(r);
+  }
+  // The take-up per unit, held as the safe step holds the state's
+  // take-up (a prior of 10 correction-size units at the probe's noise).
+  const double ridge = std::pow(std::max(s.probe_noise_um, 0.05) / 10.0, 2);
+  Eigen::MatrixXd info = js.transpose() * js;
+  info.diagonal().array() += ridge;
+  const Eigen::VectorXd absorbed = info.ldlt().solve(js.transpose() * ja);
+  const double a = truth(ia) - state(ia);
+  const double root_n = std::sqrt(static_cast<double>(n_used));
+  std::printf(
+      "the true parabola (%.3g 1/mm, %.3f um rms of flank, %.3f left after "
+      "the axes take it up): next-part error %.3f um rms; per um of its "
+      "flank %.3f\n",
+      a,
+      ja.norm() * std::abs(a) / root_n,
+      (ja - js * absorbed).norm() * std::abs(a) / root_n,
+      (dja - dj * absorbed).norm() * std::abs(a) / root_n,
+      (dja - dj * absorbed).norm() / ja.norm());
 }
 
 int Usage() {

@@ -36,6 +36,7 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
   state->mean_teeth_averaged = 1.0;
   // The bounds restrict the correction, not the machine's errors.
   state->mode = CorrectionMode::kNextPart;
+  state->machine_state_fit = true;
   state->has_bounds = false;
   state->lower = Eigen::VectorXd::Constant(commanded.num_parameters, -kInf);
   state->upper = Eigen::VectorXd::Constant(commanded.num_parameters, kInf);

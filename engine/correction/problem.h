@@ -53,6 +53,9 @@ struct CorrectionProblem {
   // What this solve is asked (the machine-state estimate of step 0 changes
   // them).
   CorrectionMode mode = CorrectionMode::kNextPart;
+  // The machine-state fit of step 0 (machine_state.h): its change is an
+  // estimate of the machine's errors, not a change the machine makes.
+  bool machine_state_fit = false;
   RegularisationRule rule =
       RegularisationRule::kNone;  // ChooseRegularisationRule(options)
   double probe_noise_um = -1.0;   // sigma [um] (< 0 unknown)

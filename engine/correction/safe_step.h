@@ -20,12 +20,16 @@
 //      commanded parameters: no point near the wheel's edge lost there, no
 //      point lost there and halfway, no contact on another branch, and for
 //      orders 4-6 the same change within the state's rms and the motion
-//      bound where the contacts move (docs/correction-safety.md). When none
-//      is, the change is zero and the outcome says why. (Asking the commanded
-//      point for a better rms, or for every point still reached, was tried:
-//      where the estimated state earns its place, the commanded point predicts
-//      the good step worse and the spur-crowning loop stalls at 7.9 um instead
-//      of 1.10.)
+//      bound where the contacts move (docs/correction-safety.md); and
+//      (next-part mode) whose prediction, spread by what the measurement cannot
+//      tell of the machine's state (the free coordinates' posterior and a
+//      wheel parabola the axes take up, through J(p + alpha delta) - J(p)),
+//      would still not make the part worse by more than max(0.1 um, 10 %).
+//      When none is, the change is zero and the outcome says why. (Asking the
+//      commanded point for a better rms, or for every point still reached, was
+//      tried: where the estimated state earns its place, the commanded point
+//      predicts the good step worse and the spur-crowning loop stalls at 7.9 um
+//      instead of 1.10.)
 //
 //   3. DropNegligibleStep: a kept fraction whose exact change the measurement
 //      could not see (below a tenth of the filter's noise) becomes no change.

@@ -296,6 +296,35 @@ TEST(OrderChoice, HoldsTheBoundWhereTheNextContactsGo) {
   EXPECT_LE(loop.part_rms_um.back(), 1.2 * kReferenceUm + s.probe_noise_um);
 }
 
+// The safe step asks what the state the measurement cannot see would do to
+// the step (safe_step.cc, StateUncertainty): the next part spread by the free
+// coordinates' posterior and by a wheel parabola the state fit takes up with
+// the axes, through the change of the model's Jacobian over the step.
+// Seed 1, scenario 146 (z 98, a 5 um lead crowning; hidden Y0 8.5 um and Z0;
+// sigma 0.44 told): round 2 predicted 0.44 um from 1.25 and made 1.60 (the
+// state's Y was off by what the noise hides). Seed 112, scenario 66 (a user
+// grid; hidden A3, Z2, C1, B0, the cone and a 4.3 um wheel parabola): round 2
+// predicted 0.26 um from 0.48 and made 0.71. Both steps are now shortened
+// for the spread, and neither loop makes a part worse.
+TEST(SafeStep, ShortensAStepTheStatesSpreadCouldMakeWorse) {
+  struct Case {
+    std::uint64_t seed;
+    int index;
+    double reference_um;  // the rough reference (--reach-iterations 1)
+  };
+  for (const Case& c : {Case{1, 146, 0.165}, Case{112, 66, 0.261}}) {
+    const bench::Scenario s = bench::DrawGrinderScenario(c.seed, c.index);
+    const bench::LoopRecord loop = LoopMakingNoPartWorse(c.seed, c.index);
+    const bench::RoundRecord& second = loop.rounds[1];
+    EXPECT_EQ(second.shortened_because.rfind("could make the part worse", 0),
+              0u)
+        << "seed " << c.seed << ", scenario " << c.index << ": "
+        << second.shortened_because;
+    EXPECT_LE(loop.part_rms_um.back(), 1.2 * c.reference_um + s.probe_noise_um)
+        << "seed " << c.seed << ", scenario " << c.index;
+  }
+}
+
 // The per-direction filter at the commanded settings where the state fit
 // explains nothing (correction.cc, Correct). Seed 8, scenario 42 (z 36, b =
 // 45 mm, a user grid; hidden C1 and X0; sigma 0.40 told, outliers): by the
