@@ -485,6 +485,12 @@ struct CorrectionSummary {
   double step_fraction = 1.0;
   double safe_step_current_rms_um = 0.0;
   double safe_step_predicted_rms_um = 0.0;
+  // How far the kept change's next part may lie from that prediction if the
+  // machine is off the state it was predicted at by what the measurement
+  // cannot see (rms over the used points, first order: the free
+  // coordinates' posterior and a wheel parabola of 1 um of flank the axes take
+  // up; docs/correction-safety.md); 0 where not asked or nothing was kept.
+  double safe_step_state_spread_um = 0.0;
   // Where a fraction below 1 was kept: why the whole (bounded) change was not
   // (a test it failed, or its exact prediction); "" when it was kept whole or
   // nothing was kept (then the message says why).

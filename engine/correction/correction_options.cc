@@ -172,7 +172,11 @@ std::string CorrectionSummary::BriefReport() const {
     if (safe_step_checked) {
       out << ", safe step: motion x" << motion_scale << ", fraction "
           << step_fraction << " (exact rms " << safe_step_current_rms_um
-          << " -> " << safe_step_predicted_rms_um << ")";
+          << " -> " << safe_step_predicted_rms_um;
+      if (safe_step_state_spread_um > 0.0)
+        out << ", spread " << safe_step_state_spread_um
+            << " by what the measurement cannot tell of the state";
+      out << ")";
       if (!safe_step_shortened.empty())
         out << "; the whole change " << safe_step_shortened;
     }

@@ -653,6 +653,7 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
       outcome->step_fraction = alpha;
       outcome->has_evaluation = true;
       outcome->shortened = whole;
+      outcome->state_spread_um = spread_um;
       return alpha * delta;
     }
     if (halving == 0) {
@@ -708,6 +709,7 @@ bool DropNegligibleStep(const CorrectionProblem& problem,
   outcome->step_fraction = 0.0;
   outcome->has_evaluation = false;
   outcome->predicted_rms_um = outcome->current_rms_um;
+  outcome->state_spread_um = 0.0;
   return true;
 }
 

@@ -64,8 +64,12 @@ struct SafeStepOutcome {
   double step_fraction = 1.0;     // alpha kept (0 = no safe improvement)
   double current_rms_um = 0.0;    // keeping the current settings
   double predicted_rms_um = 0.0;  // exact, at the linearisation point
-  bool improved = true;           // false: no fraction was safe
-  std::string message;            // why not, when !improved
+  // The kept fraction's spread from what the measurement cannot tell of the
+  // machine's state (rms over the used points, first order); 0 where not
+  // asked or nothing was kept.
+  double state_spread_um = 0.0;
+  bool improved = true;   // false: no fraction was safe
+  std::string message;    // why not, when !improved
   std::string shortened;  // why not the whole change, when 0 < fraction < 1
   // The model at p + the kept step (when one was kept: improved and a step
   // evaluated), for the exact prediction to reuse.

@@ -336,6 +336,12 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   const double fraction = result["safe_step"]["step_fraction"];
   EXPECT_EQ(result["safe_step"]["shortened_because"].get<std::string>().empty(),
             !(fraction > 0.0 && fraction < 1.0));
+  // The kept change's spread from what the measurement cannot tell of the
+  // state: a change was kept (next-part mode), so it was asked.
+  ASSERT_TRUE(result["safe_step"]["state_spread_um"].is_number());
+  if (fraction > 0.0) {
+    EXPECT_GT(result["safe_step"]["state_spread_um"].get<double>(), 0.0);
+  }
   EXPECT_TRUE(result["status"] == "converged" ||
               result["status"] == "not_converged");
   EXPECT_EQ(result["solver"], "regularised");
