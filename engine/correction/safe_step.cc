@@ -171,8 +171,9 @@ StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
     if (problem.commanded_parameters.size() == problem.parameters.size() &&
         problem.commanded_parameters != problem.parameters) {
       // As far as the coordinates can (a ridge at the rounding of the Gram
-      // matrix): the state fits the worse rounds made took 3.6-7.4 um of
-      // parabola up to 0.1-0.15 um, moving B by 22 and the cone by 24 units.
+      // matrix): in the worse rounds the parabola made 2.2-7.4 um rms of
+      // flank and the state fits matched the true part to 0.12-0.53 um
+      // (22/183/2: B moved by 22 units with no B error on the machine).
       // Held by a prior of 10 units per coordinate, the take-up left
       // 0.03-0.4 um of it, and the quick count (80 seeds) kept 34 worse
       // rounds against 26 so; held at 1000 units, 28.
