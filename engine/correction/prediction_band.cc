@@ -69,8 +69,7 @@ bool CommandedEndPrediction(const CorrectionProblem& problem,
                             double sd2_times_n,
                             double* all2,
                             double* sd2) {
-  if (problem.commanded_parameters.size() != problem.parameters.size() ||
-      problem.commanded_parameters == problem.parameters ||
+  if (!problem.AtEstimatedState() ||
       problem.commanded_status.size() !=
           static_cast<size_t>(problem.num_points))
     return false;

@@ -138,6 +138,12 @@ struct CorrectionProblem {
   std::vector<int> outliers_found_before;
 
   int NumFree() const { return static_cast<int>(free.size()); }
+  // Linearised at an estimated machine state: the commanded parameters are
+  // known and differ from the linearisation point.
+  bool AtEstimatedState() const {
+    return commanded_parameters.size() == parameters.size() &&
+           commanded_parameters != parameters;
+  }
   const Eigen::VectorXd& d0() const { return evaluation.deviations_um; }
   // The point `share` of the way from `parameters` to
   // `commanded_parameters`: parameters + share (commanded - parameters).

@@ -125,7 +125,6 @@ constexpr double kSpreadToleranceShare = 0.1;
 struct StateUncertainty {
   Eigen::MatrixXd covariance;  // nf x nf; empty: not asked
   int parabola = -1;           // parameter index; -1: not asked
-  double parabola_flank_um = 0.0;
   double parabola_norm = 0.0;  // |j_a| over the used points
   Eigen::VectorXd absorbed;    // nf; empty at the commanded settings
   bool Asked() const { return covariance.size() > 0 || parabola >= 0; }
@@ -151,7 +150,6 @@ StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
     u.covariance =
         sigma * sigma * info.ldlt().solve(Eigen::MatrixXd::Identity(nf, nf));
   }
-  const double flank_um = kWheelParabolaFlankUm;
   for (const ParameterBlock& b : problem.blocks) {
     if (b.name != "parabola_coefficient") continue;
     if (std::find(problem.free.begin(), problem.free.end(), b.first_index) !=
@@ -166,10 +164,8 @@ StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
     }
     if (!(norm2 > 0.0) || !std::isfinite(norm2)) break;
     u.parabola = b.first_index;
-    u.parabola_flank_um = flank_um;
     u.parabola_norm = std::sqrt(norm2);
-    if (problem.commanded_parameters.size() == problem.parameters.size() &&
-        problem.commanded_parameters != problem.parameters) {
+    if (problem.AtEstimatedState()) {
       // As far as the coordinates can (a ridge at the rounding of the Gram
       // matrix): in the worse rounds the parabola made 2.2-7.4 um rms of
       // flank and the state fits matched the true part to 0.12-0.53 um
@@ -211,7 +207,7 @@ double StateSpreadRms(const CorrectionProblem& problem,
           after.jacobian_um(i, u.parabola) - problem.jacobian_um(i, u.parabola);
     }
     if (u.absorbed.size() > 0) dja -= dj * u.absorbed;
-    const double spread = dja.norm() / u.parabola_norm * u.parabola_flank_um;
+    const double spread = dja.norm() / u.parabola_norm * kWheelParabolaFlankUm;
     sum += spread * spread;
   }
   return std::sqrt(sum);
@@ -347,9 +343,7 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
                            const ModelEvaluation& at_state,
                            double* roll_lo,
                            double* roll_hi) {
-  if (problem.commanded_parameters.size() != problem.parameters.size() ||
-      problem.commanded_parameters == problem.parameters)
-    return nullptr;
+  if (!problem.AtEstimatedState()) return nullptr;
   ModelEvaluation after, plausible_storage;
   problem.model->Evaluate(problem.commanded_parameters + delta, false, &after);
   JoinContactRolls(problem, after, roll_lo, roll_hi);
@@ -551,8 +545,7 @@ Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(
   problem.model->Evaluate(problem.parameters + delta, false, &eval);
   double lo = problem.roll_min_rad, hi = problem.roll_max_rad;
   JoinContactRolls(problem, eval, &lo, &hi);
-  if (problem.commanded_parameters.size() == problem.parameters.size() &&
-      problem.commanded_parameters != problem.parameters) {
+  if (problem.AtEstimatedState()) {
     problem.model->Evaluate(problem.commanded_parameters + delta, false, &eval);
     JoinContactRolls(problem, eval, &lo, &hi);
   }
