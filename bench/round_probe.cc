@@ -5,7 +5,7 @@
 //
 //   round_probe --seed 12 --scenario 103 --round 3 --told-noise-scale 0
 //               [--error-scale F] [--noise-scale F] [--point ROW,COL] [--scan]
-//               [--state-error] [--reach]
+//               [--state-error] [--reach] [--two-parts]
 //
 // Runs the closed loop to the part before `--round` (1 = the first
 // correction), corrects it as the loop does (default options), and prints:
@@ -33,11 +33,22 @@
 // of it set to the true machine's; and the true wheel parabola taken up by
 // the axes (what the safe step's spread asks, safe_step.cc StateUncertainty):
 // the next part's error from it to first order.
+// `--two-parts` (round 2 or later): how well the wheel parabola's coefficient
+// (fixed in every fit today) is told apart from the axes by the two parts the
+// loop ground last, at the commanded settings of round R - 1 and of round R,
+// against the current part alone: the Cramer-Rao standard deviation at the
+// true machine (the probe's sigma; the state's coordinates every axis block to
+// order 3, each held by a prior the size of the benchmark's largest hidden
+// axis terms, 10 um or 20 urad rms of motion over the roll range, the wheel's
+// cone by 200 urad, and the parabola coefficient free, its vertex at the
+// truth's), in um rms of the parabola's flank; beside the true parabola's
+// flank and its next-part error through the step (first order).
 // `--reach`: how far the exact model reaches from the true machine and from
 // the estimated state (the benchmark's reference optimiser, every order to 6,
 // started at no change, the least-squares steps and the step): what the
 // correction left on the table, and whether its state would have found it.
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -235,11 +246,120 @@ void PrintStateError(const bench::Scenario& s,
       (dja - dj * absorbed).norm() / ja.norm());
 }
 
+// `--two-parts` (see the file comment).
+void PrintTwoPartInformation(const bench::Scenario& s,
+                             const Eigen::VectorXd& previous,
+                             const Eigen::VectorXd& commanded,
+                             const Eigen::VectorXd& step) {
+  const MachineModel& model = *s.model;
+  // Each coordinate's prior standard deviation [its unit]: an axis term the
+  // size of the benchmark's largest hidden ones (10 um or 20 urad rms of
+  // motion over the roll range), the cone 200 urad; the parabola none.
+  std::vector<int> columns;
+  std::vector<double> prior;
+  int parabola = -1;
+  const auto monomial_rms = [&](int k) {
+    double sum = 0.0;
+    constexpr int kSamples = 41;
+    for (int j = 0; j < kSamples; ++j) {
+      const double phi = s.roll_min_rad + (s.roll_max_rad - s.roll_min_rad) *
+                                              j / (kSamples - 1.0);
+      sum += std::pow(phi, 2 * k);
+    }
+    return std::sqrt(sum / kSamples);
+  };
+  for (const ParameterBlock& b : model.ParameterBlocks()) {
+    if (b.is_polynomial) {
+      const double motion = b.unit == "mm" ? 10e-3 : 20e-6;
+      for (int k = 0; k < std::min(b.num_coefficients, 4); ++k) {
+        columns.push_back(b.first_index + k);
+        prior.push_back(motion / monomial_rms(k));
+      }
+    } else if (b.name == "cone_angle") {
+      columns.push_back(b.first_index);
+      prior.push_back(200e-6);
+    } else if (b.name == "parabola_coefficient") {
+      parabola = static_cast<int>(columns.size());
+      columns.push_back(b.first_index);
+      prior.push_back(std::numeric_limits<double>::infinity());
+    }
+  }
+  if (parabola < 0) return;
+  const Eigen::VectorXd& h = s.hidden_errors;
+  ModelEvaluation part[2], next;
+  model.Evaluate(previous + h, true, &part[0]);
+  model.Evaluate(commanded + h, true, &part[1]);
+  model.Evaluate(commanded + h + step, true, &next);
+  std::vector<int> rows;
+  for (int i = 0; i < model.NumPoints(); ++i)
+    if (part[0].status[i] == PointStatus::kOk &&
+        part[1].status[i] == PointStatus::kOk &&
+        next.status[i] == PointStatus::kOk)
+      rows.push_back(i);
+  const int n = static_cast<int>(rows.size());
+  const int m = static_cast<int>(columns.size());
+  if (n == 0) return;
+  const double sigma = s.probe_noise_um;
+  Eigen::MatrixXd a(2 * n, m);
+  for (int k = 0; k < 2; ++k)
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < m; ++c)
+        a(k * n + r, c) = part[k].jacobian_um(rows[r], columns[c]);
+  // Columns to unit norm over both parts (the coordinates' units apart).
+  Eigen::VectorXd scale(m);
+  for (int c = 0; c < m; ++c) {
+    scale(c) = a.col(c).norm();
+    if (!(scale(c) > 0.0)) scale(c) = 1.0;
+    a.col(c) /= scale(c);
+  }
+  // The parabola's flank per unit of its coefficient on the current part.
+  const double flank_per_unit =
+      a.col(parabola).bottomRows(n).norm() * scale(parabola) / std::sqrt(n);
+  // The posterior of the coordinates (noise sigma, the priors): the
+  // parabola's variance is [(A^T A / sigma^2 + diag(1 / prior^2))^-1]_pp, in
+  // the scaled coordinates x' = scale x (prior scale x prior).
+  const auto deviation = [&](const Eigen::MatrixXd& rows_used) {
+    Eigen::MatrixXd info = rows_used.transpose() * rows_used / (sigma * sigma);
+    for (int c = 0; c < m; ++c)
+      if (std::isfinite(prior[c]))
+        info(c, c) += 1.0 / std::pow(scale(c) * prior[c], 2);
+    const Eigen::VectorXd unit = Eigen::VectorXd::Unit(m, parabola);
+    const double var = unit.dot(info.ldlt().solve(unit));
+    return var > 0.0 ? std::sqrt(var) / scale(parabola) * flank_per_unit
+                     : std::numeric_limits<double>::infinity();
+  };
+  const double one = deviation(a.bottomRows(n));
+  const double two = deviation(a);
+  // The true parabola's flank and its next-part error through the step.
+  const int p = columns[parabola];
+  double true_flank = 0.0, next_error = 0.0;
+  for (int r = 0; r < n; ++r) {
+    const int i = rows[r];
+    true_flank += std::pow(part[1].jacobian_um(i, p) * h(p), 2);
+    next_error += std::pow(
+        (next.jacobian_um(i, p) - part[1].jacobian_um(i, p)) * h(p), 2);
+  }
+  std::printf(
+      "\ntwo parts (%d points both grind, sigma %.3g um, %d state "
+      "coordinates): the parabola's coefficient to 1 sigma, in um rms of its "
+      "flank: the current part alone %.3g, with the part before %.3g; the "
+      "true parabola %.3g um rms of flank, through the step %.3g um of "
+      "next-part error (first order, not taken up)\n",
+      n,
+      sigma,
+      m,
+      one,
+      two,
+      std::sqrt(true_flank / n),
+      std::sqrt(next_error / n));
+}
+
 int Usage() {
   std::fprintf(stderr,
                "usage: round_probe --seed S --scenario I --round R "
                "[--told-noise-scale F] [--error-scale F] [--noise-scale F] "
-               "[--point ROW,COL] [--scan] [--state-error] [--reach]\n");
+               "[--point ROW,COL] [--scan] [--state-error] [--reach] "
+               "[--two-parts]\n");
   return 2;
 }
 
@@ -252,6 +372,7 @@ struct ProbeArguments {
   bool scan = false;
   bool state_error = false;
   bool reach = false;
+  bool two_parts = false;
   bench::StressOptions stress;
 };
 
@@ -269,6 +390,10 @@ bool ParseArguments(int argc, char** argv, ProbeArguments* args) {
     }
     if (arg == "--reach") {
       args->reach = true;
+      continue;
+    }
+    if (arg == "--two-parts") {
+      args->two_parts = true;
       continue;
     }
     if (a + 1 >= argc) return false;
@@ -507,6 +632,16 @@ int main(int argc, char** argv) {
 
   if (args.state_error && at_state)
     PrintStateError(s, result.linearised_at, commanded, truth, step);
+  if (args.two_parts && args.round < 2)
+    std::printf("\n--two-parts asks for round 2 or later: no part before\n");
+  if (args.two_parts && args.round >= 2) {
+    const Eigen::VectorXd previous =
+        args.round == 2
+            ? s.initial_parameters
+            : bench::RunClosedLoop(s, CorrectionOptions(), args.round - 2)
+                  .final_parameters;
+    PrintTwoPartInformation(s, previous, commanded, step);
+  }
   if (args.reach) {
     PrintReach("the true machine", s, truth, truth, step);
     if (at_state)
