@@ -330,12 +330,13 @@ TEST(SafeStep, ShortensAStepTheStatesSpreadCouldMakeWorse) {
 // less the commanded one fitted by the axes, each held to the size machines
 // err, the cone by 200 urad and the parabola by 2 um of flank), no longer a
 // fixed 1 um. Three rounds the fixed hedge let through, each a wheel parabola
-// the state fit took up with the axes: seed 22, scenario 183, round 2 (z 129, a diagonal end relief, a
-// profile slope and crowning; a 4 um parabola alone) predicted 0.37 um from
-// 0.71 and made 0.95; seed 102, scenario 63, round 2 (a user grid; three
-// parabola terms and Y0); seed 93, scenario 196, round 2 (a 4.1 um parabola
-// and the cone). The measurement shows 2.39 +- 0.35 um of parabola flank in
-// the first, and none of the three loops makes a part worse now.
+// the state fit took up with the axes: seed 22, scenario 183, round 2 (z 129, a
+// diagonal end relief, a profile slope and crowning; a 4 um parabola alone)
+// predicted 0.37 um from 0.71 and made 0.95; seed 102, scenario 63, round 2 (a
+// user grid; three parabola terms and Y0); seed 93, scenario 196, round 2
+// (a 4.1 um parabola and the cone). The measurement shows 2.39 +- 0.35 um of
+// parabola flank in the first, and none of the three loops makes a part worse
+// now.
 TEST(SafeStep, HedgesTheWheelParabolaTheMeasurementShows) {
   LoopMakingNoPartWorse(22, 183);
   LoopMakingNoPartWorse(102, 63);
