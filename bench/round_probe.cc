@@ -38,10 +38,10 @@
 // loop ground last, at the commanded settings of round R - 1 and of round R,
 // against the current part alone: the Cramer-Rao standard deviation at the
 // true machine (the probe's sigma; the state's coordinates every axis block to
-// order 3, each held by a prior the size of the benchmark's largest hidden
-// axis terms, 10 um or 20 urad rms of motion over the roll range, the wheel's
-// cone by 200 urad, and the parabola coefficient free, its vertex at the
-// truth's), in um rms of the parabola's flank; beside the true parabola's
+// order 3 and the wheel's cone, each held as the safe step holds the machine's
+// errors, MakeMachineErrorPrior: 10 um or 20 urad rms of motion over the roll
+// range, 200 urad; the parabola coefficient free, its vertex at the truth's),
+// in um rms of the parabola's flank; beside the true parabola's
 // flank and its next-part error through the step (first order).
 // `--reach`: how far the exact model reaches from the true machine and from
 // the estimated state (the benchmark's reference optimiser, every order to 6,
@@ -59,6 +59,7 @@
 
 #include "bench/best_reachable.h"
 #include "bench/robustness_scenarios.h"
+#include "engine/correction/safe_step.h"
 
 namespace gearloop {
 namespace {
@@ -252,38 +253,19 @@ void PrintTwoPartInformation(const bench::Scenario& s,
                              const Eigen::VectorXd& commanded,
                              const Eigen::VectorXd& step) {
   const MachineModel& model = *s.model;
-  // Each coordinate's prior standard deviation [its unit]: an axis term the
-  // size of the benchmark's largest hidden ones (10 um or 20 urad rms of
-  // motion over the roll range), the cone 200 urad; the parabola none.
-  std::vector<int> columns;
-  std::vector<double> prior;
-  int parabola = -1;
-  const auto monomial_rms = [&](int k) {
-    double sum = 0.0;
-    constexpr int kSamples = 41;
-    for (int j = 0; j < kSamples; ++j) {
-      const double phi = s.roll_min_rad + (s.roll_max_rad - s.roll_min_rad) *
-                                              j / (kSamples - 1.0);
-      sum += std::pow(phi, 2 * k);
-    }
-    return std::sqrt(sum / kSamples);
-  };
-  for (const ParameterBlock& b : model.ParameterBlocks()) {
-    if (b.is_polynomial) {
-      const double motion = b.unit == "mm" ? 10e-3 : 20e-6;
-      for (int k = 0; k < std::min(b.num_coefficients, 4); ++k) {
-        columns.push_back(b.first_index + k);
-        prior.push_back(motion / monomial_rms(k));
-      }
-    } else if (b.name == "cone_angle") {
-      columns.push_back(b.first_index);
-      prior.push_back(200e-6);
-    } else if (b.name == "parabola_coefficient") {
-      parabola = static_cast<int>(columns.size());
-      columns.push_back(b.first_index);
-      prior.push_back(std::numeric_limits<double>::infinity());
-    }
-  }
+  // Each coordinate's prior standard deviation as the safe step holds the
+  // machine's errors (MakeMachineErrorPrior); the parabola none.
+  int parabola_index = -1;
+  for (const ParameterBlock& b : model.ParameterBlocks())
+    if (b.name == "parabola_coefficient") parabola_index = b.first_index;
+  const correction_internal::MachineErrorPrior state_prior =
+      correction_internal::MakeMachineErrorPrior(model.ParameterBlocks(),
+                                                 s.roll_min_rad,
+                                                 s.roll_max_rad,
+                                                 parabola_index);
+  const std::vector<int>& columns = state_prior.columns;
+  const std::vector<double>& prior = state_prior.sd;
+  const int parabola = state_prior.parabola_column;
   if (parabola < 0) return;
   const Eigen::VectorXd& h = s.hidden_errors;
   ModelEvaluation part[2], next;

@@ -488,8 +488,9 @@ struct CorrectionSummary {
   // How far the kept change's next part may lie from that prediction if the
   // machine is off the state it was predicted at by what the measurement
   // cannot see (rms over the used points, first order: the free
-  // coordinates' posterior and a wheel parabola of 1 um of flank the axes take
-  // up; docs/correction-safety.md); 0 where not asked or nothing was kept.
+  // coordinates' posterior and a wheel parabola the axes take up, of the
+  // flank the measurement allows, 1 um where the noise is not known;
+  // docs/correction-safety.md); 0 where not asked or nothing was kept.
   double safe_step_state_spread_um = 0.0;
   // Where a fraction below 1 was kept: why the whole (bounded) change was not
   // (a test it failed, or its exact prediction); "" when it was kept whole or

@@ -156,14 +156,14 @@ struct StateUncertainty {
   bool Asked() const { return covariance.size() > 0 || parabola >= 0; }
 };
 
-// The rms over the roll range of roll^k (41 samples evenly over it).
-double MonomialRms(const CorrectionProblem& problem, int k) {
+// The rms of roll^k over [roll_min_rad, roll_max_rad] (41 samples evenly
+// over it).
+double MonomialRms(double roll_min_rad, double roll_max_rad, int k) {
   constexpr int kSamples = 41;
   double sum = 0.0;
   for (int j = 0; j < kSamples; ++j) {
     const double roll =
-        problem.roll_min_rad +
-        (problem.roll_max_rad - problem.roll_min_rad) * j / (kSamples - 1.0);
+        roll_min_rad + (roll_max_rad - roll_min_rad) * j / (kSamples - 1.0);
     sum += std::pow(roll, 2 * k);
   }
   return std::sqrt(sum / kSamples);
@@ -190,29 +190,10 @@ double ParabolaFlankTheMeasurementAllows(const CorrectionProblem& problem,
     if (std::isfinite(problem.measured_um(i)) && std::isfinite(d_commanded(i)))
       rows.push_back(i);
   if (rows.empty()) return kWheelParabolaFlankUm;
-  // The columns and each one's prior standard deviation [its unit].
-  std::vector<int> columns;
-  std::vector<double> prior;
-  int parabola_column = -1;
-  for (const ParameterBlock& b : problem.blocks) {
-    if (b.is_polynomial) {
-      const double motion =
-          b.unit == "mm" ? kAxisErrorMotionMm : kAxisErrorMotionRad;
-      for (int k = 0; k < std::min(b.num_coefficients, 4); ++k) {
-        const double rms = MonomialRms(problem, k);
-        if (!(rms > 0.0)) continue;
-        columns.push_back(b.first_index + k);
-        prior.push_back(motion / rms);
-      }
-    } else if (b.name == "cone_angle") {
-      columns.push_back(b.first_index);
-      prior.push_back(kConeErrorRad);
-    } else if (b.first_index == parabola) {
-      parabola_column = static_cast<int>(columns.size());
-      columns.push_back(b.first_index);
-      prior.push_back(kWheelParabolaPriorFlankUm);  // in flank, below
-    }
-  }
+  const MachineErrorPrior prior = MakeMachineErrorPrior(
+      problem.blocks, problem.roll_min_rad, problem.roll_max_rad, parabola);
+  const std::vector<int>& columns = prior.columns;
+  const int parabola_column = prior.parabola_column;
   if (parabola_column < 0) return kWheelParabolaFlankUm;
   const int n = static_cast<int>(rows.size());
   const int m = static_cast<int>(columns.size());
@@ -234,7 +215,7 @@ double ParabolaFlankTheMeasurementAllows(const CorrectionProblem& problem,
   Eigen::MatrixXd info = a.transpose() * a / (sigma * sigma);
   for (int c = 0; c < m; ++c)
     if (c != parabola_column)
-      info(c, c) += 1.0 / std::pow(scale(c) * prior[c], 2);
+      info(c, c) += 1.0 / std::pow(scale(c) * prior.sd[c], 2);
   // The parabola's own prior, kWheelParabolaPriorFlankUm rms of flank (x' =
   // flank sqrt(n)).
   info(parabola_column, parabola_column) +=
@@ -641,6 +622,37 @@ double ExactPredictionRms(const CorrectionOptions& options,
 }
 
 }  // namespace
+
+MachineErrorPrior MakeMachineErrorPrior(
+    const std::vector<ParameterBlock>& blocks,
+    double roll_min_rad,
+    double roll_max_rad,
+    int parabola) {
+  MachineErrorPrior prior;
+  constexpr int kOrders = 4;  // monomials 0-3
+  double rms[kOrders];
+  for (int k = 0; k < kOrders; ++k)
+    rms[k] = MonomialRms(roll_min_rad, roll_max_rad, k);
+  for (const ParameterBlock& b : blocks) {
+    if (b.is_polynomial) {
+      const double motion =
+          b.unit == "mm" ? kAxisErrorMotionMm : kAxisErrorMotionRad;
+      for (int k = 0; k < std::min(b.num_coefficients, kOrders); ++k) {
+        if (!(rms[k] > 0.0)) continue;
+        prior.columns.push_back(b.first_index + k);
+        prior.sd.push_back(motion / rms[k]);
+      }
+    } else if (b.name == "cone_angle") {
+      prior.columns.push_back(b.first_index);
+      prior.sd.push_back(kConeErrorRad);
+    } else if (b.first_index == parabola) {
+      prior.parabola_column = static_cast<int>(prior.columns.size());
+      prior.columns.push_back(b.first_index);
+      prior.sd.push_back(kInf);
+    }
+  }
+  return prior;
+}
 
 double AxisMotionRatio(const CorrectionOptions& options,
                        const CorrectionProblem& problem,

@@ -77,6 +77,24 @@ struct SafeStepOutcome {
   ModelEvaluation evaluation;
 };
 
+// The machine's errors as the safe step's parabola estimate holds them
+// (safe_step.cc, ParabolaFlankTheMeasurementAllows; round_probe --two-parts
+// asks the same): every axis monomial to order 3, each with a prior standard
+// deviation of 10 um (mm axes) or 20 urad (rad axes) rms of motion over
+// [roll_min_rad, roll_max_rad], the wheel's cone with 200 urad, and the
+// parameter `parabola` with none (infinite: the caller holds it). The largest
+// hidden errors the robustness benchmark draws.
+struct MachineErrorPrior {
+  std::vector<int> columns;  // parameter indices
+  std::vector<double> sd;    // each one's prior standard deviation [its unit]
+  int parabola_column = -1;  // where `parabola` is in columns; -1: absent
+};
+MachineErrorPrior MakeMachineErrorPrior(
+    const std::vector<ParameterBlock>& blocks,
+    double roll_min_rad,
+    double roll_max_rad,
+    int parabola);
+
 // The largest axis motion |dC(phi1)| of `delta` over the roll range for each
 // polynomial block, relative to its bound (mm or rad); the largest ratio.
 double AxisMotionRatio(const CorrectionOptions& options,
