@@ -247,6 +247,28 @@ void PrintStateError(const bench::Scenario& s,
       (dja - dj * absorbed).norm() / ja.norm());
 }
 
+// The posterior standard deviation of the parabola's coefficient, in um rms
+// of its flank (`flank_per_unit` per unit of it): [(A^T A / sigma^2 +
+// diag(1 / prior^2))^-1]_pp over the columns of `a` scaled to unit norm
+// (`scale`; a coordinate x' = scale x, its prior scale x prior; an infinite
+// prior adds nothing).
+double PosteriorParabolaFlankUm(const Eigen::MatrixXd& a,
+                                const Eigen::VectorXd& scale,
+                                const std::vector<double>& prior,
+                                int parabola,
+                                double sigma,
+                                double flank_per_unit) {
+  const int m = static_cast<int>(a.cols());
+  Eigen::MatrixXd info = a.transpose() * a / (sigma * sigma);
+  for (int c = 0; c < m; ++c)
+    if (std::isfinite(prior[c]))
+      info(c, c) += 1.0 / std::pow(scale(c) * prior[c], 2);
+  const Eigen::VectorXd unit = Eigen::VectorXd::Unit(m, parabola);
+  const double var = unit.dot(info.ldlt().solve(unit));
+  return var > 0.0 ? std::sqrt(var) / scale(parabola) * flank_per_unit
+                   : std::numeric_limits<double>::infinity();
+}
+
 // `--two-parts` (see the file comment).
 void PrintTwoPartInformation(const bench::Scenario& s,
                              const Eigen::VectorXd& previous,
@@ -297,18 +319,9 @@ void PrintTwoPartInformation(const bench::Scenario& s,
   // The parabola's flank per unit of its coefficient on the current part.
   const double flank_per_unit =
       a.col(parabola).bottomRows(n).norm() * scale(parabola) / std::sqrt(n);
-  // The posterior of the coordinates (noise sigma, the priors): the
-  // parabola's variance is [(A^T A / sigma^2 + diag(1 / prior^2))^-1]_pp, in
-  // the scaled coordinates x' = scale x (prior scale x prior).
   const auto deviation = [&](const Eigen::MatrixXd& rows_used) {
-    Eigen::MatrixXd info = rows_used.transpose() * rows_used / (sigma * sigma);
-    for (int c = 0; c < m; ++c)
-      if (std::isfinite(prior[c]))
-        info(c, c) += 1.0 / std::pow(scale(c) * prior[c], 2);
-    const Eigen::VectorXd unit = Eigen::VectorXd::Unit(m, parabola);
-    const double var = unit.dot(info.ldlt().solve(unit));
-    return var > 0.0 ? std::sqrt(var) / scale(parabola) * flank_per_unit
-                     : std::numeric_limits<double>::infinity();
+    return PosteriorParabolaFlankUm(
+        rows_used, scale, prior, parabola, sigma, flank_per_unit);
   };
   const double one = deviation(a.bottomRows(n));
   const double two = deviation(a);
