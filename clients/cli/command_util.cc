@@ -349,6 +349,19 @@ void PrintPredictionBand(const json& result) {
               << " of the change: the whole change "
               << shortened.get<std::string>() << "\n";
   }
+  const json parabola = safe_step.is_object()
+                            ? safe_step.value("wheel_parabola", json())
+                            : json();
+  if (parabola.is_object()) {
+    std::cout << "  wheel parabola       ";
+    if (parabola.value("source", "") == "measurement")
+      std::cout << Fixed(parabola.value("estimate_flank_um", json())) << " +- "
+                << Fixed(parabola.value("sd_flank_um", json()))
+                << " um rms of flank as the measurement shows it\n";
+    else
+      std::cout << Fixed(parabola.value("hedged_flank_um", json()))
+                << " um rms of flank assumed (noise not known)\n";
+  }
 }
 
 void PrintCorrectionSummary(const json& answer) {

@@ -417,6 +417,15 @@
     if (s && s.shortened_because) {
       rows.push(["safe step", "kept " + String(s.step_fraction) + " of the change: the whole change " + s.shortened_because]);
     }
+    const p = s && s.wheel_parabola;
+    if (p) {
+      rows.push([
+        "wheel parabola (rms of flank)",
+        p.source === "measurement"
+          ? fmt(p.estimate_flank_um, 3) + " \u00b1 " + fmt(p.sd_flank_um, 3) + " \u00b5m as the measurement shows it"
+          : fmt(p.hedged_flank_um, 3) + " \u00b5m assumed (noise not known)",
+      ]);
+    }
     return rows;
   }
 

@@ -379,6 +379,22 @@ struct PredictionBand {
   double true_rms_high_um[2] = {0.0, 0.0};  // 1 sigma, 2 sigma
 };
 
+// The wheel profile's parabola the safe step hedged (docs/correction-safety.md,
+// "How much parabola the measurement allows"): no fit frees the parabola's
+// coefficient, so the safe step asks how large a parabola the measured flank
+// less the commanded one shows when the axes and the wheel's cone are held to
+// the size machines err. Flanks are rms over the used points [um].
+struct WheelParabolaEvidence {
+  bool asked = false;  // the safe step asked (next-part mode, not the state
+                       // fit, the parabola's coefficient not a free one)
+  bool from_measurement = false;  // false: assumed, the noise neither stated
+                                  // nor estimated
+  double estimate_flank_um = std::numeric_limits<double>::quiet_NaN();
+  double sd_flank_um = std::numeric_limits<double>::quiet_NaN();
+  // What the spread hedged: sqrt(estimate^2 + sd^2), or 1 um assumed.
+  double hedged_flank_um = 0.0;
+};
+
 struct CorrectionSummary {
   CorrectionStatus status = CorrectionStatus::kInvalidInput;
   std::string message;
@@ -492,6 +508,8 @@ struct CorrectionSummary {
   // flank the measurement allows, 1 um where the noise is not known;
   // docs/correction-safety.md); 0 where not asked or nothing was kept.
   double safe_step_state_spread_um = 0.0;
+  // The wheel parabola in that spread (not asked: asked == false).
+  WheelParabolaEvidence safe_step_wheel_parabola;
   // Where a fraction below 1 was kept: why the whole (bounded) change was not
   // (a test it failed, or its exact prediction); "" when it was kept whole or
   // nothing was kept (then the message says why).

@@ -176,6 +176,14 @@ std::string CorrectionSummary::BriefReport() const {
       if (safe_step_state_spread_um > 0.0)
         out << ", spread " << safe_step_state_spread_um
             << " by what the measurement cannot tell of the state";
+      const WheelParabolaEvidence& parabola = safe_step_wheel_parabola;
+      if (parabola.asked && parabola.from_measurement)
+        out << "; wheel parabola " << parabola.estimate_flank_um << " +- "
+            << parabola.sd_flank_um
+            << " um rms of flank as the measurement shows it";
+      else if (parabola.asked)
+        out << "; wheel parabola " << parabola.hedged_flank_um
+            << " um rms of flank assumed (noise not known)";
       out << ")";
       if (!safe_step_shortened.empty())
         out << "; the whole change " << safe_step_shortened;

@@ -140,19 +140,19 @@ constexpr double kSpreadToleranceShare = 0.1;
 //    sigma the filter's noise, tau kStatePriorSize) through
 //    (J(p + delta) - J(p)) T;
 //  - the wheel's parabola coefficient (fixed: no fit sees it): a parabola
-//    whose flank is what the measurement allows (parabola_flank_um; else
+//    whose flank is what the measurement allows (parabola_flank; else
 //    kWheelParabolaFlankUm) rms, taken up by the free
 //    coordinates where the problem is linearised at an estimated state
 //    (`absorbed`, least squares), changes the next part by (j_a(p + delta) -
 //    j_a(p)) - (J(p + delta) - J(p)) T absorbed.
 // Asked only of corrections in next-part mode, not of the state fit itself.
 struct StateUncertainty {
-  Eigen::MatrixXd covariance;  // nf x nf; empty: not asked
-  int parabola = -1;           // parameter index; -1: not asked
-  double parabola_norm = 0.0;  // |j_a| over the used points
-  double parabola_flank_um = kWheelParabolaFlankUm;  // rms over the used
-                                                     // points
-  Eigen::VectorXd absorbed;  // nf; empty at the commanded settings
+  Eigen::MatrixXd covariance;            // nf x nf; empty: not asked
+  int parabola = -1;                     // parameter index; -1: not asked
+  double parabola_norm = 0.0;            // |j_a| over the used points
+  WheelParabolaEvidence parabola_flank;  // its hedged flank, rms over the
+                                         // used points
+  Eigen::VectorXd absorbed;              // nf; empty at the commanded settings
   bool Asked() const { return covariance.size() > 0 || parabola >= 0; }
 };
 
@@ -174,13 +174,15 @@ double MonomialRms(double roll_min_rad, double roll_max_rad, int k) {
 // points by the columns of S for every axis monomial to order 3, the cone
 // and the parabola coefficient (index `parabola`), at the noise the filter
 // uses (or the stated one); sqrt(estimate^2 + sd^2) of the parabola's flank
-// [um rms over those points]. kWheelParabolaFlankUm where the noise is not
-// known or the fit has nothing to go on.
-double ParabolaFlankTheMeasurementAllows(const CorrectionProblem& problem,
-                                         int parabola) {
+// [um rms over those points]. kWheelParabolaFlankUm (and no estimate) where
+// the noise is not known or the fit has nothing to go on.
+WheelParabolaEvidence ParabolaFlankTheMeasurementAllows(
+    const CorrectionProblem& problem, int parabola) {
+  WheelParabolaEvidence assumed;
+  assumed.hedged_flank_um = kWheelParabolaFlankUm;
   const double sigma = problem.signal_noise_um > 0.0 ? problem.signal_noise_um
                                                      : problem.probe_noise_um;
-  if (!(sigma > 0.0)) return kWheelParabolaFlankUm;
+  if (!(sigma > 0.0)) return assumed;
   const bool has_commanded =
       problem.commanded_deviations_um.size() == problem.num_points;
   const Eigen::VectorXd& d_commanded =
@@ -189,12 +191,12 @@ double ParabolaFlankTheMeasurementAllows(const CorrectionProblem& problem,
   for (int i : problem.used)
     if (std::isfinite(problem.measured_um(i)) && std::isfinite(d_commanded(i)))
       rows.push_back(i);
-  if (rows.empty()) return kWheelParabolaFlankUm;
+  if (rows.empty()) return assumed;
   const MachineErrorPrior prior = MakeMachineErrorPrior(
       problem.blocks, problem.roll_min_rad, problem.roll_max_rad, parabola);
   const std::vector<int>& columns = prior.columns;
   const int parabola_column = prior.parabola_column;
-  if (parabola_column < 0) return kWheelParabolaFlankUm;
+  if (parabola_column < 0) return assumed;
   const int n = static_cast<int>(rows.size());
   const int m = static_cast<int>(columns.size());
   Eigen::MatrixXd a(n, m);
@@ -228,7 +230,13 @@ double ParabolaFlankTheMeasurementAllows(const CorrectionProblem& problem,
   const double estimate_um = std::abs(x(parabola_column)) / sqrt_n;
   const double sd_um = std::sqrt(std::max(variance, 0.0)) / sqrt_n;
   const double flank = std::hypot(estimate_um, sd_um);
-  return std::isfinite(flank) ? flank : kWheelParabolaFlankUm;
+  if (!std::isfinite(flank)) return assumed;
+  WheelParabolaEvidence measured;
+  measured.from_measurement = true;
+  measured.estimate_flank_um = estimate_um;
+  measured.sd_flank_um = sd_um;
+  measured.hedged_flank_um = flank;
+  return measured;
 }
 
 StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
@@ -266,7 +274,7 @@ StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
     if (!(norm2 > 0.0) || !std::isfinite(norm2)) break;
     u.parabola = b.first_index;
     u.parabola_norm = std::sqrt(norm2);
-    u.parabola_flank_um =
+    u.parabola_flank =
         ParabolaFlankTheMeasurementAllows(problem, b.first_index);
     if (problem.AtEstimatedState()) {
       // As far as the coordinates can (a ridge at the rounding of the Gram
@@ -310,7 +318,8 @@ double StateSpreadRms(const CorrectionProblem& problem,
           after.jacobian_um(i, u.parabola) - problem.jacobian_um(i, u.parabola);
     }
     if (u.absorbed.size() > 0) dja -= dj * u.absorbed;
-    const double spread = dja.norm() / u.parabola_norm * u.parabola_flank_um;
+    const double spread =
+        dja.norm() / u.parabola_norm * u.parabola_flank.hedged_flank_um;
     sum += spread * spread;
   }
   return std::sqrt(sum);
@@ -761,6 +770,8 @@ Eigen::VectorXd ChooseSafeStep(const CorrectionOptions& options,
   double alpha = 1.0;
   std::string whole;  // why the whole step was refused
   const StateUncertainty uncertainty = MakeStateUncertainty(problem);
+  outcome->wheel_parabola = uncertainty.parabola_flank;
+  outcome->wheel_parabola.asked = uncertainty.parabola >= 0;
   for (int halving = 0; halving <= options.safe_step_halvings; ++halving) {
     double robust_gain_um2 = 0.0, spread_um = 0.0;
     const char* refusal = nullptr;

@@ -68,6 +68,8 @@ struct SafeStepOutcome {
   // machine's state (rms over the used points, first order); 0 where not
   // asked or nothing was kept.
   double state_spread_um = 0.0;
+  // The wheel parabola that spread hedged (asked or not, kept or not).
+  WheelParabolaEvidence wheel_parabola;
   bool improved = true;   // false: no fraction was safe
   std::string message;    // why not, when !improved
   std::string shortened;  // why not the whole change, when 0 < fraction < 1

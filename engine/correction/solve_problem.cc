@@ -315,6 +315,7 @@ Eigen::VectorXd MakeStepSafe(const CorrectionOptions& options,
   summary->safe_step_current_rms_um = outcome->current_rms_um;
   summary->safe_step_predicted_rms_um = outcome->predicted_rms_um;
   summary->safe_step_state_spread_um = outcome->state_spread_um;
+  summary->safe_step_wheel_parabola = outcome->wheel_parabola;
   const bool part_kept = outcome->improved && outcome->step_fraction > 0.0 &&
                          outcome->step_fraction < 1.0;
   summary->safe_step_shortened = part_kept ? outcome->shortened : "";

@@ -463,6 +463,17 @@ nlohmann::json PredictionBandJson(const PredictionBand& band) {
             FiniteOrNull(band.true_rms_high_um[1])}}};
 }
 
+// The wheel parabola the safe step hedged (docs/correction-safety.md): null
+// where it was not asked (rework, the state fit, the parabola a free
+// parameter).
+nlohmann::json WheelParabolaJson(const WheelParabolaEvidence& parabola) {
+  if (!parabola.asked) return nullptr;
+  return {{"source", parabola.from_measurement ? "measurement" : "assumed"},
+          {"estimate_flank_um", FiniteOrNull(parabola.estimate_flank_um)},
+          {"sd_flank_um", FiniteOrNull(parabola.sd_flank_um)},
+          {"hedged_flank_um", FiniteOrNull(parabola.hedged_flank_um)}};
+}
+
 // The answer's orders: which axis orders the correction uses and why.
 nlohmann::json OrdersJson(const CorrectionSummary& s) {
   return {
@@ -527,6 +538,7 @@ nlohmann::json CorrectionSummaryToJson(const CorrectionSummary& s,
         {"current_rms_um", FiniteOrNull(s.safe_step_current_rms_um)},
         {"predicted_rms_um", FiniteOrNull(s.safe_step_predicted_rms_um)},
         {"state_spread_um", FiniteOrNull(s.safe_step_state_spread_um)},
+        {"wheel_parabola", WheelParabolaJson(s.safe_step_wheel_parabola)},
         {"shortened_because", s.safe_step_shortened}}},
       {"orders", OrdersJson(s)},
       {"exact_search", ExactSearchJson(s)},

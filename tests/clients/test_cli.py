@@ -103,6 +103,8 @@ class CliTest(unittest.TestCase):
         self.assertIn("row 5 tip", human.stdout)
         # How sure the prediction is: the expected true rms and its 2-sigma band.
         self.assertRegex(human.stdout, r"next part true rms   [0-9.]+ um, 2 sigma [0-9.]+\.\.[0-9.]+ um \(noise [0-9.]+ um (stated|estimated)( from the measurement's scatter; [0-9.]+ um stated is contradicted)?\)")
+        # The wheel parabola the safe step hedged: shown or assumed.
+        self.assertRegex(human.stdout, r"wheel parabola       ([0-9.]+ \+- [0-9.]+ um rms of flank as the measurement shows it|[0-9.]+ um rms of flank assumed \(noise not known\))\n")
 
     def test_submit_says_when_the_measurement_contradicts_the_stated_noise(self) -> None:
         # The example measurement scatters ~0.05 um from point to point; 0.01 um stated is

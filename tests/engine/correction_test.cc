@@ -702,6 +702,87 @@ TEST(ComputeCorrection, TheWheelParabolaIsFixedUnlessNamed) {
   EXPECT_EQ(open.summary.num_free_parameters, 6 * 4 + 3);
 }
 
+// The safe step reports the wheel parabola it hedged (safe_step.cc,
+// ParabolaFlankTheMeasurementAllows). The helical gear, seeded probe noise
+// 0.3 um stated: with a hidden wheel parabola of 3.00 um rms of flank and no
+// axis error the measurement shows 3.08 +- 0.47 um; with hidden axis errors
+// (about 2 um per axis, orders 0-2) and no parabola, 0.09 +- 0.48 um; with
+// the noise neither stated nor estimated (no state fit), 1 um is assumed.
+TEST(ComputeCorrection, ReportsTheWheelParabolaTheMeasurementShows) {
+  const GrindingSetup setup = HelicalSetup();
+  const FlatWheelGrinder grinder(setup);
+  const Eigen::VectorXd nominal = grinder.nominal().ToVector();
+  const Eigen::VectorXd none = Eigen::VectorXd::Zero(nominal.size());
+  const Eigen::VectorXd target =
+      EvaluateTargetModifications({{ModificationKind::kProfileCrowning, 2.0}},
+                                  grinder.grid(),
+                                  setup.gear,
+                                  setup.flank);
+  constexpr double kNoiseUm = 0.3;
+  constexpr double kTrueFlankUm = 3.0;
+  constexpr double kSigmas = 3.0;  // how far an estimate may miss
+  MeasurementSimulationOptions probe;
+  probe.probe_noise_um = kNoiseUm;
+  probe.seed = 17;
+  const auto flank_of = [&](const Eigen::VectorXd& hidden) {
+    return Rms(
+        SimulateMeasurement(grinder, nominal, hidden, {}).true_deviations_um -
+        SimulateMeasurement(grinder, nominal, none, {}).true_deviations_um);
+  };
+  Eigen::VectorXd parabola = none;
+  parabola(kParabolaCoefficientIndex) = 1e-5;  // /mm; about 0.5 um of flank
+  parabola *= kTrueFlankUm / flank_of(parabola);
+  ASSERT_NEAR(flank_of(parabola), kTrueFlankUm, 0.05 * kTrueFlankUm);
+  const Eigen::VectorXd axes = RandomHiddenErrors(
+      grinder, grinder.roll_min_rad(), grinder.roll_max_rad(), 2.0, 2, 0.0, 46);
+  const auto correct = [&](const Eigen::VectorXd& hidden,
+                           const CorrectionOptions& options) {
+    CorrectionInput input;
+    input.model = &grinder;
+    input.current_parameters = nominal;
+    input.measured_um =
+        SimulateMeasurement(grinder, nominal, hidden, probe).measured_um;
+    input.target_um = target;
+    const CorrectionResult r = ComputeCorrection(options, input);
+    EXPECT_TRUE(r.summary.IsSolutionUsable()) << r.summary.message;
+    return r.summary;
+  };
+  CorrectionOptions options;
+  options.probe_noise_um = kNoiseUm;
+  {
+    const CorrectionSummary s = correct(parabola, options);
+    const WheelParabolaEvidence& e = s.safe_step_wheel_parabola;
+    ASSERT_TRUE(e.asked && e.from_measurement) << s.BriefReport();
+    EXPECT_NEAR(e.estimate_flank_um, kTrueFlankUm, kSigmas * e.sd_flank_um);
+    EXPECT_GT(e.estimate_flank_um, kSigmas * e.sd_flank_um);
+    EXPECT_DOUBLE_EQ(e.hedged_flank_um,
+                     std::hypot(e.estimate_flank_um, e.sd_flank_um));
+    EXPECT_NE(s.BriefReport().find(" um rms of flank as the measurement shows"),
+              std::string::npos)
+        << s.BriefReport();
+  }
+  {
+    const CorrectionSummary s = correct(axes, options);
+    const WheelParabolaEvidence& e = s.safe_step_wheel_parabola;
+    ASSERT_TRUE(e.asked && e.from_measurement) << s.BriefReport();
+    EXPECT_LT(e.estimate_flank_um, kSigmas * e.sd_flank_um);
+    EXPECT_LT(e.sd_flank_um, 2.0 * kNoiseUm);
+  }
+  options.probe_noise_um = -1.0;  // not known
+  options.estimate_machine_state = false;
+  {
+    const CorrectionSummary s = correct(parabola, options);
+    const WheelParabolaEvidence& e = s.safe_step_wheel_parabola;
+    ASSERT_TRUE(e.asked) << s.BriefReport();
+    EXPECT_FALSE(e.from_measurement);
+    EXPECT_TRUE(std::isnan(e.estimate_flank_um));
+    EXPECT_EQ(e.hedged_flank_um, 1.0);
+  }
+  // Rework mode asks nothing of the state: not reported.
+  options.mode = CorrectionMode::kRework;
+  EXPECT_FALSE(correct(parabola, options).safe_step_wheel_parabola.asked);
+}
+
 TEST(ComputeCorrection, BoundsAreRespected) {
   const GrindingSetup setup = testing::CutterSetup();
   const FlatWheelGrinder grinder(setup);

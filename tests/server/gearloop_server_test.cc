@@ -342,6 +342,17 @@ TEST_F(GearloopServerTest, StoresACorrectionAndAnswersCreatedWithLocation) {
   if (fraction > 0.0) {
     EXPECT_GT(result["safe_step"]["state_spread_um"].get<double>(), 0.0);
   }
+  // The wheel parabola it hedged: the noise is stated, so the measurement's.
+  const nlohmann::json& parabola = result["safe_step"]["wheel_parabola"];
+  ASSERT_TRUE(parabola.is_object()) << result["safe_step"].dump();
+  EXPECT_EQ(parabola["source"], "measurement");
+  ASSERT_TRUE(parabola["estimate_flank_um"].is_number());
+  ASSERT_TRUE(parabola["sd_flank_um"].is_number());
+  EXPECT_GT(parabola["sd_flank_um"].get<double>(), 0.0);
+  EXPECT_NEAR(parabola["hedged_flank_um"].get<double>(),
+              std::hypot(parabola["estimate_flank_um"].get<double>(),
+                         parabola["sd_flank_um"].get<double>()),
+              1e-9);
   EXPECT_TRUE(result["status"] == "converged" ||
               result["status"] == "not_converged");
   EXPECT_EQ(result["solver"], "regularised");

@@ -281,6 +281,16 @@ async function main() {
           (typeof band.stated_noise_um === "number" ? " from the measurement's scatter; " + band.stated_noise_um.toFixed(3) + " \u00b5m stated is contradicted" : "") + ")",
       JSON.stringify(answerRows)
     );
+    const parabola = again.result.safe_step.wheel_parabola;
+    check(
+      "new correction: the wheel parabola its safe step hedged",
+      parabola &&
+        answerRows["wheel parabola (rms of flank)"] ===
+          (parabola.source === "measurement"
+            ? parabola.estimate_flank_um.toFixed(3) + " \u00b1 " + parabola.sd_flank_um.toFixed(3) + " \u00b5m as the measurement shows it"
+            : parabola.hedged_flank_um.toFixed(3) + " \u00b5m assumed (noise not known)"),
+      JSON.stringify({ parabola, answerRows })
+    );
     check("new correction in the history", (await page.$$("#jobs tbody tr[data-job-id='" + againId + "']")).length === 1 && (await page.getAttribute("body", "data-job-shown")) === String(job.id));
     await page.screenshot({ path: path.join(outDir, "dashboard-new-correction.png"), fullPage: true });
 
