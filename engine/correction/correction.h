@@ -49,7 +49,10 @@
 //     exactly |y| (Euclidean). Scalar blocks: dp = s y. dzeta = T y.
 //  2. With W the point weights, A = W^1/2 S T over the usable points and b =
 //  -W^1/2 e, the
-//     thin SVD A = U Sigma V' is taken. A direction counts toward the numerical
+//     thin SVD A = U Sigma V' is taken (from the eigen-decomposition of A'A
+//     where that resolves every direction the solve uses, else the Jacobi
+//     SVD; regularisation.h, ComputeSvd). A direction counts toward the
+//     numerical
 //     rank when one unit of correction size moves the flank by at least
 //     min_flank_effect_um rms (sigma_i >= min_flank_effect_um sqrt(sum w)); the
 //     rest is the null space (MODEL.md §5) and never enters a correction. "Best

@@ -91,18 +91,21 @@ class SubspaceSearch {
   // lowers the cost by less than `stop_share` of it; the end point in
   // `searched`, its exact rms over the used points returned (infinity: a
   // used point lost).
-  double Run(int directions,
+  // Along the first `directions` of `svd` (the solve's, or the same A's
+  // resolved further for the wide search).
+  double Run(const Svd& svd,
+             int directions,
              int max_passes,
              double stop_share,
              const Eigen::VectorXd& start,
              Eigen::VectorXd* searched) const {
     KeptSubspace subspace;
     subspace.k = directions;
-    subspace.sigma1 = ls_.svd.sigma(0);
+    subspace.sigma1 = svd.sigma(0);
     subspace.ridge = 1e-12 * subspace.sigma1 * subspace.sigma1;
-    subspace.vk = ls_.svd.v.leftCols(directions);
+    subspace.vk = svd.v.leftCols(directions);
     subspace.tv = problem_.t_map * subspace.vk;
-    subspace.mu = (kSearchDampingShare * ls_.svd.sigma.head(directions))
+    subspace.mu = (kSearchDampingShare * svd.sigma.head(directions))
                       .cwiseMax(kSearchDampingShare * ls_.rank_threshold);
     Eigen::VectorXd z = subspace.vk.transpose() * Coordinates(start);
     subspace.z = z;
@@ -185,19 +188,34 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
   const int rank = ls.svd.rank;
   const SubspaceSearch search(options, problem, ls);
   Eigen::VectorXd searched;
-  double after = search.Run(
-      rank, options.max_num_iterations, kBoundedStopRelative, delta, &searched);
+  double after = search.Run(ls.svd,
+                            rank,
+                            options.max_num_iterations,
+                            kBoundedStopRelative,
+                            delta,
+                            &searched);
   // Down to kWideSearchShare of the weak-flank floor (with the per-direction
-  // filter, the solve's rank threshold).
+  // filter, the solve's rank threshold): directions the solve's SVD may not
+  // resolve (regularisation.h, ComputeSvd), so the same A's Jacobi SVD where
+  // it does not.
   int wide = rank;
-  while (wide < ls.svd.sigma.size() && ls.svd.sigma(wide) > 0.0 &&
-         ls.svd.sigma(wide) >= kWideSearchShare * ls.rank_threshold)
+  Svd resolved;
+  const Svd* wide_svd = &ls.svd;
+  const bool cubic = !OpensOrdersAboveCubic(options, problem.blocks);
+  if (cubic && ls.svd.resolved_down_to > kWideSearchShare * ls.rank_threshold) {
+    resolved =
+        ResolvedSvdOfWeightedSystem(problem, problem.used, ls.rank_threshold);
+    wide_svd = &resolved;
+  }
+  while (wide < wide_svd->sigma.size() && wide_svd->sigma(wide) > 0.0 &&
+         wide_svd->sigma(wide) >= kWideSearchShare * ls.rank_threshold)
     ++wide;
   std::string subspace_text = std::to_string(rank) + " directions";
-  if (wide > rank && !OpensOrdersAboveCubic(options, problem.blocks)) {
+  if (wide > rank && cubic) {
     Eigen::VectorXd searched_wide;
     const double after_wide =
-        search.Run(wide,
+        search.Run(*wide_svd,
+                   wide,
                    std::min(kWideSearchPasses, options.max_num_iterations),
                    kWideSearchStopShare,
                    std::isfinite(after) ? searched : delta,

@@ -208,6 +208,49 @@ TEST(EvaluationMemo, ARoundingApartIsAnotherPointAndTheOldestIsForgotten) {
 // ---------------------------------------------------------------------------------------------
 // Regularisation rule and lambda.
 
+// A 45 x 30 matrix whose columns fall from 1 to 1e-8 (log-evenly; seeded
+// Gaussian entries): singular values over eight decades.
+Eigen::MatrixXd GradedMatrix() {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> gauss;
+  Eigen::MatrixXd a(45, 30);
+  for (int j = 0; j < a.cols(); ++j)
+    for (int i = 0; i < a.rows(); ++i)
+      a(i, j) = gauss(rng) * std::pow(10.0, -8.0 * j / (a.cols() - 1));
+  return a;
+}
+
+// ComputeSvd from A'A where the rank threshold lies within its resolution: the
+// directions at or above the threshold are the Jacobi SVD's (singular values
+// and u to 1e-6 relative, A v_i = sigma_i u_i); below the resolution, the
+// Jacobi SVD itself.
+TEST(ComputeSvd, FromTheGramMatrixOnlyWhereItResolvesTheRankThreshold) {
+  constexpr double kRelativeTol = 1e-6;
+  const Eigen::MatrixXd a = GradedMatrix();
+  const Svd jacobi = ComputeResolvedSvd(a, 0.0);
+  EXPECT_EQ(jacobi.resolved_down_to, 0.0);
+  const double sigma1 = jacobi.sigma(0);
+  const double threshold = 1e-4 * sigma1;
+  const Svd gram = ComputeSvd(a, threshold);
+  ASSERT_GT(gram.resolved_down_to, 0.0);
+  EXPECT_LE(gram.resolved_down_to, threshold);
+  EXPECT_EQ(gram.rank, CountRank(jacobi.sigma, threshold));
+  ASSERT_GT(gram.rank, 5);
+  for (int i = 0; i < gram.rank; ++i) {
+    EXPECT_NEAR(gram.sigma(i), jacobi.sigma(i), kRelativeTol * jacobi.sigma(i))
+        << i;
+    EXPECT_NEAR(std::abs(gram.u.col(i).dot(jacobi.u.col(i))), 1.0, kRelativeTol)
+        << i;
+    EXPECT_LT((a * gram.v.col(i) - gram.sigma(i) * gram.u.col(i)).norm(),
+              kRelativeTol * gram.sigma(i))
+        << i;
+  }
+  // Below the resolution the rank threshold asks for the Jacobi SVD.
+  const Svd fine = ComputeSvd(a, 1e-7 * sigma1);
+  EXPECT_EQ(fine.resolved_down_to, 0.0);
+  EXPECT_EQ(fine.sigma, jacobi.sigma);
+}
+
 TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
   CorrectionOptions options;
   struct Case {
