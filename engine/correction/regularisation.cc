@@ -331,7 +331,10 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
   const double rank_threshold =
       (per_direction ? kWeakFlankEffectShare : 1.0) * floor_sigma;
   ls.rank_threshold = rank_threshold;
-  if (svd_of_a != nullptr) {
+  // The SVD made before serves only where it resolves this threshold too (the
+  // outlier test's fit asks a higher one: from A'A it may not resolve the
+  // per-direction filter's weak directions).
+  if (svd_of_a != nullptr && svd_of_a->resolved_down_to <= rank_threshold) {
     ls.svd = *svd_of_a;
     ls.svd.rank = CountRank(ls.svd.sigma, rank_threshold);
   } else {

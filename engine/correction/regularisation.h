@@ -133,7 +133,8 @@ struct LinearSolve {
 // Tikhonov in the reachable directions of A = W^1/2 S T on `rows` (grid
 // points), b = -W^1/2 e: y = sum_{i<rank} f_i (u_i'b / sigma_i) v_i, lambda by
 // problem.rule. `svd_of_a`, when given, is the SVD of that same A (same rows,
-// same weights) made before (its rank is counted again here).
+// same weights) made before (its rank is counted again here; taken only where
+// it resolves this solve's rank threshold, else made again).
 LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
                                    const CorrectionProblem& problem,
                                    const std::vector<int>& rows,

@@ -577,6 +577,33 @@ TEST(TikhonovFitAlong, IsTheSolvesFitAlongItsOwnDirections) {
   EXPECT_NEAR(refit.leverage.sum(), ls.dof, kSameFitTolerance * ls.k);
 }
 
+// An SVD made before is taken by the solve only where it resolves the solve's
+// rank threshold (the outlier test's fit asks a higher one than the
+// per-direction filter): one that does not is made again, and the solve is
+// the one without it.
+TEST(SolveRegularisedLinear, TakesAnSvdMadeBeforeOnlyWhereItResolvesTheRank) {
+  const LinearModel model(17);
+  CorrectionOptions options;
+  options.probe_noise_um = 0.5;
+  const CorrectionProblem problem = NoiseProblem(model, options, 17, 2.0);
+  const LinearSolve fresh =
+      SolveRegularisedLinear(options, problem, problem.used);
+  ASSERT_GT(fresh.k, 1);
+  // The same A's SVD, its weakest used singular value halved: taken, it
+  // changes the answer; marked as not resolving the threshold, it is not
+  // taken.
+  Svd before =
+      ResolvedSvdOfWeightedSystem(problem, problem.used, fresh.rank_threshold);
+  before.sigma(fresh.k - 1) *= 0.5;
+  const LinearSolve taken =
+      SolveRegularisedLinear(options, problem, problem.used, &before);
+  EXPECT_GT((taken.y - fresh.y).norm(), 1e-6 * fresh.y.norm());
+  before.resolved_down_to = 2.0 * fresh.rank_threshold;
+  const LinearSolve made_again =
+      SolveRegularisedLinear(options, problem, problem.used, &before);
+  EXPECT_EQ(made_again.y, fresh.y);
+}
+
 // The robust fit weights the spikes down, stands them out of the others'
 // standardised residuals, and returns the fit at the weights it reports (the
 // first fit's directions and level, TikhonovFitAlong).
