@@ -142,6 +142,53 @@ class SubspaceSearch {
   Eigen::PartialPivLU<Eigen::MatrixXd> t_lu_;
 };
 
+// The wide search: from the search's end point (`delta` where it lost a
+// point) along the solve's directions down to kWideSearchShare of the weak-
+// flank floor (with the per-direction filter, the solve's rank threshold), at
+// most kWideSearchPasses passes; not where orders above the cubic are free.
+// Those directions may lie below what the solve's SVD resolves
+// (regularisation.h, ComputeSvd): there along the same A's Jacobi SVD. Where
+// it predicts lower than *after, its answer replaces *searched, *after and
+// *subspace_text.
+void SearchWider(const CorrectionOptions& options,
+                 const CorrectionProblem& problem,
+                 const LinearSolve& ls,
+                 const SubspaceSearch& search,
+                 const Eigen::VectorXd& delta,
+                 double* after,
+                 Eigen::VectorXd* searched,
+                 std::string* subspace_text) {
+  if (OpensOrdersAboveCubic(options, problem.blocks)) return;
+  const double floor_sigma = kWideSearchShare * ls.rank_threshold;
+  Svd resolved;
+  const Svd* svd = &ls.svd;
+  if (ls.svd.resolved_down_to > floor_sigma) {
+    resolved =
+        ResolvedSvdOfWeightedSystem(problem, problem.used, ls.rank_threshold);
+    svd = &resolved;
+  }
+  const int rank = ls.svd.rank;
+  int wide = rank;
+  while (wide < svd->sigma.size() && svd->sigma(wide) > 0.0 &&
+         svd->sigma(wide) >= floor_sigma)
+    ++wide;
+  if (wide == rank) return;
+  Eigen::VectorXd searched_wide;
+  const double after_wide =
+      search.Run(*svd,
+                 wide,
+                 std::min(kWideSearchPasses, options.max_num_iterations),
+                 kWideSearchStopShare,
+                 std::isfinite(*after) ? *searched : delta,
+                 &searched_wide);
+  if (!(after_wide < *after)) return;
+  *after = after_wide;
+  *searched = searched_wide;
+  *subspace_text = std::to_string(wide) + " directions, " +
+                   std::to_string(wide - rank) +
+                   " of them under the weak-flank floor";
+}
+
 // An exact prediction for the summary: infinity is a lost point.
 std::string PredictionText(double um) {
   return std::isfinite(um) ? FormatUm(um) + " um" : "inf (a used point lost)";
@@ -194,40 +241,9 @@ Eigen::VectorXd SearchOnExactModel(const CorrectionOptions& options,
                             kBoundedStopRelative,
                             delta,
                             &searched);
-  // Down to kWideSearchShare of the weak-flank floor (with the per-direction
-  // filter, the solve's rank threshold): directions the solve's SVD may not
-  // resolve (regularisation.h, ComputeSvd), so the same A's Jacobi SVD where
-  // it does not.
-  int wide = rank;
-  Svd resolved;
-  const Svd* wide_svd = &ls.svd;
-  const bool cubic = !OpensOrdersAboveCubic(options, problem.blocks);
-  if (cubic && ls.svd.resolved_down_to > kWideSearchShare * ls.rank_threshold) {
-    resolved =
-        ResolvedSvdOfWeightedSystem(problem, problem.used, ls.rank_threshold);
-    wide_svd = &resolved;
-  }
-  while (wide < wide_svd->sigma.size() && wide_svd->sigma(wide) > 0.0 &&
-         wide_svd->sigma(wide) >= kWideSearchShare * ls.rank_threshold)
-    ++wide;
   std::string subspace_text = std::to_string(rank) + " directions";
-  if (wide > rank && cubic) {
-    Eigen::VectorXd searched_wide;
-    const double after_wide =
-        search.Run(*wide_svd,
-                   wide,
-                   std::min(kWideSearchPasses, options.max_num_iterations),
-                   kWideSearchStopShare,
-                   std::isfinite(after) ? searched : delta,
-                   &searched_wide);
-    if (after_wide < after) {
-      after = after_wide;
-      searched = searched_wide;
-      subspace_text = std::to_string(wide) + " directions, " +
-                      std::to_string(wide - rank) +
-                      " of them under the weak-flank floor";
-    }
-  }
+  SearchWider(
+      options, problem, ls, search, delta, &after, &searched, &subspace_text);
   summary->exact_search_after_rms_um = after;
   if (after < (1.0 - kSearchGainShare) * before - kSearchGainMinUm) {
     summary->exact_search =
