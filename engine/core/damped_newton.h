@@ -1,8 +1,9 @@
 // engine/core/damped_newton.h: the damped Newton iteration shared by the
 // contact solvers of the flat-wheel grinder
-// (engine/grinder/flat_wheel_grinder.cc, 4 x 4), the cradle bevel generator
-// (engine/bevel/cradle_machine.cc, 3 x 3) and the free-form bevel generator
-// (engine/bevel/freeform_generator.cc, 4 x 4).
+// (engine/grinder/flat_wheel_grinder.cc, 4 x 4, which solves its own step),
+// the cradle bevel generator (engine/bevel/cradle_machine.cc, 3 x 3), the
+// free-form bevel generator (engine/bevel/freeform_generator.cc, 4 x 4) and
+// the shaving cutter's target (engine/shaving/cutter_target.cc).
 //
 // INTERNAL to the engine: it includes Eigen only (no Ceres), so each solver
 // keeps its own way of evaluating the system (closed-form derivatives or
@@ -19,6 +20,7 @@
 #define GEARLOOP_ENGINE_CORE_DAMPED_NEWTON_H_
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
 #include <utility>
@@ -105,6 +107,52 @@ Eigen::Matrix<double, N, 1> SolveByPartialPivoting(
   return b;
 }
 
+// Two unit tangents orthogonal to the normal n and to each other (rows), for
+// NormalLineNewtonStep.
+inline Eigen::Matrix<double, 2, 3> NormalLineTangents(
+    const Eigen::Vector3d& n) {
+  const Eigen::Vector3d t1 = n.unitOrthogonal();
+  Eigen::Matrix<double, 2, 3> t;
+  t.row(0) = t1.transpose();
+  t.row(1) = n.cross(t1).normalized().transpose();
+  return t;
+}
+
+// The Newton step dx = -J^-1 g of a contact on a point's normal line: the
+// unknowns are three surface variables and lambda, rows 0-2 are R(x3) - P -
+// lambda n and row 3 a scalar condition f(x3), so J's last column is (-n, 0):
+// J3 dx3 - n dlambda = -g3 and f' dx3 = -g_f. The tangents T (T n = 0,
+// NormalLineTangents) take dlambda out: T J3 dx3 = -T g3 with row 3 is a
+// 3 x 3 system M dx3 = r, solved by Cramer's rule (its cofactors and one
+// division); then dlambda = n . (J3 dx3 + g3) / |n|^2. The same step as
+// SolveByPartialPivoting<4> to rounding, in a far shorter chain of dependent
+// operations, which is what a Newton iteration waits for (the flat-wheel
+// grinder's contact: the 4 x 4 LU was 18 % of a correction's CPU on the
+// robustness benchmark, as much as its system). A singular M gives a
+// non-finite step, as the LU's zero pivot does.
+inline Eigen::Vector4d NormalLineNewtonStep(
+    const Eigen::Matrix4d& jacobian,
+    const Eigen::Vector4d& g,
+    const Eigen::Vector3d& n,
+    const Eigen::Matrix<double, 2, 3>& tangents) {
+  const Eigen::Matrix3d j3 = jacobian.topLeftCorner<3, 3>();
+  const Eigen::Vector3d g3 = g.head<3>();
+  Eigen::Matrix3d m;
+  m.topRows<2>() = tangents * j3;
+  m.row(2) = jacobian.block<1, 3>(3, 0);
+  const Eigen::Vector2d tg = tangents * g3;
+  const Eigen::Vector3d r(-tg(0), -tg(1), -g(3));
+  const Eigen::Vector3d c0 = m.row(1).cross(m.row(2));
+  const Eigen::Vector3d c1 = m.row(2).cross(m.row(0));
+  const Eigen::Vector3d c2 = m.row(0).cross(m.row(1));
+  const double inverse_det = 1.0 / m.row(0).dot(c0);
+  const Eigen::Vector3d dx3 = (c0 * r(0) + c1 * r(1) + c2 * r(2)) * inverse_det;
+  Eigen::Vector4d dx;
+  dx.head<3>() = dx3;
+  dx(3) = n.dot(j3 * dx3 + g3) / n.squaredNorm();
+  return dx;
+}
+
 // Whether the step after two whole Newton steps of sizes `previous_mm` then
 // `step_mm` is predicted below a tenth of `tolerance_mm`: in the quadratic
 // regime each step is about K times the square of the one before, so K is
@@ -123,28 +171,29 @@ inline bool NextStepBelow(double previous_mm,
 }
 
 // Solves g(x) = 0 for N unknowns by Newton's method from *x, leaving the last
-// iterate in *x. Each iteration calls `system(x, &g, &jacobian)` to fill g(x)
-// and dg/dx at x, solves jacobian * dx = -g by LU with partial pivoting, and
-// stops without moving when dx is not finite (a singular Jacobian). The step is
-// shortened to max_step_mm when its scaled size max_i |dx_i * step_scale_i|
-// exceeds that. Newton converges quadratically: once a full step is below
-// step_tolerance_mm, the error left after it is far below the tolerance, so it
-// stops there. The caller checks the result for branch jumps and finiteness (*x
-// may hold a non-finite value only if the system produced one).
-template <int N, typename System>
-DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
-                                 const Eigen::Matrix<double, N, 1>& step_scale,
-                                 const System& system,
-                                 Eigen::Matrix<double, N, 1>* x) {
+// iterate in *x, with the Newton step supplied: each iteration calls
+// `newton_step(x, &dx)` to fill dx = -J(x)^-1 g(x), and stops without moving
+// when dx is not finite (a singular Jacobian). For systems whose structure
+// solves the step more cheaply than a general LU (the flat-wheel grinder's
+// contact); DampedNewton below is this with the step by partial pivoting. The
+// step is shortened to max_step_mm when its scaled size max_i |dx_i *
+// step_scale_i| exceeds that. Newton converges quadratically: once a full step
+// is below step_tolerance_mm, the error left after it is far below the
+// tolerance, so it stops there. The caller checks the result for branch jumps
+// and finiteness (*x may hold a non-finite value only if the system produced
+// one).
+template <int N, typename NewtonStep>
+DampedNewtonSummary DampedNewtonBySteps(
+    const DampedNewtonOptions& options,
+    const Eigen::Matrix<double, N, 1>& step_scale,
+    const NewtonStep& newton_step,
+    Eigen::Matrix<double, N, 1>* x) {
   DampedNewtonSummary summary;
-  Eigen::Matrix<double, N, 1> g;
-  Eigen::Matrix<double, N, N> jacobian;
+  Eigen::Matrix<double, N, 1> dx;
   int iteration = 0;
   double last_full_step_mm = -1.0;  // the last step, when it was taken whole
   for (; iteration < options.max_iterations; ++iteration) {
-    system(*x, &g, &jacobian);
-    const Eigen::Matrix<double, N, 1> dx =
-        SolveByPartialPivoting<N>(jacobian, -g);
+    newton_step(*x, &dx);
     if (!dx.allFinite()) break;
     const double step_mm = dx.cwiseProduct(step_scale).cwiseAbs().maxCoeff();
     const double shrink =
@@ -162,6 +211,26 @@ DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
   }
   summary.num_iterations = iteration;
   return summary;
+}
+
+// DampedNewtonBySteps where `system(x, &g, &jacobian)` fills g(x) and dg/dx at
+// x, and the step solves jacobian * dx = -g by LU with partial pivoting.
+template <int N, typename System>
+DampedNewtonSummary DampedNewton(const DampedNewtonOptions& options,
+                                 const Eigen::Matrix<double, N, 1>& step_scale,
+                                 const System& system,
+                                 Eigen::Matrix<double, N, 1>* x) {
+  Eigen::Matrix<double, N, 1> g;
+  Eigen::Matrix<double, N, N> jacobian;
+  return DampedNewtonBySteps<N>(
+      options,
+      step_scale,
+      [&](const Eigen::Matrix<double, N, 1>& at,
+          Eigen::Matrix<double, N, 1>* dx) {
+        system(at, &g, &jacobian);
+        *dx = SolveByPartialPivoting<N>(jacobian, -g);
+      },
+      x);
 }
 
 }  // namespace engine_internal

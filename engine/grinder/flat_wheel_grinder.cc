@@ -434,15 +434,20 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
   const double r_j = frame.pitch_radius_mm;
   const Eigen::Vector4d step_scale(
       1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
+  const Eigen::Matrix<double, 2, 3> tangents =
+      engine_internal::NormalLineTangents(point.normal);
+  Eigen::Vector4d g;
+  Eigen::Matrix4d jacobian;
   const engine_internal::DampedNewtonSummary newton =
-      engine_internal::DampedNewton<4>(
+      engine_internal::DampedNewtonBySteps<4>(
           engine_internal::DampedNewtonOptions{
               options.max_iterations, options.step_tolerance_mm, max_step_mm},
           step_scale,
-          [&](const Eigen::Vector4d& x,
-              Eigen::Vector4d* g,
-              Eigen::Matrix4d* jacobian) {
-            SystemAndJacobian(settings, c, frame.wheel, point, x, g, jacobian);
+          [&](const Eigen::Vector4d& at, Eigen::Vector4d* dx) {
+            SystemAndJacobian(
+                settings, c, frame.wheel, point, at, &g, &jacobian);
+            *dx = engine_internal::NormalLineNewtonStep(
+                jacobian, g, point.normal, tangents);
           },
           &x);
   const bool converged = newton.converged;

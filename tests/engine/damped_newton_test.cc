@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
 #include <random>
@@ -54,6 +55,88 @@ TEST(SolveByPartialPivoting, SingularSystemGivesNonFiniteStep) {
   const Eigen::Vector3d x =
       SolveByPartialPivoting<3>(a, Eigen::Vector3d(1.0, 1.0, 1.0));
   EXPECT_FALSE(x.allFinite());
+}
+
+// The contact on a normal line: the step by the tangents and Cramer's rule is
+// LU's step to rounding, on random systems whose last column is (-n, 0),
+// scaled as the grinder's are (u_w in mm, phi_w and the roll in rad on radii
+// of 100-2000 mm, the meshing row in its own units).
+constexpr double kNormalLineStepRelTol = 1e-10;
+
+TEST(NormalLineNewtonStep, SameStepAsPartialPivotingToRounding) {
+  std::mt19937_64 rng(20261129);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_real_distribution<double> radius_mm(100.0, 2000.0);
+  std::uniform_int_distribution<int> exponent(-6, 6);
+  double worst = 0.0;
+  for (int trial = 0; trial < kNumRandomSystems; ++trial) {
+    const Eigen::Vector3d n =
+        Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+    Eigen::Matrix4d jacobian;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 3; ++j) jacobian(i, j) = unit(rng);
+    jacobian.col(1) *= radius_mm(rng);
+    jacobian.col(2) *= radius_mm(rng);
+    jacobian.row(3) *= std::ldexp(1.0, exponent(rng));
+    jacobian.block<3, 1>(0, 3) = -n;
+    jacobian(3, 3) = 0.0;
+    const Eigen::Vector4d g(unit(rng), unit(rng), unit(rng), unit(rng));
+    const Eigen::Vector4d lu = SolveByPartialPivoting<4>(jacobian, -g);
+    const Eigen::Vector4d ours =
+        NormalLineNewtonStep(jacobian, g, n, NormalLineTangents(n));
+    ASSERT_TRUE(ours.allFinite()) << "trial " << trial;
+    // Each unknown against its own size in the step (the step's entries
+    // differ by the radii), through the residual the step leaves.
+    const Eigen::Vector4d left = jacobian * ours + g;
+    const double scale = (jacobian.cwiseAbs() * ours.cwiseAbs()).maxCoeff() +
+                         g.cwiseAbs().maxCoeff();
+    worst = std::max(worst, left.cwiseAbs().maxCoeff() / scale);
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_NEAR(ours(i),
+                  lu(i),
+                  kNormalLineStepRelTol *
+                      (std::abs(lu(i)) + lu.cwiseAbs().maxCoeff() * 1e-3))
+          << "trial " << trial << " unknown " << i;
+    }
+  }
+  EXPECT_LT(worst, 1e-14);
+}
+
+TEST(NormalLineNewtonStep, TangentsAreOrthonormalAndNormalToN) {
+  for (const Eigen::Vector3d& n :
+       {Eigen::Vector3d(0.0, 0.0, 1.0),
+        Eigen::Vector3d(1.0, 0.0, 0.0),
+        Eigen::Vector3d(0.3, -0.4, 0.5).normalized()}) {
+    const Eigen::Matrix<double, 2, 3> t = NormalLineTangents(n);
+    EXPECT_NEAR(
+        (t * t.transpose() - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-15);
+    EXPECT_NEAR((t * n).norm(), 0.0, 1e-15);
+  }
+}
+
+// A meshing row in the span of the tangent rows leaves M singular: the step is
+// not finite, and Newton stops there without moving.
+TEST(NormalLineNewtonStep, SingularSystemGivesNonFiniteStep) {
+  const Eigen::Vector3d n(0.0, 0.0, 1.0);
+  Eigen::Matrix4d jacobian;
+  jacobian << 1.0, 2.0, 0.0, 0.0,  //
+      0.0, 1.0, 3.0, 0.0,          //
+      0.5, 0.5, 0.5, -1.0,         //
+      1.0, 3.0, 3.0, 0.0;          // = row 0 + row 1 over x3
+  const Eigen::Vector4d g(1.0, 1.0, 1.0, 1.0);
+  EXPECT_FALSE(
+      NormalLineNewtonStep(jacobian, g, n, NormalLineTangents(n)).allFinite());
+  Eigen::Vector4d x = Eigen::Vector4d::Zero();
+  const DampedNewtonSummary summary = DampedNewtonBySteps<4>(
+      DampedNewtonOptions{},
+      Eigen::Vector4d::Ones(),
+      [&](const Eigen::Vector4d&, Eigen::Vector4d* dx) {
+        *dx = NormalLineNewtonStep(jacobian, g, n, NormalLineTangents(n));
+      },
+      &x);
+  EXPECT_FALSE(summary.converged);
+  EXPECT_EQ(summary.num_iterations, 0);
+  EXPECT_TRUE(x.isZero(0.0));
 }
 
 // The stop without a confirming iteration: only when two whole steps fell
