@@ -349,8 +349,8 @@ void PrintDistribution(const std::vector<ScenarioOutcome>& outcomes) {
 
 struct Summary {
   int scenarios = 0, rounds = 0, worse = 0, worse_on_common = 0,
-      worse_regained = 0, unusable = 0, lost_points = 0, motion_violations = 0,
-      within = 0, banded = 0, in_band[2] = {0, 0};
+      worse_regained = 0, worse_at_a_maximum = 0, unusable = 0, lost_points = 0,
+      motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
   std::vector<std::string> worse_list;
   std::vector<double> ratio, cpu, achieved_over_predicted,
       achieved_over_expected, best, final_rms, initial, max_linear, max_angular,
@@ -382,6 +382,11 @@ Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
         if (round.regained_points > 0)
           points += "; " + std::to_string(round.regained_points) +
                     " point(s) the part lacked";
+        if (round.true_points_at_a_maximum > 0) {
+          ++s.worse_at_a_maximum;
+          points += "; " + std::to_string(round.true_points_at_a_maximum) +
+                    " true contact(s) at a maximum along the roll";
+        }
         if (round.reached_after < round.reached_before)
           points += "; " +
                     std::to_string(round.reached_before - round.reached_after) +
@@ -438,6 +443,10 @@ void PrintSummary(const Summary& s, const std::string& title) {
       "part lacked ground again | %d / %d |\n",
       s.worse_on_common,
       s.worse_regained);
+  std::printf(
+      "| of them with a true contact at a maximum of the deviation along the "
+      "roll | %d |\n",
+      s.worse_at_a_maximum);
   std::printf("| unusable corrections (settings kept) | %d |\n", s.unusable);
   std::printf(
       "| rounds that lost grid points (wheel no longer reaches) | %d |\n",
@@ -868,6 +877,7 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"band_2sigma_um\": [%s, %s], \"at_state\": %s, "
                "\"motion_scale\": %s, \"step_fraction\": %s, "
                "\"shortened_because\": %s, \"regained_points\": %d, "
+               "\"true_points_at_a_maximum\": %d, "
                "\"common_rms_before_um\": %s, \"common_rms_after_um\": %s, "
                "\"worse_on_common_points\": %s, \"order_choice\": %s, "
                "\"motion_bound_beyond_roll_range\": %s, "
@@ -897,6 +907,7 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                JsonNum(x.step_fraction).c_str(),
                JsonString(x.shortened_because).c_str(),
                x.regained_points,
+               x.true_points_at_a_maximum,
                JsonNum(x.common_rms_before_um).c_str(),
                JsonNum(x.common_rms_after_um).c_str(),
                x.worse_on_common_points ? "true" : "false",

@@ -660,6 +660,10 @@ struct RoundRecord {
   // had not been grinding it (the region is ground again, off the target);
   // one worse on the common points made it worse where it was ground.
   int regained_points = 0;
+  // Grid points whose contact on the true machine of the next part lies at a
+  // maximum of the deviation along the roll (PointsAtAMaximum): the
+  // simulated machine grinds them at a height no real wheel leaves.
+  int true_points_at_a_maximum = 0;
   double common_rms_before_um = 0.0;
   double common_rms_after_um = 0.0;
   bool worse_on_common_points = false;
@@ -744,6 +748,32 @@ inline CorrectionInput LoopCorrectionInput(const Scenario& s,
 // part. The solver is told the scenario's noise (or -1) and the measured teeth;
 // the measuring machine's seed advances by one per part. An unusable correction
 // leaves the settings as they were.
+// The grid points whose contact at `true_parameters` lies at a maximum of the
+// deviation along the roll: reached, with a meshing slope of the other sign
+// than the point's contact at the nominal settings
+// (EnvelopeContact::meshing_slope). Flat-wheel grinder only (0 otherwise). A
+// real wheel never leaves the flank there (the neighbouring rolls cut
+// deeper); the contact solve still takes such a contact where Newton from the
+// nominal contact ends on it, in the simulated machine as in the solver's
+// model.
+inline int PointsAtAMaximum(const MachineModel& model,
+                            const Eigen::VectorXd& true_parameters) {
+  const auto* grinder = dynamic_cast<const FlatWheelGrinder*>(&model);
+  if (grinder == nullptr) return 0;
+  const MachineSettings settings = MachineSettings::FromVector(true_parameters);
+  int count = 0;
+  for (const FlankGridPoint& point : grinder->grid().points) {
+    const EnvelopeContact nominal =
+        grinder->SolveContact(grinder->nominal(), point);
+    const EnvelopeContact contact = grinder->SolveContact(settings, point);
+    if (nominal.status == PointStatus::kOk &&
+        contact.status == PointStatus::kOk &&
+        !(contact.meshing_slope * nominal.meshing_slope > 0.0))
+      ++count;
+  }
+  return count;
+}
+
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {
@@ -818,6 +848,8 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
                     &round.regained_points);
     round.worse_on_common_points =
         IsWorsePart(round.common_rms_before_um, round.common_rms_after_um);
+    round.true_points_at_a_maximum =
+        PointsAtAMaximum(model, commanded + s.hidden_errors);
     if (round.worse) ++loop.worse_rounds;
     loop.part_rms_um.push_back(rms);
     loop.rounds.push_back(round);

@@ -418,6 +418,22 @@ EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
   return contact;
 }
 
+// d f / d phi1 along the path on which rows 0-2 of the contact system stay
+// solved (EnvelopeContact::meshing_slope): the tangents T of the flank take
+// lambda out of rows 0-2, T J3 (du_w, dphi_w, dphi1) = 0, so (du_w, dphi_w) =
+// -(T J3[:, 0:2])^-1 T J3[:, 2] dphi1, and f changes by J[3, 0:3] times that.
+double MeshingSlopeAlongRoll(const Eigen::Matrix4d& jacobian,
+                             const Eigen::Matrix<double, 2, 3>& tangents) {
+  const Eigen::Matrix<double, 2, 3> tj =
+      tangents * jacobian.topLeftCorner<3, 3>();
+  const double det = tj(0, 0) * tj(1, 1) - tj(0, 1) * tj(1, 0);
+  if (det == 0.0) return 0.0;
+  // The 2 x 2 solve by its adjugate.
+  const double du = -(tj(1, 1) * tj(0, 2) - tj(0, 1) * tj(1, 2)) / det;
+  const double dphi = -(tj(0, 0) * tj(1, 2) - tj(1, 0) * tj(0, 2)) / det;
+  return jacobian(3, 2) + jacobian(3, 0) * du + jacobian(3, 1) * dphi;
+}
+
 // FlatWheelGrinder::SolveContact in a frame made once for all grid points,
 // Newton from `start` (the point's contact at the nominal settings, or the
 // plane-wheel guess where that did not converge).
@@ -452,6 +468,9 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
           &x);
   const bool converged = newton.converged;
   contact.iterations = newton.num_iterations;
+  // `jacobian` is the system's at the last iterate but the last step, which
+  // was below the tolerance.
+  contact.meshing_slope = MeshingSlopeAlongRoll(jacobian, tangents);
   contact.wheel_u_mm = x(0);
   contact.wheel_phi_rad = x(1);
   contact.roll_rad = x(2);

@@ -651,5 +651,92 @@ TEST(EnvelopeSolve, FollowsEachContactOnItsBranch) {
   EXPECT_EQ(jumps, 0);
 }
 
+// The meshing slope tells a contact at a maximum of the deviation along the
+// roll (EnvelopeContact::meshing_slope). Seed 98, scenario 95: the true machine
+// of round 3's part (commanded settings with 1/32 of the third correction,
+// plus the hidden errors; written down from the loop at commit ddb48ad).
+// Newton from the nominal contact of row 1, column 5 ends at roll -0.055 rad,
+// a maximum 29.1 um above the flank (the deviation along the roll, solved
+// roll by roll: 27.4 um at -0.043 and 27.1 um at -0.067 rad; the minimum, -1.1
+// um, lies near 0.029 rad): its slope has the other sign than its nominal
+// contact's; its row neighbours' contacts, at the minimum near 0.025 rad, the
+// same sign. The solve does not refuse the maximum yet (BENCHMARKS.md,
+// "Contacts at a maximum of the deviation").
+TEST(EnvelopeSolve, TheMeshingSlopeTellsAMaximumAlongTheRoll) {
+  const bench::Scenario s = bench::DrawGrinderScenario(98, 95);
+  const auto* grinder = dynamic_cast<const FlatWheelGrinder*>(s.model.get());
+  ASSERT_NE(grinder, nullptr);
+  const std::vector<double> recorded = {
+      10.885094076656706,
+      -2.3791697172429873,
+      -117.51841758525777,
+      -727.91963893623267,
+      0,
+      0,
+      0,
+      268.93071628113955,
+      -0.36506677285593342,
+      -131.83431456006721,
+      -1673.2662203930397,
+      0,
+      0,
+      0,
+      69.00151419678734,
+      -74.111451999331635,
+      56.705927877418013,
+      796.21673080272944,
+      0,
+      0,
+      0,
+      0.34829936933193156,
+      0.0073281470127615211,
+      0.85789950670274151,
+      7.6756144297802527,
+      0,
+      0,
+      0,
+      0.15264385477822179,
+      -0.012291396006514339,
+      0.39085153061626232,
+      -4.0088112387415116,
+      0,
+      0,
+      0,
+      -0.00080841628401252428,
+      1.0441252988019623,
+      1.5872796752511096,
+      5.6170129931491832,
+      0,
+      0,
+      0,
+      -0.060099414125782805,
+      0,
+      0,
+  };
+  ASSERT_EQ(recorded.size(), 45u);
+  const MachineSettings truth = MachineSettings::FromVector(
+      Eigen::Map<const Eigen::VectorXd>(recorded.data(), 45));
+  const int columns = grinder->GridColumns();
+  for (int column : {4, 5, 6}) {
+    const FlankGridPoint& point = grinder->grid().points[1 * columns + column];
+    const EnvelopeContact nominal =
+        grinder->SolveContact(grinder->nominal(), point);
+    const EnvelopeContact contact = grinder->SolveContact(truth, point);
+    ASSERT_EQ(nominal.status, PointStatus::kOk) << "column " << column;
+    ASSERT_EQ(contact.status, PointStatus::kOk) << "column " << column;
+    ASSERT_NE(nominal.meshing_slope, 0.0);
+    const bool same_sign = contact.meshing_slope * nominal.meshing_slope > 0.0;
+    if (column == 5) {
+      EXPECT_LT(contact.roll_rad, -0.05);
+      EXPECT_GT(contact.deviation_mm * 1e3, 25.0);
+      EXPECT_FALSE(same_sign)
+          << contact.meshing_slope << " against " << nominal.meshing_slope;
+    } else {
+      EXPECT_GT(contact.roll_rad, 0.0) << "column " << column;
+      EXPECT_TRUE(same_sign) << "column " << column;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace gearloop
