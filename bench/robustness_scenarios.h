@@ -744,14 +744,10 @@ inline CorrectionInput LoopCorrectionInput(const Scenario& s,
   return input;
 }
 
-// Grind -> measure -> correct, `rounds` times, then grind and measure the last
-// part. The solver is told the scenario's noise (or -1) and the measured teeth;
-// the measuring machine's seed advances by one per part. An unusable correction
-// leaves the settings as they were.
 // The grid points whose contact at `true_parameters` lies at a maximum of the
 // deviation along the roll: reached, with a meshing slope of the other sign
 // than the point's contact at the nominal settings
-// (EnvelopeContact::meshing_slope). Flat-wheel grinder only (0 otherwise). A
+// (FlatWheelGrinder::MeshingSlope). Flat-wheel grinder only (0 otherwise). A
 // real wheel never leaves the flank there (the neighbouring rolls cut
 // deeper); the contact solve still takes such a contact where Newton from the
 // nominal contact ends on it, in the simulated machine as in the solver's
@@ -766,14 +762,21 @@ inline int PointsAtAMaximum(const MachineModel& model,
     const EnvelopeContact nominal =
         grinder->SolveContact(grinder->nominal(), point);
     const EnvelopeContact contact = grinder->SolveContact(settings, point);
-    if (nominal.status == PointStatus::kOk &&
-        contact.status == PointStatus::kOk &&
-        !(contact.meshing_slope * nominal.meshing_slope > 0.0))
-      ++count;
+    if (nominal.status != PointStatus::kOk ||
+        contact.status != PointStatus::kOk)
+      continue;
+    const double slope = grinder->MeshingSlope(settings, point, contact);
+    const double nominal_slope =
+        grinder->MeshingSlope(grinder->nominal(), point, nominal);
+    if (!(slope * nominal_slope > 0.0)) ++count;
   }
   return count;
 }
 
+// Grind -> measure -> correct, `rounds` times, then grind and measure the last
+// part. The solver is told the scenario's noise (or -1) and the measured teeth;
+// the measuring machine's seed advances by one per part. An unusable correction
+// leaves the settings as they were.
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {

@@ -419,7 +419,7 @@ EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
 }
 
 // d f / d phi1 along the path on which rows 0-2 of the contact system stay
-// solved (EnvelopeContact::meshing_slope): the tangents T of the flank take
+// solved (FlatWheelGrinder::MeshingSlope): the tangents T of the flank take
 // lambda out of rows 0-2, T J3 (du_w, dphi_w, dphi1) = 0, so (du_w, dphi_w) =
 // -(T J3[:, 0:2])^-1 T J3[:, 2] dphi1, and f changes by J[3, 0:3] times that.
 double MeshingSlopeAlongRoll(const Eigen::Matrix4d& jacobian,
@@ -452,14 +452,14 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
       1.0, c.wheel_radius_mm, r_j, 1.0);  // mm per unit of each unknown
   const Eigen::Matrix<double, 2, 3> tangents =
       engine_internal::NormalLineTangents(point.normal);
-  Eigen::Vector4d g;
-  Eigen::Matrix4d jacobian;
   const engine_internal::DampedNewtonSummary newton =
       engine_internal::DampedNewtonBySteps<4>(
           engine_internal::DampedNewtonOptions{
               options.max_iterations, options.step_tolerance_mm, max_step_mm},
           step_scale,
           [&](const Eigen::Vector4d& at, Eigen::Vector4d* dx) {
+            Eigen::Vector4d g;
+            Eigen::Matrix4d jacobian;
             SystemAndJacobian(
                 settings, c, frame.wheel, point, at, &g, &jacobian);
             *dx = engine_internal::NormalLineNewtonStep(
@@ -468,9 +468,6 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
           &x);
   const bool converged = newton.converged;
   contact.iterations = newton.num_iterations;
-  // `jacobian` is the system's at the last iterate but the last step, which
-  // was below the tolerance.
-  contact.meshing_slope = MeshingSlopeAlongRoll(jacobian, tangents);
   contact.wheel_u_mm = x(0);
   contact.wheel_phi_rad = x(1);
   contact.roll_rad = x(2);
@@ -673,6 +670,25 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                &f);
   if (meshing != nullptr) *meshing = f;
   return Eigen::Vector3d(r1.x, r1.y, r1.z);
+}
+
+double FlatWheelGrinder::MeshingSlope(const MachineSettings& settings,
+                                      const FlankGridPoint& point,
+                                      const EnvelopeContact& contact) const {
+  Eigen::Vector4d g;
+  Eigen::Matrix4d jacobian;
+  SystemAndJacobian(settings,
+                    MakeChainConstants(setup_),
+                    MakeProfile(settings.wheel),
+                    point,
+                    Eigen::Vector4d(contact.wheel_u_mm,
+                                    contact.wheel_phi_rad,
+                                    contact.roll_rad,
+                                    contact.deviation_mm),
+                    &g,
+                    &jacobian);
+  return MeshingSlopeAlongRoll(
+      jacobian, engine_internal::NormalLineTangents(point.normal));
 }
 
 EnvelopeContact FlatWheelGrinder::SolveContact(

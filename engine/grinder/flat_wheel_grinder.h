@@ -102,15 +102,6 @@ struct EnvelopeContact {
   double roll_rad = 0.0;       // phi1
   double deviation_mm = 0.0;   // lambda
   int iterations = 0;
-  // d f / d phi1 along the roll with the wheel point held on the grid point's
-  // normal line (u_w, phi_w and lambda following; f the meshing function):
-  // f is the deviation's slope along the roll to a factor of fixed sign, so
-  // this tells a minimum of the deviation along the roll (the sign of the
-  // point's contact at the nominal settings, which generate the flank) from a
-  // maximum (0 at a fold of the envelope). A maximum is no ground point (the
-  // neighbouring rolls cut deeper); the solve does not yet refuse one
-  // (robustness benchmark, true_points_at_a_maximum).
-  double meshing_slope = 0.0;
 };
 
 class FlatWheelGrinder : public MachineModel {
@@ -153,6 +144,18 @@ class FlatWheelGrinder : public MachineModel {
       const MachineSettings& settings,
       const FlankGridPoint& point,
       const EnvelopeContact& contact) const;
+
+  // d f / d phi1 at a converged contact along the roll with the wheel point
+  // held on the grid point's normal line (u_w, phi_w and lambda following; f
+  // the meshing function): f is the deviation's slope along the roll to a
+  // factor of fixed sign, so this tells a minimum of the deviation along the
+  // roll (the sign of the point's contact at the nominal settings, which
+  // generate the flank) from a maximum (0 at a fold of the envelope). A
+  // maximum is no ground point (the neighbouring rolls cut deeper); the solve
+  // does not yet refuse one (robustness benchmark, true_points_at_a_maximum).
+  double MeshingSlope(const MachineSettings& settings,
+                      const FlankGridPoint& point,
+                      const EnvelopeContact& contact) const;
 
   // The wheel surface point in S1 and the meshing function f at (u_w, phi_w,
   // phi1); for tests.

@@ -652,7 +652,7 @@ TEST(EnvelopeSolve, FollowsEachContactOnItsBranch) {
 }
 
 // The meshing slope tells a contact at a maximum of the deviation along the
-// roll (EnvelopeContact::meshing_slope). Seed 98, scenario 95: the true machine
+// roll (FlatWheelGrinder::MeshingSlope). Seed 98, scenario 95: the true machine
 // of round 3's part (commanded settings with 1/32 of the third correction,
 // plus the hidden errors; written down from the loop at commit ddb48ad).
 // Newton from the nominal contact of row 1, column 5 ends at roll -0.055 rad,
@@ -660,8 +660,8 @@ TEST(EnvelopeSolve, FollowsEachContactOnItsBranch) {
 // roll by roll: 27.4 um at -0.043 and 27.1 um at -0.067 rad; the minimum, -1.1
 // um, lies near 0.029 rad): its slope has the other sign than its nominal
 // contact's; its row neighbours' contacts, at the minimum near 0.025 rad, the
-// same sign. The solve does not refuse the maximum yet (BENCHMARKS.md,
-// "Contacts at a maximum of the deviation").
+// same sign. The solve does not refuse the maximum yet (BENCHMARKS.md, "The
+// contact's Newton step, and contacts at a maximum along the roll").
 TEST(EnvelopeSolve, TheMeshingSlopeTellsAMaximumAlongTheRoll) {
   const bench::Scenario s = bench::DrawGrinderScenario(98, 95);
   const auto* grinder = dynamic_cast<const FlatWheelGrinder*>(s.model.get());
@@ -724,13 +724,15 @@ TEST(EnvelopeSolve, TheMeshingSlopeTellsAMaximumAlongTheRoll) {
     const EnvelopeContact contact = grinder->SolveContact(truth, point);
     ASSERT_EQ(nominal.status, PointStatus::kOk) << "column " << column;
     ASSERT_EQ(contact.status, PointStatus::kOk) << "column " << column;
-    ASSERT_NE(nominal.meshing_slope, 0.0);
-    const bool same_sign = contact.meshing_slope * nominal.meshing_slope > 0.0;
+    const double nominal_slope =
+        grinder->MeshingSlope(grinder->nominal(), point, nominal);
+    const double slope = grinder->MeshingSlope(truth, point, contact);
+    ASSERT_NE(nominal_slope, 0.0);
+    const bool same_sign = slope * nominal_slope > 0.0;
     if (column == 5) {
       EXPECT_LT(contact.roll_rad, -0.05);
       EXPECT_GT(contact.deviation_mm * 1e3, 25.0);
-      EXPECT_FALSE(same_sign)
-          << contact.meshing_slope << " against " << nominal.meshing_slope;
+      EXPECT_FALSE(same_sign) << slope << " against " << nominal_slope;
     } else {
       EXPECT_GT(contact.roll_rad, 0.0) << "column " << column;
       EXPECT_TRUE(same_sign) << "column " << column;
