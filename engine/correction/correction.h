@@ -398,6 +398,11 @@ struct WheelParabolaEvidence {
   double hedged_flank_um = 0.0;
 };
 
+// A solve that keeps fewer effective directions than this (the sum of its
+// filter factors, CorrectionSummary::effective_dof) keeps none: nothing above
+// the noise, whatever its change.
+constexpr double kNoEffectiveDirectionDof = 0.01;
+
 struct CorrectionSummary {
   CorrectionStatus status = CorrectionStatus::kInvalidInput;
   std::string message;
@@ -422,6 +427,13 @@ struct CorrectionSummary {
 
   double initial_rms_um = 0.0;  // of e over the points used
   double initial_max_um = 0.0;
+  // How rough e is over the grid: the mean square difference of e between
+  // neighbouring used points (along the profile and along the lead) over twice
+  // e's variance there. About 1 for probe scatter alone (independent points),
+  // near 0 for a smooth flank shape; NaN with fewer than two neighbours or no
+  // variance. Tells a zero correction's advice (measure again, or free more
+  // of the machine) without the solve's figures.
+  double error_neighbour_ratio = std::numeric_limits<double>::quiet_NaN();
   double residual_rms_um = 0.0;  // predicted (exact model) over the points used
   double residual_max_um = 0.0;
   double best_reachable_rms_um =

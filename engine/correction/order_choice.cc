@@ -179,17 +179,39 @@ double RmsOverThePointsCubicKeeps(const CorrectionResult& full,
   return Rms(full.predicted_residual_um, kept);
 }
 
+// Whether `answer` keeps the current settings: no safe fraction of its change
+// (no_safe_improvement), or no change asked for.
+bool KeepsTheSettings(const CorrectionResult& answer) {
+  return answer.summary.status == CorrectionStatus::kNoSafeImprovement ||
+         answer.delta.isZero(0.0);
+}
+
+// Whether `answer`'s safe step refused a change the solve meant: one along at
+// least kNoEffectiveDirectionDof effective directions. A change along fewer is
+// nothing above the noise whether the safe step keeps it or not, and which of
+// the two a part measured as noise alone gets is decided by the last bits of
+// the contacts (the filter's 3e-8 effective directions move the flank by
+// 1e-11 um, found better than none or not): the order choice treats it as no
+// change asked for, so that its answer does not turn on rounding.
+bool RefusedAMeantChange(const CorrectionResult& answer) {
+  return answer.summary.status == CorrectionStatus::kNoSafeImprovement &&
+         answer.summary.effective_dof >= kNoEffectiveDirectionDof;
+}
+
 // Whether the every-order solve is worth running after the cubic answer. Not
-// when that answer moves the settings and the linear reach of every open order
-// from its predicted part is not better by kOrderScreenShare of the margin
-// (`why` then says so); a cubic answer that keeps the settings is always
-// compared with the every-order one.
+// where the linear reach of every open order from the cubic answer's
+// predicted part is not better by kOrderScreenShare of the margin (`why` then
+// says so), unless the cubic answer's safe step refused a change it meant
+// (RefusedAMeantChange): orders 4-6 may find a safe one, and are always
+// compared with it. A cubic answer that asks no change goes through the
+// screen (forcing the every-order solve there cost 10 % more CPU at the
+// median, on the rounds at the noise: BENCHMARKS.md, "The contact system's
+// derivatives written out").
 bool SolveWithEveryOrder(const CorrectionOptions& options,
                          const CorrectionInput& input,
                          const CorrectionResult& cubic,
                          std::string* why) {
-  if (!cubic.summary.IsSolutionUsable() ||
-      cubic.summary.status == CorrectionStatus::kNoSafeImprovement)
+  if (!cubic.summary.IsSolutionUsable() || RefusedAMeantChange(cubic))
     return true;
   double cubic_rms = kNaN, reach = kNaN;
   if (!OrdersAboveCubicReachLinearly(options, input, cubic, &cubic_rms, &reach))
@@ -317,8 +339,7 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
     why = "orders 4-6 used: the cubic correction is not usable";
   } else if (!full_usable) {
     why = "orders 0-3 used: with orders 4-6 no safe correction was found";
-  } else if (cubic.summary.status == CorrectionStatus::kNoSafeImprovement &&
-             full.delta.isZero(0.0)) {
+  } else if (KeepsTheSettings(cubic) && full.delta.isZero(0.0)) {
     // Neither changes the settings; the open orders say why (nothing above
     // the noise) where the cubic answer only found no fraction better.
     use_full = true;

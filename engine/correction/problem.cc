@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "engine/correction/legendre_coordinates.h"
 #include "engine/correction/outliers.h"
@@ -322,8 +323,52 @@ CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,
   return p;
 }
 
+namespace {
+
+// CorrectionSummary::error_neighbour_ratio of `problem`'s error.
+double ErrorNeighbourRatio(const CorrectionProblem& problem) {
+  if (problem.model == nullptr) return kNaN;
+  const int rows = problem.model->GridRows();
+  const int columns = problem.model->GridColumns();
+  if (rows * columns != problem.num_points) return kNaN;
+  std::vector<bool> used(problem.num_points, false);
+  double sum = 0.0;
+  int finite = 0;
+  for (int i : problem.used) {
+    used[i] = std::isfinite(problem.error_um(i));
+    if (!used[i]) continue;
+    sum += problem.error_um(i);
+    ++finite;
+  }
+  const double mean = sum / std::max(1, finite);
+  double variance = 0.0, difference2 = 0.0;
+  int count = 0, pairs = 0;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < columns; ++c) {
+      const int i = r * columns + c;
+      if (!used[i]) continue;
+      const double e = problem.error_um(i);
+      variance += (e - mean) * (e - mean);
+      ++count;
+      for (const int j :
+           {c + 1 < columns ? i + 1 : -1, r + 1 < rows ? i + columns : -1}) {
+        if (j < 0 || !used[j]) continue;
+        const double d = e - problem.error_um(j);
+        difference2 += d * d;
+        ++pairs;
+      }
+    }
+  }
+  variance /= std::max(1, count);
+  if (pairs < 2 || !(variance > 0.0)) return kNaN;
+  return difference2 / pairs / (2.0 * variance);
+}
+
+}  // namespace
+
 void ReportProblem(const CorrectionProblem& problem,
                    CorrectionSummary* summary) {
+  summary->error_neighbour_ratio = ErrorNeighbourRatio(problem);
   summary->roll_min_rad = problem.roll_min_rad;
   summary->roll_max_rad = problem.roll_max_rad;
   summary->missing_indices = problem.missing;

@@ -81,10 +81,18 @@ Eigen::VectorXd SolveRegularised(const CorrectionOptions& options,
     }
   }
   Eigen::VectorXd delta = subspace.tv * z;
-  // A change the measurement could not even see is not worth a move.
-  const bool negligible = problem.signal_noise_um > 0.0 && !rework &&
-                          Rms(problem.jacobian_um * delta, problem.used) <
-                              kNegligibleChangeShare * problem.signal_noise_um;
+  // A change the measurement could not even see is not worth a move; nor a
+  // correction along fewer than kNoEffectiveDirectionDof effective directions
+  // (a part measured as noise alone: the filter's 3e-8 directions move the
+  // flank by 1e-11 um, and whether the safe step finds that better than none
+  // was the contacts' last bits, and with it the answer's status and the
+  // order choice). The state fit keeps its own: its test reads its figures.
+  const bool negligible =
+      !rework &&
+      ((!problem.machine_state_fit && ls.dof < kNoEffectiveDirectionDof) ||
+       (problem.signal_noise_um > 0.0 &&
+        Rms(problem.jacobian_um * delta, problem.used) <
+            kNegligibleChangeShare * problem.signal_noise_um));
   if (negligible) {
     delta.setZero();
     summary->effective_dof = 0.0;

@@ -951,6 +951,53 @@ TEST(SolveConvexQp, KnownAnswers) {
 // ---------------------------------------------------------------------------------------------
 // The problem and the machine state.
 
+// The measured error's roughness over the grid (error_neighbour_ratio, which
+// tells a zero correction's advice): probe scatter alone about 1, a smooth
+// flank shape (a lead crowning and a profile slope) near 0, a missing point
+// skipped with its pairs, no variance NaN. Seeded scatter; bounds from the
+// ratio's spread over 76 neighbour pairs.
+constexpr double kScatterRatioLow = 0.6;
+constexpr double kScatterRatioHigh = 1.4;
+constexpr double kSmoothRatioHigh = 0.25;
+
+TEST(ReportProblem, TellsScatterFromASmoothShapeByNeighbours) {
+  const LinearModel model(5);
+  const int n = model.NumPoints();
+  const auto ratio = [&](const Eigen::VectorXd& measured) {
+    CorrectionInput input;
+    input.model = &model;
+    input.current_parameters = Eigen::VectorXd::Zero(5);
+    input.target_um = Eigen::VectorXd::Zero(n);
+    input.measured_um = measured;
+    CorrectionOptions options;
+    CorrectionProblem problem;
+    CorrectionSummary summary;
+    std::string error;
+    EXPECT_TRUE(
+        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
+        << error;
+    ReportProblem(problem, &summary);
+    return summary.error_neighbour_ratio;
+  };
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const double scatter = ratio(SeededNoise(n, seed, 0.3));
+    EXPECT_GT(scatter, kScatterRatioLow) << "seed " << seed;
+    EXPECT_LT(scatter, kScatterRatioHigh) << "seed " << seed;
+  }
+  Eigen::VectorXd shape(n);
+  for (int i = 0; i < n; ++i) {
+    const double u = ((i % GridModel::kColumns) - 4.0) / 4.0;
+    const double v = ((i / GridModel::kColumns) - 2.0) / 2.0;
+    shape(i) = -4.0 * u * u + 1.5 * v;
+  }
+  EXPECT_LT(ratio(shape), kSmoothRatioHigh);
+  // With a little scatter on it, still a shape.
+  EXPECT_LT(ratio(shape + SeededNoise(n, 4, 0.1)), 0.5);
+  shape(22) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_LT(ratio(shape), kSmoothRatioHigh);
+  EXPECT_TRUE(std::isnan(ratio(Eigen::VectorXd::Constant(n, 2.0))));
+}
+
 TEST(PrepareCorrectionProblem, AveragesTeethWithTheirNoiseShare) {
   const LinearModel model(5);
   const int n = model.NumPoints();
