@@ -243,6 +243,197 @@ ChainConstants MakeChainConstants(const GrindingSetup& setup) {
   return c;
 }
 
+// Axis values, rates dC_i/dphi1 and their rates d2C_i/dphi1^2 of `settings`
+// at roll `roll`.
+void AxisStateAndAcceleration(const MachineSettings& settings,
+                              double roll,
+                              double* value,
+                              double* rate,
+                              double* acceleration) {
+  for (int i = 0; i < kNumAxes; ++i) {
+    const auto& a = settings.axes[i];
+    constexpr int n = kAxisPolynomialDegree;
+    double v = a[n];
+    double r = n * a[n];
+    double s = n * (n - 1) * a[n];
+    for (int k = n - 1; k >= 0; --k) {
+      v = v * roll + a[k];
+      if (k >= 1) r = r * roll + double(k) * a[k];
+      if (k >= 2) s = s * roll + double(k * (k - 1)) * a[k];
+    }
+    value[i] = v;
+    rate[i] = r;
+    acceleration[i] = s;
+  }
+}
+
+// M(A, B) of RotateWheel with its first and second partial derivatives, as
+// maps of a vector (M is linear in it): with (x0, y0, z0) = Rot_z(pi) v,
+// y1 = cos A y0 + sin A z0, z1 = -sin A y0 + cos A z0,
+//   M v       = (cos B x0 + sin B z1, y1, -sin B x0 + cos B z1)
+//   dM/dA v   = (-sin B y1, z1, -cos B y1)
+//   dM/dB v   = e_y x M v = (Mv_z, 0, -Mv_x)
+//   d2M/dA2 v = (-sin B z1, -y1, -cos B z1)
+//   d2M/dAdB v = (-cos B y1, 0, sin B y1)
+//   d2M/dB2 v = -(Mv_x, 0, Mv_z)
+struct WheelRotation {
+  double cos_a, sin_a, cos_b, sin_b;
+
+  struct Parts {
+    double x0, y1, z1;
+  };
+  Parts Of(const Vec3<double>& v) const {
+    return {-v.x, -cos_a * v.y + sin_a * v.z, sin_a * v.y + cos_a * v.z};
+  }
+  Vec3<double> M(const Parts& p) const {
+    return {cos_b * p.x0 + sin_b * p.z1, p.y1, -sin_b * p.x0 + cos_b * p.z1};
+  }
+  Vec3<double> DA(const Parts& p) const {
+    return {-sin_b * p.y1, p.z1, -cos_b * p.y1};
+  }
+  // d/dphi1 of M v for fixed v, the axes moving at rates a_rate, b_rate:
+  // A' dM/dA v + B' dM/dB v (m_v = M v).
+  Vec3<double> AlongRoll(const Parts& p,
+                         const Vec3<double>& m_v,
+                         double a_rate,
+                         double b_rate) const {
+    const Vec3<double> da = DA(p);
+    return {a_rate * da.x + b_rate * m_v.z,
+            a_rate * da.y,
+            a_rate * da.z - b_rate * m_v.x};
+  }
+  // d/dphi1 of dM/dA v for fixed v: A' d2M/dA2 v + B' d2M/dAdB v.
+  Vec3<double> DAAlongRoll(const Parts& p, double a_rate, double b_rate) const {
+    return {-a_rate * sin_b * p.z1 - b_rate * cos_b * p.y1,
+            -a_rate * p.y1,
+            -a_rate * cos_b * p.z1 + b_rate * sin_b * p.y1};
+  }
+};
+
+// dM/dB v = e_y x M v.
+Vec3<double> AboutY(const Vec3<double>& m_v) { return {m_v.z, 0.0, -m_v.x}; }
+
+// The wheel's velocity term of f (LocalSurface): v = -C' e_x x q + D p' + A'
+// dM/dA w + B' dM/dB w at rates `rate`; with `translations` false without D p'
+// (for the derivatives of v in which only q and the dM terms move).
+Vec3<double> WheelVelocity(const double* rate,
+                           const Vec3<double>& q,
+                           const Vec3<double>& dm_da_w,
+                           const Vec3<double>& dm_db_w,
+                           bool translations) {
+  const double t = translations ? 1.0 : 0.0;
+  return {
+      -t * rate[0] + rate[3] * dm_da_w.x + rate[4] * dm_db_w.x,
+      rate[5] * q.z + t * rate[1] + rate[3] * dm_da_w.y + rate[4] * dm_db_w.y,
+      -rate[5] * q.y - t * rate[2] + rate[3] * dm_da_w.z + rate[4] * dm_db_w.z};
+}
+
+Vec3<double> operator+(const Vec3<double>& a, const Vec3<double>& b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+
+// R1 and f of LocalSurface (double, the profile held) with their partial
+// derivatives by u_w, phi_w and phi1 written out (columns 0, 1, 2 of
+// `derivatives`; rows R1_x, R1_y, R1_z, f). The Newton of every contact
+// evaluates this; Jets of three carried it at 2.1 times the cost (the
+// correction's profile on the robustness benchmark; BENCHMARKS.md, "The
+// contact system's derivatives written out").
+void SurfaceWithDerivatives(const MachineSettings& settings,
+                            const ChainConstants& c,
+                            const Profile<double>& wheel,
+                            double u,
+                            double phi_w,
+                            double roll,
+                            Vec3<double>* r1,
+                            double* f,
+                            Eigen::Matrix<double, 4, 3>* derivatives) {
+  double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
+  AxisStateAndAcceleration(settings, roll, value, rate, acceleration);
+
+  // The profile (LocalSurface) and its u-derivatives.
+  const double du = u - wheel.vertex;
+  const double delta = wheel.parabola * du * du;
+  const double delta_u = 2.0 * wheel.parabola * du;
+  const double delta_uu = 2.0 * wheel.parabola;
+  const double rho =
+      c.wheel_radius_mm - u * wheel.cos_cone - delta * wheel.sin_cone;
+  const double rho_u = -wheel.cos_cone - delta_u * wheel.sin_cone;
+  const double rho_uu = -delta_uu * wheel.sin_cone;
+  const double h = -u * wheel.sin_cone + delta * wheel.cos_cone;
+  const double h_u = -wheel.sin_cone + delta_u * wheel.cos_cone;
+  const double h_uu = delta_uu * wheel.cos_cone;
+  const double sin_phi = std::sin(phi_w);
+  const double cos_phi = std::cos(phi_w);
+
+  // w, dw/du_w, dw/dphi_w; the wheel normal N0 = w_u x w_phi = rho (F_z h_u
+  // sin phi, F_z h_u cos phi, -rho_u) and its derivatives.
+  const double mz = c.mirror_z;
+  const Vec3<double> w{
+      rho * sin_phi + c.offset_x_mm, rho * cos_phi, mz * (h + c.offset_z_mm)};
+  const Vec3<double> w_u{rho_u * sin_phi, rho_u * cos_phi, mz * h_u};
+  const Vec3<double> w_phi{rho * cos_phi, -rho * sin_phi, 0.0};
+  const Vec3<double> n0{
+      rho * mz * h_u * sin_phi, rho * mz * h_u * cos_phi, -rho * rho_u};
+  const Vec3<double> n0_u{mz * (rho_u * h_u + rho * h_uu) * sin_phi,
+                          mz * (rho_u * h_u + rho * h_uu) * cos_phi,
+                          -(rho_u * rho_u + rho * rho_uu)};
+  const Vec3<double> n0_phi{
+      rho * mz * h_u * cos_phi, -rho * mz * h_u * sin_phi, 0.0};
+
+  const WheelRotation m{std::cos(value[3]),
+                        std::sin(value[3]),
+                        std::cos(value[4]),
+                        std::sin(value[4])};
+  const WheelRotation::Parts pw = m.Of(w), pw_u = m.Of(w_u),
+                             pw_phi = m.Of(w_phi), pn = m.Of(n0);
+  const Vec3<double> m_w = m.M(pw);
+  const Vec3<double> dm_da_w = m.DA(pw);
+  const Vec3<double> dm_db_w = AboutY(m_w);
+  const Vec3<double> normal = m.M(pn);
+
+  // D = diag(-1, 1, -1): q = D p + M w.
+  const Vec3<double> q{-value[0] + m_w.x, value[1] + m_w.y, -value[2] + m_w.z};
+  const Vec3<double> velocity =
+      WheelVelocity(rate, q, dm_da_w, dm_db_w, /*translations=*/true);
+  *f = Dot(normal, velocity);
+  const double cos_c = std::cos(value[5]);
+  const double sin_c = std::sin(value[5]);
+  const auto rot_c = [&](const Vec3<double>& v) {
+    return Vec3<double>{
+        v.x, cos_c * v.y + sin_c * v.z, -sin_c * v.y + cos_c * v.z};
+  };
+  *r1 = rot_c(q);
+
+  // By u_w and phi_w only the wheel point and its normal move: q_k = M w_k.
+  const auto wheel_column =
+      [&](int k, const WheelRotation::Parts& pw_k, const Vec3<double>& n0_k) {
+        const Vec3<double> q_k = m.M(pw_k);
+        const Vec3<double> velocity_k = WheelVelocity(
+            rate, q_k, m.DA(pw_k), AboutY(q_k), /*translations=*/false);
+        const Vec3<double> r1_k = rot_c(q_k);
+        derivatives->col(k) << r1_k.x, r1_k.y, r1_k.z,
+            Dot(m.M(m.Of(n0_k)), velocity) + Dot(normal, velocity_k);
+      };
+  wheel_column(0, pw_u, n0_u);
+  wheel_column(1, pw_phi, n0_phi);
+
+  // By phi1 the axes move: A, B at their rates turn M; X, Y, Z, C and the
+  // rates themselves change (the accelerations).
+  const Vec3<double> m_w_roll = m.AlongRoll(pw, m_w, rate[3], rate[4]);
+  const Vec3<double> q_roll{
+      -rate[0] + m_w_roll.x, rate[1] + m_w_roll.y, -rate[2] + m_w_roll.z};
+  const Vec3<double> dm_da_w_roll = m.DAAlongRoll(pw, rate[3], rate[4]);
+  const Vec3<double> velocity_roll =
+      WheelVelocity(rate, q_roll, dm_da_w_roll, AboutY(m_w_roll), false) +
+      WheelVelocity(acceleration, q, dm_da_w, dm_db_w, /*translations=*/true);
+  const Vec3<double> normal_roll = m.AlongRoll(pn, normal, rate[3], rate[4]);
+  // d/dC Rot_x(-C) q = (0, R1_z, -R1_y).
+  const Vec3<double> r1_roll =
+      rot_c(q_roll) + Vec3<double>{0.0, rate[5] * r1->z, -rate[5] * r1->y};
+  derivatives->col(2) << r1_roll.x, r1_roll.y, r1_roll.z,
+      Dot(normal_roll, velocity) + Dot(normal, velocity_roll);
+}
+
 // The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its
 // Jacobian.
 void SystemAndJacobian(const MachineSettings& settings,
@@ -252,34 +443,18 @@ void SystemAndJacobian(const MachineSettings& settings,
                        const Eigen::Vector4d& x,
                        Eigen::Vector4d* g,
                        Eigen::Matrix4d* jacobian) {
-  using Jet3 = ceres::Jet<double, 3>;
-  const Jet3 u(x(0), 0);
-  const Jet3 phi_w(x(1), 1);
-  // The axes depend on phi1 alone: their polynomials in Jets of phi1 only (the
-  // same numbers as in Jet3, whose other parts stay exact zeros).
-  using Jet1 = ceres::Jet<double, 1>;
-  Jet1 value1[kNumAxes], rate1[kNumAxes];
-  AxisState(settings, Jet1(x(2), 0), value1, rate1);
-  Jet3 value[kNumAxes], rate[kNumAxes];
-  for (int i = 0; i < kNumAxes; ++i) {
-    value[i] = Jet3(value1[i].a);
-    value[i].v(2) = value1[i].v(0);
-    rate[i] = Jet3(rate1[i].a);
-    rate[i].v(2) = rate1[i].v(0);
-  }
-  Vec3<Jet3> r1;
-  Jet3 f;
-  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f);
+  Vec3<double> r1;
+  double f = 0.0;
+  Eigen::Matrix<double, 4, 3> derivatives;
+  SurfaceWithDerivatives(
+      settings, c, wheel, x(0), x(1), x(2), &r1, &f, &derivatives);
   const double lambda = x(3);
-  const Jet3* rows[4] = {&r1.x, &r1.y, &r1.z, &f};
-  (*g)(0) = r1.x.a - point.position_mm.x() - lambda * point.normal.x();
-  (*g)(1) = r1.y.a - point.position_mm.y() - lambda * point.normal.y();
-  (*g)(2) = r1.z.a - point.position_mm.z() - lambda * point.normal.z();
-  (*g)(3) = f.a;
-  for (int i = 0; i < 4; ++i) {
-    for (int j = 0; j < 3; ++j) (*jacobian)(i, j) = rows[i]->v(j);
-    (*jacobian)(i, 3) = i < 3 ? -point.normal(i) : 0.0;
-  }
+  (*g)(0) = r1.x - point.position_mm.x() - lambda * point.normal.x();
+  (*g)(1) = r1.y - point.position_mm.y() - lambda * point.normal.y();
+  (*g)(2) = r1.z - point.position_mm.z() - lambda * point.normal.z();
+  (*g)(3) = f;
+  jacobian->leftCols<3>() = derivatives;
+  jacobian->col(3) << -point.normal, 0.0;
 }
 
 // d(R1, f) / d(the 17 local variables) at a contact: Jets of the 8 that enter
@@ -670,6 +845,26 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                &f);
   if (meshing != nullptr) *meshing = f;
   return Eigen::Vector3d(r1.x, r1.y, r1.z);
+}
+
+Eigen::Matrix<double, 4, 3> FlatWheelGrinder::SurfaceDerivatives(
+    const MachineSettings& settings,
+    double wheel_u_mm,
+    double wheel_phi_rad,
+    double roll_rad) const {
+  Vec3<double> r1;
+  double f = 0.0;
+  Eigen::Matrix<double, 4, 3> derivatives;
+  SurfaceWithDerivatives(settings,
+                         MakeChainConstants(setup_),
+                         MakeProfile(settings.wheel),
+                         wheel_u_mm,
+                         wheel_phi_rad,
+                         roll_rad,
+                         &r1,
+                         &f,
+                         &derivatives);
+  return derivatives;
 }
 
 double FlatWheelGrinder::MeshingSlope(const MachineSettings& settings,

@@ -165,6 +165,14 @@ class FlatWheelGrinder : public MachineModel {
                                double roll_rad,
                                double* meshing) const;
 
+  // d(R1, f) / d(u_w, phi_w, phi1) at (u_w, phi_w, phi1), as every contact
+  // Newton takes them (rows R1_x, R1_y, R1_z [mm per unit], f); for tests.
+  Eigen::Matrix<double, 4, 3> SurfaceDerivatives(
+      const MachineSettings& settings,
+      double wheel_u_mm,
+      double wheel_phi_rad,
+      double roll_rad) const;
+
   // The span [min, max] of phi1 over the nominal contacts of the grid [rad]
   // (MODEL.md §6).
   double roll_min_rad() const { return roll_min_rad_; }

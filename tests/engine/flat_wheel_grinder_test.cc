@@ -109,6 +109,81 @@ TEST(FlatWheelGrinder, ContactSatisfiesMeshingEquationAndLiesOnTheFlank) {
   }
 }
 
+// The contact Newton's derivatives of (R1, f) by u_w, phi_w and phi1, written
+// out by hand (SurfaceDerivatives), against five-point central differences of
+// SurfacePoint, with every term of the chain at work: machine constants, a
+// traversing wheel, cone angle and parabola, and every axis coefficient moved
+// (fixed seed; A and B by up to 0.02 rad per power of the roll, so that their
+// rates and accelerations turn the wheel visibly). At the nominal contacts
+// and 1 mm / 0.01 rad / 0.02 rad of roll away from them.
+constexpr double kSurfaceDerivativeRelTol = 1e-6;
+
+TEST(FlatWheelGrinder, SurfaceDerivativesMatchCentralDifferences) {
+  for (Flank flank : {Flank::kRight, Flank::kLeft}) {
+    SCOPED_TRACE(flank == Flank::kRight ? "right" : "left");
+    GrindingSetup setup = RightHandSetup(flank);
+    setup.machine.k1_mm = 85.0;
+    setup.machine.k2_mm = 30.0;
+    setup.machine.traverse_mm_per_rad = -8.0;
+    const FlatWheelGrinder grinder(setup);
+    Eigen::VectorXd zeta = grinder.nominal().ToVector();
+    std::mt19937_64 rng(20261130);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    for (int j = 0; j < kNumAxisCoefficients; ++j) {
+      const int axis = j / kCoefficientsPerAxis;
+      zeta(j) += unit(rng) * (axis < 3 ? 0.5 : 0.02);
+    }
+    zeta(kConeAngleIndex) = Deg(0.5);
+    zeta(kParabolaCoefficientIndex) = 3e-4;
+    zeta(kParabolaVertexIndex) = 3.0;
+    const MachineSettings settings = MachineSettings::FromVector(zeta);
+    // Steps: u_w [mm], phi_w [rad], phi1 [rad].
+    const double steps[3] = {1e-3, 1e-5, 1e-5};
+    int compared = 0;
+    for (const FlankGridPoint& point : grinder.grid().points) {
+      const EnvelopeContact nominal =
+          grinder.SolveContact(grinder.nominal(), point);
+      ASSERT_EQ(nominal.status, PointStatus::kOk);
+      for (const Eigen::Vector3d& offset :
+           {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(1.0, 0.01, 0.02)}) {
+        const double at[3] = {nominal.wheel_u_mm + offset(0),
+                              nominal.wheel_phi_rad + offset(1),
+                              nominal.roll_rad + offset(2)};
+        const Eigen::Matrix<double, 4, 3> analytic =
+            grinder.SurfaceDerivatives(settings, at[0], at[1], at[2]);
+        Eigen::Matrix<double, 4, 3> fd;
+        for (int k = 0; k < 3; ++k) {
+          const auto value = [&](double shift) {
+            double x[3] = {at[0], at[1], at[2]};
+            x[k] += shift;
+            Eigen::Vector4d v;
+            double f = 0.0;
+            v.head<3>() = grinder.SurfacePoint(settings, x[0], x[1], x[2], &f);
+            v(3) = f;
+            return v;
+          };
+          const double h = steps[k];
+          fd.col(k) = (8.0 * (value(h) - value(-h)) -
+                       (value(2.0 * h) - value(-2.0 * h))) /
+                      (12.0 * h);
+        }
+        for (int k = 0; k < 3; ++k) {
+          const double position_scale = fd.col(k).head<3>().norm();
+          for (int i = 0; i < 4; ++i) {
+            const double scale = i < 3 ? position_scale : std::abs(fd(3, k));
+            EXPECT_NEAR(
+                analytic(i, k), fd(i, k), kSurfaceDerivativeRelTol * scale)
+                << "row " << i << ", column " << k << ", grid point "
+                << point.row << "/" << point.column;
+            ++compared;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(compared, 45 * 2 * 12);
+  }
+}
+
 // Central differences of the exact model (the five-point central formula,
 // truncation error O(h^4)), with steps chosen per parameter so that each moves
 // the wheel by about 10 nm at the ends of the roll range used: the
