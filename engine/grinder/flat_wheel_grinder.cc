@@ -1,7 +1,5 @@
 #include "engine/grinder/flat_wheel_grinder.h"
 
-#include <ceres/jet.h>
-
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -26,25 +24,10 @@ constexpr int kLocalRate = 8;    // + axis index
 constexpr int kLocalWheel = 14;  // + wheel parameter index
 constexpr int kNumLocal = 17;
 
-// Of these 17, only 8 enter (R1, f) non-linearly: u_w, phi_w, the rotations A,
-// B, C and the wheel profile. The sensitivity carries Jets of these 8
-// (kJet*); the translations X, Y, Z and the six rates enter R1 and f linearly,
-// and their columns are written out from the terms of LocalTerms.
-constexpr int kJetU = 0;
-constexpr int kJetPhiW = 1;
-constexpr int kJetRotation = 2;  // + 0, 1, 2 for A, B, C
-constexpr int kJetWheel = 5;     // + wheel parameter index
-constexpr int kNumJet = 8;
-
 template <typename T>
 struct Vec3 {
   T x, y, z;
 };
-
-template <typename T>
-Vec3<T> Cross(const Vec3<T>& a, const Vec3<T>& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
 
 template <typename T>
 T Dot(const Vec3<T>& a, const Vec3<T>& b) {
@@ -61,177 +44,17 @@ struct ChainConstants {
       1.0;  // +1 right flank, -1 left flank (F = diag(1, 1, mirror_z))
 };
 
-// M(A, B) v = Rot_y(B) Rot_x(-A) Rot_z(pi) v, and its partial derivatives with
-// respect to A and B (dM/dB v = e_y x (M v)).
-template <typename T>
-void RotateWheel(const Vec3<T>& v,
-                 const T& cos_a,
-                 const T& sin_a,
-                 const T& cos_b,
-                 const T& sin_b,
-                 Vec3<T>* m_v,
-                 Vec3<T>* dm_da_v,
-                 Vec3<T>* dm_db_v) {
-  // Rot_z(pi): (x, y, z) -> (-x, -y, z).
-  const T x0 = -v.x;
-  const T y0 = -v.y;
-  const T z0 = v.z;
-  // Rot_x(-A): (x, y, z) -> (x, c y + s z, -s y + c z); d/dA -> (0, -s y + c z,
-  // -c y - s z).
-  const T y1 = cos_a * y0 + sin_a * z0;
-  const T z1 = -sin_a * y0 + cos_a * z0;
-  const T dy1 = -sin_a * y0 + cos_a * z0;
-  const T dz1 = -cos_a * y0 - sin_a * z0;
-  // Rot_y(B): (x, y, z) -> (c x + s z, y, -s x + c z).
-  m_v->x = cos_b * x0 + sin_b * z1;
-  m_v->y = y1;
-  m_v->z = -sin_b * x0 + cos_b * z1;
-  if (dm_da_v != nullptr) {
-    dm_da_v->x = sin_b * dz1;
-    dm_da_v->y = dy1;
-    dm_da_v->z = cos_b * dz1;
-  }
-  if (dm_db_v != nullptr) {
-    // e_y x (x, y, z) = (z, 0, -x).
-    dm_db_v->x = m_v->z;
-    dm_db_v->y = T(0.0);
-    dm_db_v->z = -m_v->x;
-  }
-}
-
-// The wheel surface point R1 in S1 and the meshing function f at one wheel
-// point and one roll position, given the axis values C_i and rates dC_i/dphi1
-// there (MODEL.md §3):
-//   q   = D p + M(A, B) w,          w = F ([-K2, 0, K1] + r_w(u_w, phi_w))
-//   R1  = Rot_x(-C) q
-//   dR1/du_w x dR1/dphi_w = Rot_x(-C) M (w_u x w_phi)           (rotations keep
-//   cross products) dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B'
-//   dM/dB w) f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B'
-//   dM/dB w)
-// The value of a scalar or of a Jet.
-inline double ValueOf(double x) { return x; }
-template <int N>
-double ValueOf(const ceres::Jet<double, N>& x) {
-  return x.a;
-}
-
-// Terms of LocalSurface in which the translations X, Y, Z and the rates enter
-// (R1, f) linearly: the wheel normal N = M (w_u x w_phi), q, dM/dA w, dM/dB w
-// and cos C, sin C (values only).
-struct LocalTerms {
-  Vec3<double> normal_f, q, dm_da_w, dm_db_w;
-  double cos_c = 1.0, sin_c = 0.0;
-};
-
 // The wheel profile of MODEL.md (cone angle theta_w as its cosine and sine,
 // a_w, d_w).
-template <typename W>
 struct Profile {
-  W cos_cone, sin_cone, parabola, vertex;
+  double cos_cone, sin_cone, parabola, vertex;
 };
 
-template <typename W>
-Profile<W> MakeProfile(const W& cone, const W& parabola, const W& vertex) {
-  using std::cos;
-  using std::sin;
-  return {cos(cone), sin(cone), parabola, vertex};
-}
-
-Profile<double> MakeProfile(const WheelProfile& wheel) {
-  return MakeProfile(wheel.cone_angle_rad,
-                     wheel.parabola_coefficient_per_mm,
-                     wheel.parabola_vertex_mm);
-}
-
-// T is the type of the unknowns and axes, W that of the wheel profile (double
-// when the profile is held: Newton needs no derivative of it).
-template <typename T, typename W>
-void LocalSurface(const T& u,
-                  const T& phi_w,
-                  const T* value,
-                  const T* rate,
-                  const Profile<W>& wheel,
-                  const ChainConstants& c,
-                  Vec3<T>* r1,
-                  T* f,
-                  LocalTerms* terms = nullptr) {
-  using std::cos;
-  using std::sin;
-  const W& parabola = wheel.parabola;
-  const W& vertex = wheel.vertex;
-  const W& cos_cone = wheel.cos_cone;
-  const W& sin_cone = wheel.sin_cone;
-  const T du = u - vertex;
-  const T delta = parabola * du * du;
-  const T delta_u = 2.0 * parabola * du;
-  const T rho = c.wheel_radius_mm - u * cos_cone - delta * sin_cone;
-  const T rho_u = -cos_cone - delta_u * sin_cone;
-  const T h = -u * sin_cone + delta * cos_cone;
-  const T h_u = -sin_cone + delta_u * cos_cone;
-  const T sin_phi = sin(phi_w);
-  const T cos_phi = cos(phi_w);
-
-  const Vec3<T> w{rho * sin_phi + c.offset_x_mm,
-                  rho * cos_phi,
-                  c.mirror_z * (h + c.offset_z_mm)};
-  const Vec3<T> w_u{rho_u * sin_phi, rho_u * cos_phi, c.mirror_z * h_u};
-  const Vec3<T> w_phi{rho * cos_phi, -rho * sin_phi, T(0.0)};
-  const Vec3<T> wheel_normal = Cross(w_u, w_phi);
-
-  const T cos_a = cos(value[3]);
-  const T sin_a = sin(value[3]);
-  const T cos_b = cos(value[4]);
-  const T sin_b = sin(value[4]);
-  Vec3<T> m_w, dm_da_w, dm_db_w, normal_f;
-  RotateWheel(w, cos_a, sin_a, cos_b, sin_b, &m_w, &dm_da_w, &dm_db_w);
-  RotateWheel<T>(
-      wheel_normal, cos_a, sin_a, cos_b, sin_b, &normal_f, nullptr, nullptr);
-
-  // D = diag(-1, 1, -1).
-  const Vec3<T> q{-value[0] + m_w.x, value[1] + m_w.y, -value[2] + m_w.z};
-  // -C' e_x x q = -C' (0, -q_z, q_y).
-  const Vec3<T> velocity{
-      -rate[0] + rate[3] * dm_da_w.x + rate[4] * dm_db_w.x,
-      rate[5] * q.z + rate[1] + rate[3] * dm_da_w.y + rate[4] * dm_db_w.y,
-      -rate[5] * q.y - rate[2] + rate[3] * dm_da_w.z + rate[4] * dm_db_w.z};
-  *f = Dot(normal_f, velocity);
-
-  // Rot_x(-C) q.
-  const T cos_c = cos(value[5]);
-  const T sin_c = sin(value[5]);
-  r1->x = q.x;
-  r1->y = cos_c * q.y + sin_c * q.z;
-  r1->z = -sin_c * q.y + cos_c * q.z;
-  if (terms != nullptr) {
-    const auto values = [](const Vec3<T>& v) {
-      return Vec3<double>{ValueOf(v.x), ValueOf(v.y), ValueOf(v.z)};
-    };
-    terms->normal_f = values(normal_f);
-    terms->q = values(q);
-    terms->dm_da_w = values(dm_da_w);
-    terms->dm_db_w = values(dm_db_w);
-    terms->cos_c = ValueOf(cos_c);
-    terms->sin_c = ValueOf(sin_c);
-  }
-}
-
-// Axis values and rates of `settings` at roll `roll` (any scalar type).
-template <typename T>
-void AxisState(const MachineSettings& settings,
-               const T& roll,
-               T* value,
-               T* rate) {
-  for (int i = 0; i < kNumAxes; ++i) {
-    const auto& a = settings.axes[i];
-    T v(a[kAxisPolynomialDegree]);
-    T r(kAxisPolynomialDegree * a[kAxisPolynomialDegree]);
-    for (int k = kAxisPolynomialDegree - 1; k >= 0; --k) {
-      v = v * roll + a[k];
-      if (k >= 1) r = r * roll + double(k) * a[k];
-    }
-    value[i] = v;
-    rate[i] = r;
-  }
+Profile MakeProfile(const WheelProfile& wheel) {
+  return {std::cos(wheel.cone_angle_rad),
+          std::sin(wheel.cone_angle_rad),
+          wheel.parabola_coefficient_per_mm,
+          wheel.parabola_vertex_mm};
 }
 
 ChainConstants MakeChainConstants(const GrindingSetup& setup) {
@@ -267,8 +90,9 @@ void AxisStateAndAcceleration(const MachineSettings& settings,
   }
 }
 
-// M(A, B) of RotateWheel with its first and second partial derivatives, as
-// maps of a vector (M is linear in it): with (x0, y0, z0) = Rot_z(pi) v,
+// M(A, B) v = Rot_y(B) Rot_x(-A) Rot_z(pi) v with its first and second partial
+// derivatives, as maps of a vector (M is linear in it): with (x0, y0, z0) =
+// Rot_z(pi) v,
 // y1 = cos A y0 + sin A z0, z1 = -sin A y0 + cos A z0,
 //   M v       = (cos B x0 + sin B z1, y1, -sin B x0 + cos B z1)
 //   dM/dA v   = (-sin B y1, z1, -cos B y1)
@@ -313,7 +137,7 @@ struct WheelRotation {
 // dM/dB v = e_y x M v.
 Vec3<double> AboutY(const Vec3<double>& m_v) { return {m_v.z, 0.0, -m_v.x}; }
 
-// The wheel's velocity term of f (LocalSurface): v = -C' e_x x q + D p' + A'
+// The wheel's velocity term of f (WheelChain): v = -C' e_x x q + D p' + A'
 // dM/dA w + B' dM/dB w at rates `rate`; with `translations` false without D p'
 // (for the derivatives of v in which only q and the dM terms move).
 Vec3<double> WheelVelocity(const double* rate,
@@ -332,15 +156,125 @@ Vec3<double> operator+(const Vec3<double>& a, const Vec3<double>& b) {
   return {a.x + b.x, a.y + b.y, a.z + b.z};
 }
 
-// R1 and f of LocalSurface (double, the profile held) with their partial
+// The wheel surface point R1 in S1 and the meshing function f at one wheel
+// point and one roll position, given the axis values C_i and rates dC_i/dphi1
+// there (MODEL.md §3):
+//   q   = D p + M(A, B) w,   w = F ([-K2, 0, K1] + r_w(u_w, phi_w))
+//   R1  = Rot_x(-C) q
+//   dR1/du_w x dR1/dphi_w = Rot_x(-C) M (w_u x w_phi)  (rotations keep cross
+//                                                       products)
+//   dR1/dphi1 = Rot_x(-C) (-C' e_x x q + D p' + A' dM/dA w + B' dM/dB w)
+//   f   = (M (w_u x w_phi)) . (-C' e_x x q + D p' + A' dM/dA w + B' dM/dB w)
+// with what their derivatives written out need: the profile's u-derivatives,
+// the wheel normal N0 = w_u x w_phi = rho (F_z h_u sin phi, F_z h_u cos phi,
+// -rho_u), M(A, B) as WheelRotation, q and the velocity v. Jets carried these
+// derivatives at 2.1 times the cost of the contact Newton's system (the
+// correction's profile on the robustness benchmark; BENCHMARKS.md, "The contact
+// system's derivatives written out").
+struct WheelChain {
+  WheelChain(const ChainConstants& c,
+             const Profile& wheel,
+             double u,
+             double phi_w,
+             const double* value,
+             const double* rate_in)
+      : rate(rate_in),
+        m{std::cos(value[3]),
+          std::sin(value[3]),
+          std::cos(value[4]),
+          std::sin(value[4])},
+        cos_c(std::cos(value[5])),
+        sin_c(std::sin(value[5])) {
+    du = u - wheel.vertex;
+    delta = wheel.parabola * du * du;
+    delta_u = 2.0 * wheel.parabola * du;
+    const double delta_uu = 2.0 * wheel.parabola;
+    rho = c.wheel_radius_mm - u * wheel.cos_cone - delta * wheel.sin_cone;
+    rho_u = -wheel.cos_cone - delta_u * wheel.sin_cone;
+    const double rho_uu = -delta_uu * wheel.sin_cone;
+    h = -u * wheel.sin_cone + delta * wheel.cos_cone;
+    h_u = -wheel.sin_cone + delta_u * wheel.cos_cone;
+    const double h_uu = delta_uu * wheel.cos_cone;
+    sin_phi = std::sin(phi_w);
+    cos_phi = std::cos(phi_w);
+    mz = c.mirror_z;
+    const Vec3<double> w{
+        rho * sin_phi + c.offset_x_mm, rho * cos_phi, mz * (h + c.offset_z_mm)};
+    w_u = {rho_u * sin_phi, rho_u * cos_phi, mz * h_u};
+    w_phi = {rho * cos_phi, -rho * sin_phi, 0.0};
+    const Vec3<double> n0 = NormalFor(rho, rho_u, h_u);
+    n0_u = {mz * (rho_u * h_u + rho * h_uu) * sin_phi,
+            mz * (rho_u * h_u + rho * h_uu) * cos_phi,
+            -(rho_u * rho_u + rho * rho_uu)};
+    n0_phi = {rho * mz * h_u * cos_phi, -rho * mz * h_u * sin_phi, 0.0};
+    pw = m.Of(w);
+    pn = m.Of(n0);
+    m_w = m.M(pw);
+    dm_da_w = m.DA(pw);
+    dm_db_w = AboutY(m_w);
+    normal = m.M(pn);
+    // D = diag(-1, 1, -1): q = D p + M w.
+    q = {-value[0] + m_w.x, value[1] + m_w.y, -value[2] + m_w.z};
+    velocity = WheelVelocity(rate, q, dm_da_w, dm_db_w, /*translations=*/true);
+    f = Dot(normal, velocity);
+    r1 = RotC(q);
+  }
+
+  // rho (F_z h_u sin phi, F_z h_u cos phi, -rho_u): N0 and, linear in each
+  // factor, its derivatives.
+  Vec3<double> NormalFor(double r, double r_u, double hu) const {
+    return {r * mz * hu * sin_phi, r * mz * hu * cos_phi, -r * r_u};
+  }
+  // Rot_x(-C) v.
+  Vec3<double> RotC(const Vec3<double>& v) const {
+    return {v.x, cos_c * v.y + sin_c * v.z, -sin_c * v.y + cos_c * v.z};
+  }
+  // d(R1, f) where the wheel point moves by w_k and its normal N0 by n0_k
+  // (by u_w, phi_w or a wheel profile parameter): q_k = M w_k.
+  Eigen::Vector4d MovingWheelPoint(const Vec3<double>& w_k,
+                                   const Vec3<double>& n0_k) const {
+    const WheelRotation::Parts pw_k = m.Of(w_k);
+    const Vec3<double> q_k = m.M(pw_k);
+    const Vec3<double> velocity_k = WheelVelocity(
+        rate, q_k, m.DA(pw_k), AboutY(q_k), /*translations=*/false);
+    const Vec3<double> r1_k = RotC(q_k);
+    return {r1_k.x,
+            r1_k.y,
+            r1_k.z,
+            Dot(m.M(m.Of(n0_k)), velocity) + Dot(normal, velocity_k)};
+  }
+  // d(R1, f) where A and B turn by a_turn and b_turn, the rates held.
+  Eigen::Vector4d Turning(double a_turn, double b_turn) const {
+    const Vec3<double> q_t = m.AlongRoll(pw, m_w, a_turn, b_turn);
+    const Vec3<double> velocity_t = WheelVelocity(
+        rate, q_t, m.DAAlongRoll(pw, a_turn, b_turn), AboutY(q_t), false);
+    const Vec3<double> normal_t = m.AlongRoll(pn, normal, a_turn, b_turn);
+    const Vec3<double> r1_t = RotC(q_t);
+    return {r1_t.x,
+            r1_t.y,
+            r1_t.z,
+            Dot(normal_t, velocity) + Dot(normal, velocity_t)};
+  }
+
+  const double* rate;
+  WheelRotation m;
+  double cos_c, sin_c;
+  double du = 0.0, delta = 0.0, delta_u = 0.0;
+  double rho = 0.0, rho_u = 0.0, h = 0.0, h_u = 0.0;
+  double sin_phi = 0.0, cos_phi = 1.0, mz = 1.0;
+  Vec3<double> w_u, w_phi, n0_u, n0_phi;
+  WheelRotation::Parts pw, pn;
+  Vec3<double> m_w, dm_da_w, dm_db_w, normal, q, velocity, r1;
+  double f = 0.0;
+};
+
+// R1 and f of WheelChain (the profile held) with their partial
 // derivatives by u_w, phi_w and phi1 written out (columns 0, 1, 2 of
 // `derivatives`; rows R1_x, R1_y, R1_z, f). The Newton of every contact
-// evaluates this; Jets of three carried it at 2.1 times the cost (the
-// correction's profile on the robustness benchmark; BENCHMARKS.md, "The
-// contact system's derivatives written out").
+// evaluates this.
 void SurfaceWithDerivatives(const MachineSettings& settings,
                             const ChainConstants& c,
-                            const Profile<double>& wheel,
+                            const Profile& wheel,
                             double u,
                             double phi_w,
                             double roll,
@@ -349,96 +283,41 @@ void SurfaceWithDerivatives(const MachineSettings& settings,
                             Eigen::Matrix<double, 4, 3>* derivatives) {
   double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
   AxisStateAndAcceleration(settings, roll, value, rate, acceleration);
-
-  // The profile (LocalSurface) and its u-derivatives.
-  const double du = u - wheel.vertex;
-  const double delta = wheel.parabola * du * du;
-  const double delta_u = 2.0 * wheel.parabola * du;
-  const double delta_uu = 2.0 * wheel.parabola;
-  const double rho =
-      c.wheel_radius_mm - u * wheel.cos_cone - delta * wheel.sin_cone;
-  const double rho_u = -wheel.cos_cone - delta_u * wheel.sin_cone;
-  const double rho_uu = -delta_uu * wheel.sin_cone;
-  const double h = -u * wheel.sin_cone + delta * wheel.cos_cone;
-  const double h_u = -wheel.sin_cone + delta_u * wheel.cos_cone;
-  const double h_uu = delta_uu * wheel.cos_cone;
-  const double sin_phi = std::sin(phi_w);
-  const double cos_phi = std::cos(phi_w);
-
-  // w, dw/du_w, dw/dphi_w; the wheel normal N0 = w_u x w_phi = rho (F_z h_u
-  // sin phi, F_z h_u cos phi, -rho_u) and its derivatives.
-  const double mz = c.mirror_z;
-  const Vec3<double> w{
-      rho * sin_phi + c.offset_x_mm, rho * cos_phi, mz * (h + c.offset_z_mm)};
-  const Vec3<double> w_u{rho_u * sin_phi, rho_u * cos_phi, mz * h_u};
-  const Vec3<double> w_phi{rho * cos_phi, -rho * sin_phi, 0.0};
-  const Vec3<double> n0{
-      rho * mz * h_u * sin_phi, rho * mz * h_u * cos_phi, -rho * rho_u};
-  const Vec3<double> n0_u{mz * (rho_u * h_u + rho * h_uu) * sin_phi,
-                          mz * (rho_u * h_u + rho * h_uu) * cos_phi,
-                          -(rho_u * rho_u + rho * rho_uu)};
-  const Vec3<double> n0_phi{
-      rho * mz * h_u * cos_phi, -rho * mz * h_u * sin_phi, 0.0};
-
-  const WheelRotation m{std::cos(value[3]),
-                        std::sin(value[3]),
-                        std::cos(value[4]),
-                        std::sin(value[4])};
-  const WheelRotation::Parts pw = m.Of(w), pw_u = m.Of(w_u),
-                             pw_phi = m.Of(w_phi), pn = m.Of(n0);
-  const Vec3<double> m_w = m.M(pw);
-  const Vec3<double> dm_da_w = m.DA(pw);
-  const Vec3<double> dm_db_w = AboutY(m_w);
-  const Vec3<double> normal = m.M(pn);
-
-  // D = diag(-1, 1, -1): q = D p + M w.
-  const Vec3<double> q{-value[0] + m_w.x, value[1] + m_w.y, -value[2] + m_w.z};
-  const Vec3<double> velocity =
-      WheelVelocity(rate, q, dm_da_w, dm_db_w, /*translations=*/true);
-  *f = Dot(normal, velocity);
-  const double cos_c = std::cos(value[5]);
-  const double sin_c = std::sin(value[5]);
-  const auto rot_c = [&](const Vec3<double>& v) {
-    return Vec3<double>{
-        v.x, cos_c * v.y + sin_c * v.z, -sin_c * v.y + cos_c * v.z};
-  };
-  *r1 = rot_c(q);
-
-  // By u_w and phi_w only the wheel point and its normal move: q_k = M w_k.
-  const auto wheel_column =
-      [&](int k, const WheelRotation::Parts& pw_k, const Vec3<double>& n0_k) {
-        const Vec3<double> q_k = m.M(pw_k);
-        const Vec3<double> velocity_k = WheelVelocity(
-            rate, q_k, m.DA(pw_k), AboutY(q_k), /*translations=*/false);
-        const Vec3<double> r1_k = rot_c(q_k);
-        derivatives->col(k) << r1_k.x, r1_k.y, r1_k.z,
-            Dot(m.M(m.Of(n0_k)), velocity) + Dot(normal, velocity_k);
-      };
-  wheel_column(0, pw_u, n0_u);
-  wheel_column(1, pw_phi, n0_phi);
+  const WheelChain chain(c, wheel, u, phi_w, value, rate);
+  *r1 = chain.r1;
+  *f = chain.f;
+  derivatives->col(0) = chain.MovingWheelPoint(chain.w_u, chain.n0_u);
+  derivatives->col(1) = chain.MovingWheelPoint(chain.w_phi, chain.n0_phi);
 
   // By phi1 the axes move: A, B at their rates turn M; X, Y, Z, C and the
   // rates themselves change (the accelerations).
-  const Vec3<double> m_w_roll = m.AlongRoll(pw, m_w, rate[3], rate[4]);
+  const WheelRotation& m = chain.m;
+  const Vec3<double> m_w_roll =
+      m.AlongRoll(chain.pw, chain.m_w, rate[3], rate[4]);
   const Vec3<double> q_roll{
       -rate[0] + m_w_roll.x, rate[1] + m_w_roll.y, -rate[2] + m_w_roll.z};
-  const Vec3<double> dm_da_w_roll = m.DAAlongRoll(pw, rate[3], rate[4]);
+  const Vec3<double> dm_da_w_roll = m.DAAlongRoll(chain.pw, rate[3], rate[4]);
   const Vec3<double> velocity_roll =
       WheelVelocity(rate, q_roll, dm_da_w_roll, AboutY(m_w_roll), false) +
-      WheelVelocity(acceleration, q, dm_da_w, dm_db_w, /*translations=*/true);
-  const Vec3<double> normal_roll = m.AlongRoll(pn, normal, rate[3], rate[4]);
+      WheelVelocity(acceleration,
+                    chain.q,
+                    chain.dm_da_w,
+                    chain.dm_db_w,
+                    /*translations=*/true);
+  const Vec3<double> normal_roll =
+      m.AlongRoll(chain.pn, chain.normal, rate[3], rate[4]);
   // d/dC Rot_x(-C) q = (0, R1_z, -R1_y).
   const Vec3<double> r1_roll =
-      rot_c(q_roll) + Vec3<double>{0.0, rate[5] * r1->z, -rate[5] * r1->y};
+      chain.RotC(q_roll) + Vec3<double>{0.0, rate[5] * r1->z, -rate[5] * r1->y};
   derivatives->col(2) << r1_roll.x, r1_roll.y, r1_roll.z,
-      Dot(normal_roll, velocity) + Dot(normal, velocity_roll);
+      Dot(normal_roll, chain.velocity) + Dot(chain.normal, velocity_roll);
 }
 
 // The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its
 // Jacobian.
 void SystemAndJacobian(const MachineSettings& settings,
                        const ChainConstants& c,
-                       const Profile<double>& wheel,
+                       const Profile& wheel,
                        const FlankGridPoint& point,
                        const Eigen::Vector4d& x,
                        Eigen::Vector4d* g,
@@ -457,59 +336,74 @@ void SystemAndJacobian(const MachineSettings& settings,
   jacobian->col(3) << -point.normal, 0.0;
 }
 
-// d(R1, f) / d(the 17 local variables) at a contact: Jets of the 8 that enter
-// non-linearly; the columns of X, Y, Z and of the six rates from LocalTerms
-// (q = D [X, Y, Z] + M w, so dq/dX = -e_x, dq/dY = e_y, dq/dZ = -e_z; f =
-// N . v with v linear in the rates and in q through -C' e_x x q).
+// d(R1, f) / d(the 17 local variables) at a contact, written out (WheelChain):
+// u_w, phi_w and the wheel profile move the wheel point and its normal; A and
+// B turn M; C turns R1 alone; X, Y, Z and the six rates enter linearly (q = D
+// [X, Y, Z] + M w, so dq/dX = -e_x, dq/dY = e_y, dq/dZ = -e_z; f = N . v with
+// v linear in the rates and in q through -C' e_x x q).
 Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
     const WheelProfile& profile,
     const ChainConstants& c,
     const EnvelopeContact& contact,
     const double* value_d,
     const double* rate_d) {
-  using JetN = ceres::Jet<double, kNumJet>;
-  const JetN u(contact.wheel_u_mm, kJetU);
-  const JetN phi_w(contact.wheel_phi_rad, kJetPhiW);
-  JetN value[kNumAxes], rate[kNumAxes];
-  for (int i = 0; i < kNumAxes; ++i) {
-    value[i] =
-        i < 3 ? JetN(value_d[i]) : JetN(value_d[i], kJetRotation + i - 3);
-    rate[i] = JetN(rate_d[i]);
-  }
-  const Profile<JetN> wheel =
-      MakeProfile(JetN(profile.cone_angle_rad, kJetWheel),
-                  JetN(profile.parabola_coefficient_per_mm, kJetWheel + 1),
-                  JetN(profile.parabola_vertex_mm, kJetWheel + 2));
-  Vec3<JetN> r1;
-  JetN f;
-  LocalTerms t;
-  LocalSurface(u, phi_w, value, rate, wheel, c, &r1, &f, &t);
-  const JetN* rows[4] = {&r1.x, &r1.y, &r1.z, &f};
+  const Profile wheel = MakeProfile(profile);
+  const WheelChain chain(
+      c, wheel, contact.wheel_u_mm, contact.wheel_phi_rad, value_d, rate_d);
   Eigen::Matrix<double, 4, kNumLocal> local;
   local.setZero();
-  for (int r = 0; r < 4; ++r) {
-    local(r, kLocalU) = rows[r]->v(kJetU);
-    local(r, kLocalPhiW) = rows[r]->v(kJetPhiW);
-    for (int i = 0; i < 3; ++i) {
-      local(r, kLocalValue + 3 + i) = rows[r]->v(kJetRotation + i);
-      local(r, kLocalWheel + i) = rows[r]->v(kJetWheel + i);
-    }
-  }
-  const Vec3<double>& n = t.normal_f;
+  local.col(kLocalU) = chain.MovingWheelPoint(chain.w_u, chain.n0_u);
+  local.col(kLocalPhiW) = chain.MovingWheelPoint(chain.w_phi, chain.n0_phi);
+  local.col(kLocalValue + 3) = chain.Turning(1.0, 0.0);
+  local.col(kLocalValue + 4) = chain.Turning(0.0, 1.0);
+  // d/dC Rot_x(-C) q = (0, R1_z, -R1_y); f does not see C itself.
+  local.col(kLocalValue + 5) << 0.0, chain.r1.z, -chain.r1.y, 0.0;
+
+  // The profile: rho, h and their u-derivatives change by (rho_p, h_p,
+  // rho_u_p, h_u_p); the normal rho (F_z h_u sin phi, F_z h_u cos phi, -rho_u)
+  // by the product rule.
+  const auto profile_column =
+      [&](double rho_p, double h_p, double rho_u_p, double h_u_p) {
+        const Vec3<double> w_p{
+            rho_p * chain.sin_phi, rho_p * chain.cos_phi, chain.mz * h_p};
+        return chain.MovingWheelPoint(
+            w_p,
+            chain.NormalFor(rho_p, chain.rho_u, chain.h_u) +
+                chain.NormalFor(chain.rho, rho_u_p, h_u_p));
+      };
+  const double sin_cone = wheel.sin_cone, cos_cone = wheel.cos_cone;
+  const double du = chain.du, parabola = wheel.parabola;
+  // Cone angle: d rho = -h, d h = rho - R_w, d rho_u = -h_u, d h_u = rho_u.
+  local.col(kLocalWheel + 0) = profile_column(
+      -chain.h, chain.rho - c.wheel_radius_mm, -chain.h_u, chain.rho_u);
+  // Parabola coefficient a_w: d delta = du^2, d delta_u = 2 du.
+  local.col(kLocalWheel + 1) = profile_column(-du * du * sin_cone,
+                                              du * du * cos_cone,
+                                              -2.0 * du * sin_cone,
+                                              2.0 * du * cos_cone);
+  // Vertex d_w: d delta = -2 a_w du, d delta_u = -2 a_w.
+  local.col(kLocalWheel + 2) = profile_column(2.0 * parabola * du * sin_cone,
+                                              -2.0 * parabola * du * cos_cone,
+                                              2.0 * parabola * sin_cone,
+                                              -2.0 * parabola * cos_cone);
+
+  const Vec3<double>& n = chain.normal;
   // R1 = Rot_x(-C) q: dR1/dX = (-1, 0, 0), dR1/dY = (0, cos C, -sin C),
   // dR1/dZ = (0, -sin C, -cos C). f through q: dv/dY = (0, 0, -C'), dv/dZ =
   // (0, -C', 0).
   local.col(kLocalValue + 0) << -1.0, 0.0, 0.0, 0.0;
-  local.col(kLocalValue + 1) << 0.0, t.cos_c, -t.sin_c, -rate_d[5] * n.z;
-  local.col(kLocalValue + 2) << 0.0, -t.sin_c, -t.cos_c, -rate_d[5] * n.y;
+  local.col(kLocalValue + 1) << 0.0, chain.cos_c, -chain.sin_c,
+      -rate_d[5] * n.z;
+  local.col(kLocalValue + 2) << 0.0, -chain.sin_c, -chain.cos_c,
+      -rate_d[5] * n.y;
   // f = N . v, v = (-X' + A' dM/dA w_x + B' dM/dB w_x, C' q_z + Y' + ...,
   // -C' q_y - Z' + ...); R1 does not depend on the rates.
   local(3, kLocalRate + 0) = -n.x;
   local(3, kLocalRate + 1) = n.y;
   local(3, kLocalRate + 2) = -n.z;
-  local(3, kLocalRate + 3) = Dot(n, t.dm_da_w);
-  local(3, kLocalRate + 4) = Dot(n, t.dm_db_w);
-  local(3, kLocalRate + 5) = n.y * t.q.z - n.z * t.q.y;
+  local(3, kLocalRate + 3) = Dot(n, chain.dm_da_w);
+  local(3, kLocalRate + 4) = Dot(n, chain.dm_db_w);
+  local(3, kLocalRate + 5) = n.y * chain.q.z - n.z * chain.q.y;
   return local;
 }
 
@@ -529,7 +423,7 @@ double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
 // normal n_w = M(A0, B0) F e_z in the y-z plane (for the first guesses).
 struct ContactFrame {
   ChainConstants c;
-  Profile<double> wheel;
+  Profile wheel;
   double pitch_radius_mm = 0.0;
   double wheel_normal_angle_rad = 0.0;  // atan2(n_w.z, n_w.y)
 };
@@ -542,15 +436,8 @@ ContactFrame MakeContactFrame(const GrindingSetup& setup,
   frame.pitch_radius_mm = setup.gear.PitchRadiusMm();
   const double a0 = settings.axes[static_cast<int>(Axis::kA)][0];
   const double b0 = settings.axes[static_cast<int>(Axis::kB)][0];
-  Vec3<double> n_w;
-  RotateWheel<double>(Vec3<double>{0.0, 0.0, frame.c.mirror_z},
-                      std::cos(a0),
-                      std::sin(a0),
-                      std::cos(b0),
-                      std::sin(b0),
-                      &n_w,
-                      nullptr,
-                      nullptr);
+  const WheelRotation m{std::cos(a0), std::sin(a0), std::cos(b0), std::sin(b0)};
+  const Vec3<double> n_w = m.M(m.Of(Vec3<double>{0.0, 0.0, frame.c.mirror_z}));
   frame.wheel_normal_angle_rad = std::atan2(n_w.z, n_w.y);
   return frame;
 }
@@ -568,8 +455,8 @@ EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
   double roll =
       WrapAngle(frame.wheel_normal_angle_rad - std::atan2(n.z(), n.y()));
   {
-    double value[kNumAxes], rate[kNumAxes];
-    AxisState(settings, roll, value, rate);
+    double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
+    AxisStateAndAcceleration(settings, roll, value, rate, acceleration);
     // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
     const double cc = std::cos(value[5]), sc = std::sin(value[5]);
     const Eigen::Vector3d& p = point.position_mm;
@@ -831,20 +718,16 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                                                double wheel_phi_rad,
                                                double roll_rad,
                                                double* meshing) const {
-  double value[kNumAxes], rate[kNumAxes];
-  AxisState(settings, roll_rad, value, rate);
-  Vec3<double> r1;
-  double f = 0.0;
-  LocalSurface(wheel_u_mm,
-               wheel_phi_rad,
-               value,
-               rate,
-               MakeProfile(settings.wheel),
-               MakeChainConstants(setup_),
-               &r1,
-               &f);
-  if (meshing != nullptr) *meshing = f;
-  return Eigen::Vector3d(r1.x, r1.y, r1.z);
+  double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
+  AxisStateAndAcceleration(settings, roll_rad, value, rate, acceleration);
+  const WheelChain chain(MakeChainConstants(setup_),
+                         MakeProfile(settings.wheel),
+                         wheel_u_mm,
+                         wheel_phi_rad,
+                         value,
+                         rate);
+  if (meshing != nullptr) *meshing = chain.f;
+  return Eigen::Vector3d(chain.r1.x, chain.r1.y, chain.r1.z);
 }
 
 Eigen::Matrix<double, 4, 3> FlatWheelGrinder::SurfaceDerivatives(
@@ -905,18 +788,10 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
                                      const EnvelopeContact& contact) const {
   const ChainConstants c = MakeChainConstants(setup_);
   const double roll = contact.roll_rad;
-  double value_d[kNumAxes], rate_d[kNumAxes];
-  AxisState(settings, roll, value_d, rate_d);
-  // Second derivatives of the axes d^2 C_i / d phi1^2 for the phi1 column of
-  // the system.
-  double accel_d[kNumAxes];
-  for (int i = 0; i < kNumAxes; ++i) {
-    const auto& a = settings.axes[i];
-    double acc = 0.0;
-    for (int k = kAxisPolynomialDegree; k >= 2; --k)
-      acc = acc * roll + double(k) * (k - 1) * a[k];
-    accel_d[i] = acc;
-  }
+  // The axes' accelerations d^2 C_i / d phi1^2 for the phi1 column of the
+  // system.
+  double value_d[kNumAxes], rate_d[kNumAxes], accel_d[kNumAxes];
+  AxisStateAndAcceleration(settings, roll, value_d, rate_d, accel_d);
   const Eigen::Matrix<double, 4, kNumLocal> local =
       LocalDerivatives(settings.wheel, c, contact, value_d, rate_d);
 

@@ -109,6 +109,32 @@ TEST(FlatWheelGrinder, ContactSatisfiesMeshingEquationAndLiesOnTheFlank) {
   }
 }
 
+// The right-hand gear with machine constants and a traversing wheel, so that
+// no term of the chain is idle.
+GrindingSetup EveryTermSetup(Flank flank) {
+  GrindingSetup setup = RightHandSetup(flank);
+  setup.machine.k1_mm = 85.0;
+  setup.machine.k2_mm = 30.0;
+  setup.machine.traverse_mm_per_rad = -8.0;
+  return setup;
+}
+
+// The grinder's nominal settings with every axis coefficient moved by up to
+// `linear` (X, Y, Z) or `angular` (A, B, C) per power of the roll (seeded).
+Eigen::VectorXd MovedAxes(const FlatWheelGrinder& grinder,
+                          unsigned seed,
+                          double linear,
+                          double angular) {
+  Eigen::VectorXd zeta = grinder.nominal().ToVector();
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int j = 0; j < kNumAxisCoefficients; ++j) {
+    const int axis = j / kCoefficientsPerAxis;
+    zeta(j) += unit(rng) * (axis < 3 ? linear : angular);
+  }
+  return zeta;
+}
+
 // The contact Newton's derivatives of (R1, f) by u_w, phi_w and phi1, written
 // out by hand (SurfaceDerivatives), against five-point central differences of
 // SurfacePoint, with every term of the chain at work: machine constants, a
@@ -121,18 +147,8 @@ constexpr double kSurfaceDerivativeRelTol = 1e-6;
 TEST(FlatWheelGrinder, SurfaceDerivativesMatchCentralDifferences) {
   for (Flank flank : {Flank::kRight, Flank::kLeft}) {
     SCOPED_TRACE(flank == Flank::kRight ? "right" : "left");
-    GrindingSetup setup = RightHandSetup(flank);
-    setup.machine.k1_mm = 85.0;
-    setup.machine.k2_mm = 30.0;
-    setup.machine.traverse_mm_per_rad = -8.0;
-    const FlatWheelGrinder grinder(setup);
-    Eigen::VectorXd zeta = grinder.nominal().ToVector();
-    std::mt19937_64 rng(20261130);
-    std::uniform_real_distribution<double> unit(-1.0, 1.0);
-    for (int j = 0; j < kNumAxisCoefficients; ++j) {
-      const int axis = j / kCoefficientsPerAxis;
-      zeta(j) += unit(rng) * (axis < 3 ? 0.5 : 0.02);
-    }
+    const FlatWheelGrinder grinder(EveryTermSetup(flank));
+    Eigen::VectorXd zeta = MovedAxes(grinder, 20261130, 0.5, 0.02);
     zeta(kConeAngleIndex) = Deg(0.5);
     zeta(kParabolaCoefficientIndex) = 3e-4;
     zeta(kParabolaVertexIndex) = 3.0;
@@ -391,18 +407,8 @@ TEST(FlatWheelGrinder, SensitivityMatchesCentralDifferencesAwayFromNominal) {
   // constants and a traversing wheel, so that no term of the chain is idle.
   for (Flank flank : {Flank::kRight, Flank::kLeft}) {
     SCOPED_TRACE(flank == Flank::kRight ? "right" : "left");
-    GrindingSetup setup = RightHandSetup(flank);
-    setup.machine.k1_mm = 85.0;
-    setup.machine.k2_mm = 30.0;
-    setup.machine.traverse_mm_per_rad = -8.0;
-    const FlatWheelGrinder grinder(setup);
-    Eigen::VectorXd zeta = grinder.nominal().ToVector();
-    std::mt19937_64 rng(20261122);
-    std::uniform_real_distribution<double> unit(-1.0, 1.0);
-    for (int j = 0; j < kNumAxisCoefficients; ++j) {
-      const int axis = j / kCoefficientsPerAxis;
-      zeta(j) += unit(rng) * (axis < 3 ? 5e-3 : 5e-5);
-    }
+    const FlatWheelGrinder grinder(EveryTermSetup(flank));
+    Eigen::VectorXd zeta = MovedAxes(grinder, 20261122, 5e-3, 5e-5);
     zeta(kConeAngleIndex) = Deg(0.02);
     zeta(kParabolaCoefficientIndex) = 3e-5;
     zeta(kParabolaVertexIndex) = 3.0;
