@@ -964,19 +964,10 @@ TEST(ReportProblem, TellsScatterFromASmoothShapeByNeighbours) {
   const LinearModel model(5);
   const int n = model.NumPoints();
   const auto ratio = [&](const Eigen::VectorXd& measured) {
-    CorrectionInput input;
-    input.model = &model;
-    input.current_parameters = Eigen::VectorXd::Zero(5);
-    input.target_um = Eigen::VectorXd::Zero(n);
+    CorrectionInput input = PartGroundWith(model, Eigen::VectorXd::Zero(5));
     input.measured_um = measured;
-    CorrectionOptions options;
-    CorrectionProblem problem;
     CorrectionSummary summary;
-    std::string error;
-    EXPECT_TRUE(
-        PrepareCorrectionProblem(options, input, &problem, &summary, &error))
-        << error;
-    ReportProblem(problem, &summary);
+    ReportProblem(PreparedProblem(CorrectionOptions(), input), &summary);
     return summary.error_neighbour_ratio;
   };
   for (unsigned seed : {1u, 2u, 3u}) {
