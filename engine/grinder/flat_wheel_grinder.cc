@@ -186,8 +186,8 @@ struct WheelChain {
         cos_c(std::cos(value[5])),
         sin_c(std::sin(value[5])) {
     du = u - wheel.vertex;
-    delta = wheel.parabola * du * du;
-    delta_u = 2.0 * wheel.parabola * du;
+    const double delta = wheel.parabola * du * du;
+    const double delta_u = 2.0 * wheel.parabola * du;
     const double delta_uu = 2.0 * wheel.parabola;
     rho = c.wheel_radius_mm - u * wheel.cos_cone - delta * wheel.sin_cone;
     rho_u = -wheel.cos_cone - delta_u * wheel.sin_cone;
@@ -243,6 +243,42 @@ struct WheelChain {
             r1_k.z,
             Dot(m.M(m.Of(n0_k)), velocity) + Dot(normal, velocity_k)};
   }
+  // d(R1, f) where X, Y and Z move by x_d, y_d, z_d (q = D [X, Y, Z] + M w,
+  // D = diag(-1, 1, -1)): R1 = Rot_x(-C) q, and f through the -C' e_x x q of
+  // v = (..., C' q_z + ..., -C' q_y + ...).
+  Eigen::Vector4d Translating(double x_d, double y_d, double z_d) const {
+    const Vec3<double> r1_d = RotC({-x_d, y_d, -z_d});
+    return {
+        r1_d.x, r1_d.y, r1_d.z, -rate[5] * (normal.y * z_d + normal.z * y_d)};
+  }
+  // d(R1, f) where C turns by c_d: d/dC Rot_x(-C) q = (0, R1_z, -R1_y); f
+  // does not see C itself.
+  Eigen::Vector4d TurningC(double c_d) const {
+    return {0.0, c_d * r1.z, -c_d * r1.y, 0.0};
+  }
+  // d(R1, f) where the six rates move by rate_d: R1 does not see them, f =
+  // N . v with v linear in them.
+  Eigen::Vector4d RatesMoving(const double* rate_d) const {
+    return {0.0,
+            0.0,
+            0.0,
+            Dot(normal,
+                WheelVelocity(rate_d,
+                              q,
+                              dm_da_w,
+                              dm_db_w,
+                              /*translations=*/true))};
+  }
+  // d(R1, f) where the axes' values move by value_d and their rates by
+  // rate_d, the wheel point held: the local derivatives by the twelve axis
+  // variables in one. Along the roll (value_d the rates, rate_d the
+  // accelerations) this is d(R1, f)/dphi1.
+  Eigen::Vector4d AxesMoving(const double* value_d,
+                             const double* rate_d) const {
+    return Translating(value_d[0], value_d[1], value_d[2]) +
+           Turning(value_d[3], value_d[4]) + TurningC(value_d[5]) +
+           RatesMoving(rate_d);
+  }
   // d(R1, f) where A and B turn by a_turn and b_turn, the rates held.
   Eigen::Vector4d Turning(double a_turn, double b_turn) const {
     const Vec3<double> q_t = m.AlongRoll(pw, m_w, a_turn, b_turn);
@@ -259,7 +295,7 @@ struct WheelChain {
   const double* rate;
   WheelRotation m;
   double cos_c, sin_c;
-  double du = 0.0, delta = 0.0, delta_u = 0.0;
+  double du = 0.0;
   double rho = 0.0, rho_u = 0.0, h = 0.0, h_u = 0.0;
   double sin_phi = 0.0, cos_phi = 1.0, mz = 1.0;
   Vec3<double> w_u, w_phi, n0_u, n0_phi;
@@ -289,28 +325,9 @@ void SurfaceWithDerivatives(const MachineSettings& settings,
   derivatives->col(0) = chain.MovingWheelPoint(chain.w_u, chain.n0_u);
   derivatives->col(1) = chain.MovingWheelPoint(chain.w_phi, chain.n0_phi);
 
-  // By phi1 the axes move: A, B at their rates turn M; X, Y, Z, C and the
-  // rates themselves change (the accelerations).
-  const WheelRotation& m = chain.m;
-  const Vec3<double> m_w_roll =
-      m.AlongRoll(chain.pw, chain.m_w, rate[3], rate[4]);
-  const Vec3<double> q_roll{
-      -rate[0] + m_w_roll.x, rate[1] + m_w_roll.y, -rate[2] + m_w_roll.z};
-  const Vec3<double> dm_da_w_roll = m.DAAlongRoll(chain.pw, rate[3], rate[4]);
-  const Vec3<double> velocity_roll =
-      WheelVelocity(rate, q_roll, dm_da_w_roll, AboutY(m_w_roll), false) +
-      WheelVelocity(acceleration,
-                    chain.q,
-                    chain.dm_da_w,
-                    chain.dm_db_w,
-                    /*translations=*/true);
-  const Vec3<double> normal_roll =
-      m.AlongRoll(chain.pn, chain.normal, rate[3], rate[4]);
-  // d/dC Rot_x(-C) q = (0, R1_z, -R1_y).
-  const Vec3<double> r1_roll =
-      chain.RotC(q_roll) + Vec3<double>{0.0, rate[5] * r1->z, -rate[5] * r1->y};
-  derivatives->col(2) << r1_roll.x, r1_roll.y, r1_roll.z,
-      Dot(normal_roll, chain.velocity) + Dot(chain.normal, velocity_roll);
+  // By phi1 the axes move at their rates, and the rates at the
+  // accelerations.
+  derivatives->col(2) = chain.AxesMoving(rate, acceleration);
 }
 
 // The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its
@@ -340,24 +357,36 @@ void SystemAndJacobian(const MachineSettings& settings,
 // u_w, phi_w and the wheel profile move the wheel point and its normal; A and
 // B turn M; C turns R1 alone; X, Y, Z and the six rates enter linearly (q = D
 // [X, Y, Z] + M w, so dq/dX = -e_x, dq/dY = e_y, dq/dZ = -e_z; f = N . v with
-// v linear in the rates and in q through -C' e_x x q).
+// v linear in the rates and in q through -C' e_x x q). `along_roll` gets
+// d(R1, f)/dphi1 as the contact Newton's Jacobian has it (the axes at their
+// rates `rate_d`, the rates at the accelerations `accel_d`).
 Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
     const WheelProfile& profile,
     const ChainConstants& c,
     const EnvelopeContact& contact,
     const double* value_d,
-    const double* rate_d) {
+    const double* rate_d,
+    const double* accel_d,
+    Eigen::Vector4d* along_roll) {
   const Profile wheel = MakeProfile(profile);
   const WheelChain chain(
       c, wheel, contact.wheel_u_mm, contact.wheel_phi_rad, value_d, rate_d);
+  *along_roll = chain.AxesMoving(rate_d, accel_d);
   Eigen::Matrix<double, 4, kNumLocal> local;
   local.setZero();
   local.col(kLocalU) = chain.MovingWheelPoint(chain.w_u, chain.n0_u);
   local.col(kLocalPhiW) = chain.MovingWheelPoint(chain.w_phi, chain.n0_phi);
+  local.col(kLocalValue + 0) = chain.Translating(1.0, 0.0, 0.0);
+  local.col(kLocalValue + 1) = chain.Translating(0.0, 1.0, 0.0);
+  local.col(kLocalValue + 2) = chain.Translating(0.0, 0.0, 1.0);
   local.col(kLocalValue + 3) = chain.Turning(1.0, 0.0);
   local.col(kLocalValue + 4) = chain.Turning(0.0, 1.0);
-  // d/dC Rot_x(-C) q = (0, R1_z, -R1_y); f does not see C itself.
-  local.col(kLocalValue + 5) << 0.0, chain.r1.z, -chain.r1.y, 0.0;
+  local.col(kLocalValue + 5) = chain.TurningC(1.0);
+  for (int i = 0; i < kNumAxes; ++i) {
+    double unit[kNumAxes] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    unit[i] = 1.0;
+    local.col(kLocalRate + i) = chain.RatesMoving(unit);
+  }
 
   // The profile: rho, h and their u-derivatives change by (rho_p, h_p,
   // rho_u_p, h_u_p); the normal rho (F_z h_u sin phi, F_z h_u cos phi, -rho_u)
@@ -387,23 +416,6 @@ Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
                                               2.0 * parabola * sin_cone,
                                               -2.0 * parabola * cos_cone);
 
-  const Vec3<double>& n = chain.normal;
-  // R1 = Rot_x(-C) q: dR1/dX = (-1, 0, 0), dR1/dY = (0, cos C, -sin C),
-  // dR1/dZ = (0, -sin C, -cos C). f through q: dv/dY = (0, 0, -C'), dv/dZ =
-  // (0, -C', 0).
-  local.col(kLocalValue + 0) << -1.0, 0.0, 0.0, 0.0;
-  local.col(kLocalValue + 1) << 0.0, chain.cos_c, -chain.sin_c,
-      -rate_d[5] * n.z;
-  local.col(kLocalValue + 2) << 0.0, -chain.sin_c, -chain.cos_c,
-      -rate_d[5] * n.y;
-  // f = N . v, v = (-X' + A' dM/dA w_x + B' dM/dB w_x, C' q_z + Y' + ...,
-  // -C' q_y - Z' + ...); R1 does not depend on the rates.
-  local(3, kLocalRate + 0) = -n.x;
-  local(3, kLocalRate + 1) = n.y;
-  local(3, kLocalRate + 2) = -n.z;
-  local(3, kLocalRate + 3) = Dot(n, chain.dm_da_w);
-  local(3, kLocalRate + 4) = Dot(n, chain.dm_db_w);
-  local(3, kLocalRate + 5) = n.y * chain.q.z - n.z * chain.q.y;
   return local;
 }
 
@@ -792,18 +804,15 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
   // system.
   double value_d[kNumAxes], rate_d[kNumAxes], accel_d[kNumAxes];
   AxisStateAndAcceleration(settings, roll, value_d, rate_d, accel_d);
-  const Eigen::Matrix<double, 4, kNumLocal> local =
-      LocalDerivatives(settings.wheel, c, contact, value_d, rate_d);
+  Eigen::Vector4d along_roll;
+  const Eigen::Matrix<double, 4, kNumLocal> local = LocalDerivatives(
+      settings.wheel, c, contact, value_d, rate_d, accel_d, &along_roll);
 
   // d G / d(u_w, phi_w, phi1, lambda).
   Eigen::Matrix4d dg_dx;
   dg_dx.col(0) = local.col(kLocalU);
   dg_dx.col(1) = local.col(kLocalPhiW);
-  dg_dx.col(2).setZero();
-  for (int i = 0; i < kNumAxes; ++i) {
-    dg_dx.col(2) += local.col(kLocalValue + i) * rate_d[i] +
-                    local.col(kLocalRate + i) * accel_d[i];
-  }
+  dg_dx.col(2) = along_roll;
   dg_dx.col(3) << -point.normal, 0.0;
 
   // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta =
