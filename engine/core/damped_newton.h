@@ -153,6 +153,38 @@ inline Eigen::Vector4d NormalLineNewtonStep(
   return dx;
 }
 
+// The row of J^-1 that gives dlambda, for the same system as
+// NormalLineNewtonStep: y with J^T y = e_4, so that dlambda = -y . dG for a
+// change dG of the system (the implicit function theorem of a contact's
+// sensitivity). Column 3 of J, (-n, 0), asks n . y_r = -1 of y's first three
+// entries y_r; with y_r = -n / |n|^2 + T^T a (T the tangents) the columns 0-2
+// ask M^T (a, y_4) = J3^T n / |n|^2, M the 3 x 3 matrix of
+// NormalLineNewtonStep (rows T J3 and the meshing row), solved by its
+// cofactors: M^-1 = [c0 c1 c2] / det, so (a, y_4)_i = c_i . s / det. LU's
+// answer of the transposed 4 x 4 system to rounding; a singular M gives a
+// non-finite y.
+inline Eigen::Vector4d NormalLineLambdaRow(
+    const Eigen::Matrix4d& jacobian,
+    const Eigen::Vector3d& n,
+    const Eigen::Matrix<double, 2, 3>& tangents) {
+  const Eigen::Matrix3d j3 = jacobian.topLeftCorner<3, 3>();
+  Eigen::Matrix3d m;
+  m.topRows<2>() = tangents * j3;
+  m.row(2) = jacobian.block<1, 3>(3, 0);
+  const double n2 = n.squaredNorm();
+  const Eigen::Vector3d s = j3.transpose() * n / n2;
+  const Eigen::Vector3d c0 = m.row(1).cross(m.row(2));
+  const Eigen::Vector3d c1 = m.row(2).cross(m.row(0));
+  const Eigen::Vector3d c2 = m.row(0).cross(m.row(1));
+  const double inverse_det = 1.0 / m.row(0).dot(c0);
+  const double a0 = c0.dot(s) * inverse_det;
+  const double a1 = c1.dot(s) * inverse_det;
+  Eigen::Vector4d y;
+  y.head<3>() = -n / n2 + tangents.transpose() * Eigen::Vector2d(a0, a1);
+  y(3) = c2.dot(s) * inverse_det;
+  return y;
+}
+
 // Whether the step after two whole Newton steps of sizes `previous_mm` then
 // `step_mm` is predicted below a tenth of `tolerance_mm`: in the quadratic
 // regime each step is about K times the square of the one before, so K is

@@ -816,9 +816,10 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
   dg_dx.col(3) << -point.normal, 0.0;
 
   // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta =
-  // -y^T dG/dzeta with (dG/dx)^T y = e_4.
-  const Eigen::Vector4d y =
-      dg_dx.transpose().partialPivLu().solve(Eigen::Vector4d::UnitW());
+  // -y^T dG/dzeta with (dG/dx)^T y = e_4 (by the tangents, as the Newton's
+  // step).
+  const Eigen::Vector4d y = engine_internal::NormalLineLambdaRow(
+      dg_dx, point.normal, engine_internal::NormalLineTangents(point.normal));
   const Eigen::Matrix<double, 1, kNumLocal> y_local = -y.transpose() * local;
 
   Eigen::Matrix<double, 1, kNumGrinderParameters> sensitivity;

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
+#include <cstdint>
 #include <random>
 
 namespace gearloop {
@@ -63,23 +64,35 @@ TEST(SolveByPartialPivoting, SingularSystemGivesNonFiniteStep) {
 // of 100-2000 mm, the meshing row in its own units).
 constexpr double kNormalLineStepRelTol = 1e-10;
 
+// A random contact system on a normal line: unit normal n, the last column
+// (-n, 0), the columns scaled as the grinder's.
+struct RandomNormalLineSystem {
+  explicit RandomNormalLineSystem(std::uint64_t seed) : rng(seed) {}
+  void Next(Eigen::Vector3d* n, Eigen::Matrix4d* jacobian) {
+    *n = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 3; ++j) (*jacobian)(i, j) = unit(rng);
+    jacobian->col(1) *= radius_mm(rng);
+    jacobian->col(2) *= radius_mm(rng);
+    jacobian->row(3) *= std::ldexp(1.0, exponent(rng));
+    jacobian->block<3, 1>(0, 3) = -*n;
+    (*jacobian)(3, 3) = 0.0;
+  }
+  std::mt19937_64 rng;
+  std::uniform_real_distribution<double> unit{-1.0, 1.0};
+  std::uniform_real_distribution<double> radius_mm{100.0, 2000.0};
+  std::uniform_int_distribution<int> exponent{-6, 6};
+};
+
 TEST(NormalLineNewtonStep, SameStepAsPartialPivotingToRounding) {
-  std::mt19937_64 rng(20261129);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  std::uniform_real_distribution<double> radius_mm(100.0, 2000.0);
-  std::uniform_int_distribution<int> exponent(-6, 6);
+  RandomNormalLineSystem systems(20261129);
   double worst = 0.0;
   for (int trial = 0; trial < kNumRandomSystems; ++trial) {
-    const Eigen::Vector3d n =
-        Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+    Eigen::Vector3d n;
     Eigen::Matrix4d jacobian;
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 3; ++j) jacobian(i, j) = unit(rng);
-    jacobian.col(1) *= radius_mm(rng);
-    jacobian.col(2) *= radius_mm(rng);
-    jacobian.row(3) *= std::ldexp(1.0, exponent(rng));
-    jacobian.block<3, 1>(0, 3) = -n;
-    jacobian(3, 3) = 0.0;
+    systems.Next(&n, &jacobian);
+    auto& unit = systems.unit;
+    auto& rng = systems.rng;
     const Eigen::Vector4d g(unit(rng), unit(rng), unit(rng), unit(rng));
     const Eigen::Vector4d lu = SolveByPartialPivoting<4>(jacobian, -g);
     const Eigen::Vector4d ours =
@@ -100,6 +113,38 @@ TEST(NormalLineNewtonStep, SameStepAsPartialPivotingToRounding) {
     }
   }
   EXPECT_LT(worst, 1e-14);
+}
+
+// The row of J^-1 that gives dlambda: LU's solve of J^T y = e_4 to rounding,
+// on the same random systems.
+TEST(NormalLineNewtonStep, LambdaRowIsTheTransposedSolve) {
+  RandomNormalLineSystem systems(20261130);
+  for (int trial = 0; trial < kNumRandomSystems; ++trial) {
+    Eigen::Vector3d n;
+    Eigen::Matrix4d jacobian;
+    systems.Next(&n, &jacobian);
+    const Eigen::Vector4d lu =
+        jacobian.transpose().partialPivLu().solve(Eigen::Vector4d::UnitW());
+    const Eigen::Vector4d ours =
+        NormalLineLambdaRow(jacobian, n, NormalLineTangents(n));
+    ASSERT_TRUE(ours.allFinite()) << "trial " << trial;
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_NEAR(ours(i),
+                  lu(i),
+                  kNormalLineStepRelTol *
+                      (std::abs(lu(i)) + lu.cwiseAbs().maxCoeff() * 1e-3))
+          << "trial " << trial << " entry " << i;
+    }
+  }
+  // The singular system of the test below: no finite row.
+  const Eigen::Vector3d n(0.0, 0.0, 1.0);
+  Eigen::Matrix4d singular;
+  singular << 1.0, 2.0, 0.0, 0.0,  //
+      0.0, 1.0, 3.0, 0.0,          //
+      0.5, 0.5, 0.5, -1.0,         //
+      1.0, 3.0, 3.0, 0.0;
+  EXPECT_FALSE(
+      NormalLineLambdaRow(singular, n, NormalLineTangents(n)).allFinite());
 }
 
 TEST(NormalLineNewtonStep, TangentsAreOrthonormalAndNormalToN) {
