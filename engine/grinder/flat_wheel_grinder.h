@@ -139,7 +139,8 @@ class FlatWheelGrinder : public MachineModel {
                                const FlankGridPoint& point) const;
 
   // Exact d lambda / d zeta at a converged contact [mm per parameter unit], by
-  // the implicit function theorem on the 4 x 4 system (one factorisation).
+  // the implicit function theorem on the 4 x 4 system (its transposed solve
+  // by the normal line's tangents, engine_internal::NormalLineLambdaRow).
   Eigen::Matrix<double, 1, kNumGrinderParameters> ContactSensitivity(
       const MachineSettings& settings,
       const FlankGridPoint& point,
