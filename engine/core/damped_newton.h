@@ -158,7 +158,7 @@ inline Eigen::Vector4d NormalLineNewtonStep(
 // change dG of the system (the implicit function theorem of a contact's
 // sensitivity). Column 3 of J, (-n, 0), asks n . y_r = -1 of y's first three
 // entries y_r; with y_r = -n / |n|^2 + T^T a (T the tangents) the columns 0-2
-// ask M^T (a, y_4) = J3^T n / |n|^2, M the 3 x 3 matrix of
+// ask M^T (a, y_4) = s = J3^T n / |n|^2, M the 3 x 3 matrix of
 // NormalLineNewtonStep (rows T J3 and the meshing row), solved by its
 // cofactors: M^-1 = [c0 c1 c2] / det, so (a, y_4)_i = c_i . s / det. LU's
 // answer of the transposed 4 x 4 system to rounding; a singular M gives a
