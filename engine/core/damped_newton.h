@@ -130,26 +130,40 @@ inline Eigen::Matrix<double, 2, 3> NormalLineTangents(
 // grinder's contact: the 4 x 4 LU was 18 % of a correction's CPU on the
 // robustness benchmark, as much as its system). A singular M gives a
 // non-finite step, as the LU's zero pivot does.
+// What NormalLineNewtonStep and NormalLineLambdaRow share: J3 (J's top-left
+// 3 x 3), and the 3 x 3 M (rows T J3 and the meshing row J[3, 0:3]) by its
+// cofactors, M^-1 = [c0 c1 c2] / det.
+struct NormalLineCofactors {
+  NormalLineCofactors(const Eigen::Matrix4d& jacobian,
+                      const Eigen::Matrix<double, 2, 3>& tangents)
+      : j3(jacobian.topLeftCorner<3, 3>()) {
+    Eigen::Matrix3d m;
+    m.topRows<2>() = tangents * j3;
+    m.row(2) = jacobian.block<1, 3>(3, 0);
+    c0 = m.row(1).cross(m.row(2));
+    c1 = m.row(2).cross(m.row(0));
+    c2 = m.row(0).cross(m.row(1));
+    inverse_det = 1.0 / m.row(0).dot(c0);
+  }
+  Eigen::Matrix3d j3;
+  Eigen::Vector3d c0, c1, c2;
+  double inverse_det = 0.0;
+};
+
 inline Eigen::Vector4d NormalLineNewtonStep(
     const Eigen::Matrix4d& jacobian,
     const Eigen::Vector4d& g,
     const Eigen::Vector3d& n,
     const Eigen::Matrix<double, 2, 3>& tangents) {
-  const Eigen::Matrix3d j3 = jacobian.topLeftCorner<3, 3>();
+  const NormalLineCofactors m(jacobian, tangents);
   const Eigen::Vector3d g3 = g.head<3>();
-  Eigen::Matrix3d m;
-  m.topRows<2>() = tangents * j3;
-  m.row(2) = jacobian.block<1, 3>(3, 0);
   const Eigen::Vector2d tg = tangents * g3;
   const Eigen::Vector3d r(-tg(0), -tg(1), -g(3));
-  const Eigen::Vector3d c0 = m.row(1).cross(m.row(2));
-  const Eigen::Vector3d c1 = m.row(2).cross(m.row(0));
-  const Eigen::Vector3d c2 = m.row(0).cross(m.row(1));
-  const double inverse_det = 1.0 / m.row(0).dot(c0);
-  const Eigen::Vector3d dx3 = (c0 * r(0) + c1 * r(1) + c2 * r(2)) * inverse_det;
+  const Eigen::Vector3d dx3 =
+      (m.c0 * r(0) + m.c1 * r(1) + m.c2 * r(2)) * m.inverse_det;
   Eigen::Vector4d dx;
   dx.head<3>() = dx3;
-  dx(3) = n.dot(j3 * dx3 + g3) / n.squaredNorm();
+  dx(3) = n.dot(m.j3 * dx3 + g3) / n.squaredNorm();
   return dx;
 }
 
@@ -167,21 +181,14 @@ inline Eigen::Vector4d NormalLineLambdaRow(
     const Eigen::Matrix4d& jacobian,
     const Eigen::Vector3d& n,
     const Eigen::Matrix<double, 2, 3>& tangents) {
-  const Eigen::Matrix3d j3 = jacobian.topLeftCorner<3, 3>();
-  Eigen::Matrix3d m;
-  m.topRows<2>() = tangents * j3;
-  m.row(2) = jacobian.block<1, 3>(3, 0);
+  const NormalLineCofactors m(jacobian, tangents);
   const double n2 = n.squaredNorm();
-  const Eigen::Vector3d s = j3.transpose() * n / n2;
-  const Eigen::Vector3d c0 = m.row(1).cross(m.row(2));
-  const Eigen::Vector3d c1 = m.row(2).cross(m.row(0));
-  const Eigen::Vector3d c2 = m.row(0).cross(m.row(1));
-  const double inverse_det = 1.0 / m.row(0).dot(c0);
-  const double a0 = c0.dot(s) * inverse_det;
-  const double a1 = c1.dot(s) * inverse_det;
+  const Eigen::Vector3d s = m.j3.transpose() * n / n2;
+  const double a0 = m.c0.dot(s) * m.inverse_det;
+  const double a1 = m.c1.dot(s) * m.inverse_det;
   Eigen::Vector4d y;
   y.head<3>() = -n / n2 + tangents.transpose() * Eigen::Vector2d(a0, a1);
-  y(3) = c2.dot(s) * inverse_det;
+  y(3) = m.c2.dot(s) * m.inverse_det;
   return y;
 }
 

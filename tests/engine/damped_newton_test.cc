@@ -84,6 +84,17 @@ struct RandomNormalLineSystem {
   std::uniform_int_distribution<int> exponent{-6, 6};
 };
 
+// A contact system on the normal line n = e_z whose meshing row lies in the
+// span of the tangent rows: M is singular.
+Eigen::Matrix4d SingularNormalLineSystem() {
+  Eigen::Matrix4d jacobian;
+  jacobian << 1.0, 2.0, 0.0, 0.0,  //
+      0.0, 1.0, 3.0, 0.0,          //
+      0.5, 0.5, 0.5, -1.0,         //
+      1.0, 3.0, 3.0, 0.0;          // = row 0 + row 1 over x3
+  return jacobian;
+}
+
 TEST(NormalLineNewtonStep, SameStepAsPartialPivotingToRounding) {
   RandomNormalLineSystem systems(20261129);
   double worst = 0.0;
@@ -136,15 +147,11 @@ TEST(NormalLineNewtonStep, LambdaRowIsTheTransposedSolve) {
           << "trial " << trial << " entry " << i;
     }
   }
-  // The singular system of the test below: no finite row.
+  // The singular system: no finite row.
   const Eigen::Vector3d n(0.0, 0.0, 1.0);
-  Eigen::Matrix4d singular;
-  singular << 1.0, 2.0, 0.0, 0.0,  //
-      0.0, 1.0, 3.0, 0.0,          //
-      0.5, 0.5, 0.5, -1.0,         //
-      1.0, 3.0, 3.0, 0.0;
   EXPECT_FALSE(
-      NormalLineLambdaRow(singular, n, NormalLineTangents(n)).allFinite());
+      NormalLineLambdaRow(SingularNormalLineSystem(), n, NormalLineTangents(n))
+          .allFinite());
 }
 
 TEST(NormalLineNewtonStep, TangentsAreOrthonormalAndNormalToN) {
@@ -163,11 +170,7 @@ TEST(NormalLineNewtonStep, TangentsAreOrthonormalAndNormalToN) {
 // not finite, and Newton stops there without moving.
 TEST(NormalLineNewtonStep, SingularSystemGivesNonFiniteStep) {
   const Eigen::Vector3d n(0.0, 0.0, 1.0);
-  Eigen::Matrix4d jacobian;
-  jacobian << 1.0, 2.0, 0.0, 0.0,  //
-      0.0, 1.0, 3.0, 0.0,          //
-      0.5, 0.5, 0.5, -1.0,         //
-      1.0, 3.0, 3.0, 0.0;          // = row 0 + row 1 over x3
+  const Eigen::Matrix4d jacobian = SingularNormalLineSystem();
   const Eigen::Vector4d g(1.0, 1.0, 1.0, 1.0);
   EXPECT_FALSE(
       NormalLineNewtonStep(jacobian, g, n, NormalLineTangents(n)).allFinite());
