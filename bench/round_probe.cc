@@ -9,14 +9,17 @@
 //
 // Runs the closed loop to the part before `--round` (1 = the first
 // correction), corrects it as the loop does (default options), and prints:
-// the correction's summary; the deviation grids [um, against the target; NR
-// the wheel does not reach the point, NC no contact found] of the true
-// machine (the commanded settings + the hidden errors), of the model at the
-// point the correction was linearised at (the estimated state) and of the
-// model at the commanded settings, before and after the step; the estimated
-// state against the hidden errors; and, for `--point`, that point's
-// deviation, contact roll and contact margin along fractions of the step on
-// each of the three. Rows count from 0 at the root side (MODEL.md §4).
+// the measurement the correction got (teeth averaged, against the target;
+// "--" missing, "*" a gross error the simulator put there, "o" a point the
+// correction set aside as an outlier); the correction's summary; the deviation
+// grids [um, against the target; NR the wheel does not reach the point, NC no
+// contact found] of the true machine (the commanded settings + the hidden
+// errors), of the model at the point the correction was linearised at (the
+// estimated state) and of the model at the commanded settings, before and after
+// the step; the estimated state against the hidden errors; and, for `--point`,
+// that point's deviation, contact roll and contact margin along fractions of
+// the step on each of the three. Rows count from 0 at the root side (MODEL.md
+// §4).
 // `--scan`: every grid point whose contact on the true machine is lost or
 // found by the step, or whose deviation there jumps by more than 20 um, at
 // fractions 0, 0.05, ..., 1 of the step (status, deviation and contact roll):
@@ -556,7 +559,27 @@ CorrectionResult CorrectTheRound(const bench::Scenario& s,
       SimulateMeasurement(*s.model, *commanded, s.hidden_errors, measurement);
   const CorrectionInput input = bench::LoopCorrectionInput(
       s, *commanded, cmm, measurement.teeth, &options);
-  return ComputeCorrection(options, input);
+  CorrectionResult result = ComputeCorrection(options, input);
+  // The measurement as the solver got it, less the target: "--" missing,
+  // "*" a gross error the simulator put there, "o" a point the solver set
+  // aside as an outlier.
+  const int columns = s.model->GridColumns();
+  const auto listed = [](const std::vector<int>& v, int i) {
+    return std::find(v.begin(), v.end(), i) != v.end();
+  };
+  std::printf("the measurement (teeth averaged), less the target\n");
+  for (int i = 0; i < cmm.measured_um.size(); ++i) {
+    if (i % columns == 0) std::printf("  row %d:", i / columns);
+    if (std::isfinite(cmm.measured_um(i)))
+      std::printf(" %7.2f%s%s",
+                  cmm.measured_um(i) - s.target_um(i),
+                  listed(cmm.outlier_indices, i) ? "*" : " ",
+                  listed(result.summary.outlier_indices, i) ? "o" : " ");
+    else
+      std::printf(" %9s", "--");
+    if (i % columns == columns - 1) std::printf("\n");
+  }
+  return result;
 }
 
 }  // namespace

@@ -54,7 +54,9 @@ double SignalNoise(const CorrectionProblem& problem,
          std::sqrt(problem.mean_teeth_averaged);
 }
 
-// The gross outliers the state fit found leave `problem`'s points too. An
+// Gross outliers found before `problem` is solved leave its points: the
+// cubic answer's in the every-order solve (order_choice.cc), and the state
+// fit's in the correction (at the state or at the commanded settings). An
 // outlier is the measurement's, and the state fit tells it from the flank
 // best: it fits the measurement with the machine's own freedom, where the
 // correction's fit also carries the target's misfit (a relief the axes cannot
@@ -62,9 +64,9 @@ double SignalNoise(const CorrectionProblem& problem,
 // benchmark, seed 10, scenario 149: the state fit left out a 15 um corner
 // spike at a spread of 0.33 um; the correction at the state, at a spread of
 // 0.93 um, kept it, and the part went 1.37 -> 1.56 um.
-void LeaveOutTheStateFitsOutliers(const CorrectionResult& state,
-                                  CorrectionProblem* problem) {
-  for (int i : state.summary.outlier_indices) {
+void LeaveOutOutliers(const std::vector<int>& outliers,
+                      CorrectionProblem* problem) {
+  for (int i : outliers) {
     const auto at = std::find(problem->used.begin(), problem->used.end(), i);
     if (at == problem->used.end()) continue;
     problem->used.erase(at);
@@ -271,7 +273,7 @@ bool SolveAtMachineState(const CorrectionOptions& options,
                            noise_um,
                            test,
                            &reported.summary);
-  LeaveOutTheStateFitsOutliers(state, &at_state);
+  LeaveOutOutliers(state.summary.outlier_indices, &at_state);
   const double share = PlausibleShare(state_problem, state, *test, *noise_um);
   at_state.plausible_share = share;
   if (share < 1.0) {
@@ -294,7 +296,8 @@ bool SolveAtMachineState(const CorrectionOptions& options,
 }
 
 CorrectionResult Correct(const CorrectionOptions& options,
-                         const CorrectionInput& input) {
+                         const CorrectionInput& input,
+                         const std::vector<int>& left_out) {
   CorrectionResult invalid;
   invalid.summary.solver = options.solver;
   invalid.summary.mode = options.mode;
@@ -304,6 +307,7 @@ CorrectionResult Correct(const CorrectionOptions& options,
   if (!PrepareCorrectionProblem(
           options, input, &problem, &invalid.summary, &invalid.summary.message))
     return invalid;
+  LeaveOutOutliers(left_out, &problem);
   CorrectionResult result;
   // Rework keeps its no-added-material constraint where the part is known,
   // at the commanded parameters the measured part was ground with.
@@ -317,7 +321,8 @@ CorrectionResult Correct(const CorrectionOptions& options,
     if (SolveAtMachineState(
             options, &problem, &result, &test, &noise_um, &state_fit))
       return result;
-    if (test.fit_made) LeaveOutTheStateFitsOutliers(state_fit, &problem);
+    if (test.fit_made)
+      LeaveOutOutliers(state_fit.summary.outlier_indices, &problem);
     // At the commanded settings the filter follows only where the state fit
     // was made and found no significant machine error (the measurement is
     // the commanded flank and noise). A fit that explains nothing counts

@@ -11,15 +11,21 @@
 #ifndef GEARLOOP_ENGINE_CORRECTION_ORDER_CHOICE_H_
 #define GEARLOOP_ENGINE_CORRECTION_ORDER_CHOICE_H_
 
+#include <vector>
+
 #include "engine/correction/correction.h"
 
 namespace gearloop {
 namespace correction_internal {
 
 // One correction at the freedom `options` gives (correction.cc: validate,
-// prepare, the machine-state test, solve).
-using CorrectionAtFreedom = CorrectionResult (*)(const CorrectionOptions&,
-                                                 const CorrectionInput&);
+// prepare, the machine-state test, solve), the grid points `left_out` set
+// aside as gross outliers before any fit (reported with the outlier test's
+// own).
+using CorrectionAtFreedom =
+    CorrectionResult (*)(const CorrectionOptions&,
+                         const CorrectionInput&,
+                         const std::vector<int>& left_out);
 
 // The correction with the order choice, each candidate computed by `correct`;
 // the summary's order_choice says which orders answered and why.

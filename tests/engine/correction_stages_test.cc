@@ -2082,7 +2082,7 @@ TEST(TestMachineState,
 }
 
 // An outlier the state fit finds leaves the correction's points too
-// (correction.cc, LeaveOutTheStateFitsOutliers): the state fit sees the 4 um
+// (correction.cc, LeaveOutOutliers): the state fit sees the 4 um
 // spike against 0.1 um of noise, while the correction's own fit carries a
 // target shape the machine cannot make (1.5 um rms), whose spread hides it.
 TEST(TestMachineState, TheStateFitsOutliersLeaveTheCorrectionsPoints) {
