@@ -82,6 +82,22 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
 std::vector<int> DropToothOutliers(const OutlierTest& test,
                                    std::vector<Eigen::VectorXd>* teeth_um);
 
+// Of `outliers` (the cubic answer's; the order choice keeps these out of the
+// every-order solve, order_choice.cc), the points that also stand alone in the
+// measured machine error m - d(commanded) (outliers.cc, Isolation): beyond
+// max(outlier_threshold x 1.4826 x the median isolation of every point,
+// outlier_min_um). The machine's error is smooth over the flank, a probe's
+// spike is not; a target relief the cubic terms cannot make (a diagonal end
+// relief's corner) leaves a point alone in the cubic answer's residual but not
+// in m - d(commanded), and orders 4-6 may make it (robustness benchmark quick
+// count: carrying every cubic outlier lost reach on five diagonal end reliefs,
+// 0.25 -> 2.07 um final in seed 25, scenario 140). The model at the commanded
+// settings comes from input.model, the correction's memo (the cubic answer
+// evaluated it there).
+std::vector<int> ProbeSpikes(const CorrectionOptions& options,
+                             const CorrectionInput& input,
+                             const std::vector<int>& outliers);
+
 }  // namespace correction_internal
 }  // namespace gearloop
 

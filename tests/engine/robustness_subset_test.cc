@@ -429,7 +429,7 @@ TEST(Outliers, TheCubicAnswersOutliersStayAsideAtEveryOrder) {
 // A relief the cubic terms cannot make is no probe spike: the cubic answer
 // may leave its corner out as a gross outlier, but the measured machine
 // error m - d(commanded) is smooth there, so the every-order solve keeps the
-// point and may make the relief (order_choice.cc, ProbeSpikes). Seed 25,
+// point and may make the relief (outliers.cc, ProbeSpikes). Seed 25,
 // scenario 140 (z 21, a 19.2 um diagonal end relief and a helix slope):
 // orders 4-6 answer in round 1 and the loop ends at 0.25 um; with every cubic
 // outlier kept out of the every-order solve it ended at 2.07 um.
