@@ -248,10 +248,7 @@ bool SolveAtMachineState(const CorrectionOptions& options,
   }
   const CorrectionResult& state = *state_fit;
   Eigen::VectorXd state_parameters;
-  if (!AcceptMachineState(problem, state, &state_parameters)) {
-    test->reason =
-        "the state fit failed or loses a grid point the commanded settings "
-        "reach";
+  if (!AcceptMachineState(problem, state, &state_parameters, &test->reason)) {
     if (raised) test->reason += "; " + ContradictedNoiseReason(problem);
     return false;
   }

@@ -47,10 +47,12 @@ bool MachineStateProblem(const CorrectionProblem& commanded,
 // (then `state_parameters`), read from the state solve's exact prediction
 // (predicted_change_um is NaN where a point is lost); a point the measurement
 // lacks may be lost (the real machine may no longer grind it). Otherwise the
-// correction is computed at the commanded parameters, as without the option.
+// correction is computed at the commanded parameters, as without the option;
+// `refusal` (if given) then says why.
 bool AcceptMachineState(const CorrectionProblem& commanded,
                         const CorrectionResult& state,
-                        Eigen::VectorXd* state_parameters);
+                        Eigen::VectorXd* state_parameters,
+                        std::string* refusal = nullptr);
 
 // Item 2 of issue 13: the state earns its place only when it explains the
 // measurement significantly better than the commanded settings, and only

@@ -1703,8 +1703,15 @@ TEST(AcceptMachineState, MayLoseOnlyPointsTheMeasurementLacks) {
       if (at_fit.status[i] != PointStatus::kOk)
         fit.predicted_change_um(i) = kNaN;
     Eigen::VectorXd at_state;
-    EXPECT_EQ(AcceptMachineState(problem, fit, &at_state), !measured)
+    std::string refusal;
+    EXPECT_EQ(AcceptMachineState(problem, fit, &at_state, &refusal), !measured)
         << "point 0 measured: " << measured;
+    // The answer names the point the state loses.
+    EXPECT_EQ(refusal,
+              measured ? "the state fit's state loses 1 measured grid point(s) "
+                         "the commanded settings reach (row 1, column 1, "
+                         "counted from 1)"
+                       : "");
   }
 }
 

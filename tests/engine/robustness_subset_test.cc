@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <utility>
@@ -76,6 +77,14 @@ RoundTwo RoundTwoOf(const bench::Scenario& s, CorrectionOptions* options) {
   two.input = bench::LoopCorrectionInput(
       s, commanded, two.measurement, measurement.teeth, options);
   return two;
+}
+
+// The summary of round 2's correction of the scenario drawn by `seed` and
+// `index`, default options.
+CorrectionSummary RoundTwoSummary(std::uint64_t seed, int index) {
+  const bench::Scenario s = bench::DrawGrinderScenario(seed, index);
+  CorrectionOptions options;
+  return ComputeCorrection(options, RoundTwoOf(s, &options).input).summary;
 }
 
 // A round is told apart by the points the two parts have: the rms of each
@@ -534,6 +543,25 @@ TEST(MachineState, EstimatesTheNoiseFromTheLastPass) {
   EXPECT_LT(loop.part_rms_um.back(), 1.0) << loop.part_rms_um.back();
 }
 
+// A state fit that took no step says so (machine_state.cc,
+// TestMachineState): seed 86, scenario 76, round 2 (z 87, b = 8 mm, tip, root
+// and end relief; hidden X2, C0, Y2, X3; sigma 0.41 um told): the commanded
+// settings leave 11.8 um of misfit, the state fit's linear answer loses grid
+// points and no fraction of it is better, so it changes nothing. The answer
+// said the fit "explains nothing the commanded settings do not"; it now names
+// the fit's own reason.
+TEST(MachineState, SaysWhenTheStateFitTookNoStep) {
+  const CorrectionSummary summary = RoundTwoSummary(86, 76);
+  ASSERT_FALSE(summary.machine_state_estimated) << summary.BriefReport();
+  const std::string& reason = summary.machine_state_reason;
+  EXPECT_EQ(reason.rfind("the state fit took no step (the linear answer loses "
+                         "grid points on the exact model",
+                         0),
+            0u)
+      << reason;
+  EXPECT_EQ(reason.find("explains nothing"), std::string::npos) << reason;
+}
+
 // The state the answer reports is the one the passes reached (correction.cc,
 // FitTheStateAgainAndSaySo): machine_state's misfit is the last pass's, the
 // figure its reason ends on, not the first fit's. Seed 75, scenario 169,
@@ -541,10 +569,7 @@ TEST(MachineState, EstimatesTheNoiseFromTheLastPass) {
 // 1.31 um, the pass 0.12 um; the prediction band's estimated noise follows
 // (expected 1.15 -> 1.69 um for a part of 1.43 um, in both bands).
 TEST(MachineState, ReportsTheStateThePassesReached) {
-  const bench::Scenario s = bench::DrawGrinderScenario(75, 169);
-  CorrectionOptions options;
-  const CorrectionSummary summary =
-      ComputeCorrection(options, RoundTwoOf(s, &options).input).summary;
+  const CorrectionSummary summary = RoundTwoSummary(75, 169);
   ASSERT_TRUE(summary.machine_state_estimated) << summary.BriefReport();
   const std::string& reason = summary.machine_state_reason;
   const std::string before = " pass(es), misfit ";
