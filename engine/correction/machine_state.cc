@@ -119,11 +119,10 @@ MachineStateTest TestMachineState(const CorrectionOptions& options,
     // grid points and no fraction of it was better) says nothing of the
     // machine; the answer says so rather than that the commanded settings
     // explain the measurement (robustness benchmark, seed 86, scenario 76,
-    // round 2: 11.8 um of misfit at the commanded settings, the state fit's
-    // linear answer lost grid points and no fraction of it was better). The
-    // correction goes on as after a fit that explains nothing (treating it as a
-    // failed fit, the single Tikhonov level, changed 266 of 16 000 finals of
-    // the quick count, 36 better and 48 worse, and one more worse round).
+    // round 2: 11.8 um of misfit at the commanded settings). The correction
+    // goes on as after a fit that explains nothing (treating it as a failed
+    // fit, the single Tikhonov level, changed 266 of 16 000 finals of the
+    // quick count, 36 better and 48 worse, and one more worse round).
     t.reason =
         state.delta.isZero(0.0) &&
                 s.status == CorrectionStatus::kNotConverged &&
