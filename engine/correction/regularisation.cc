@@ -121,6 +121,14 @@ Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
   const int p = static_cast<int>(std::min(a.rows(), a.cols()));
   if (p == 0 || a.rows() < a.cols())
     return ComputeResolvedSvd(a, rank_threshold);
+  // sigma_1 >= |A|_F / sqrt(columns): where the threshold lies below
+  // kGramResolvedShare of that (with a margin far above the eigenvalue's
+  // rounding), the eigen-decomposition below would be made only to be
+  // refused (the linear screen of orders 4-6 on 45 columns).
+  constexpr double kCertainlyUnresolvedMargin = 0.99;
+  if (rank_threshold < kCertainlyUnresolvedMargin * kGramResolvedShare *
+                           a.norm() / std::sqrt(double(a.cols())))
+    return ComputeResolvedSvd(a, rank_threshold);
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(a.cols(), a.cols());
   gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);

@@ -132,7 +132,8 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
                        const Eigen::MatrixXd& jacobian_k,
                        const Eigen::VectorXd& change_k,
                        const Eigen::VectorXd& z_k,
-                       Eigen::VectorXd* z) {
+                       Eigen::VectorXd* z,
+                       const Eigen::MatrixXd* motion_tv) {
   const std::vector<int>& used = problem.used;
   const int k = subspace.k;
   const Eigen::MatrixXd& tv = subspace.tv;
@@ -157,7 +158,9 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
     const int j = problem.free[c];
     bounds += std::isfinite(problem.upper(j)) + std::isfinite(problem.lower(j));
   }
-  const Eigen::MatrixXd motion = problem.motion_rows * tv;
+  Eigen::MatrixXd made_here;
+  if (motion_tv == nullptr) made_here = problem.motion_rows * tv;
+  const Eigen::MatrixXd& motion = motion_tv != nullptr ? *motion_tv : made_here;
   const int num_rows = (rework ? static_cast<int>(problem.reached.size()) : 0) +
                        bounds + 2 * static_cast<int>(motion.rows());
   Eigen::MatrixXd g_mat(num_rows, k);
@@ -285,6 +288,10 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
     z->setZero();
     cost = ExactBoundedCost(problem, subspace, *z, true, &at);
   }
+  // The motion rows in the subspace, once for every pass's QP.
+  const Eigen::MatrixXd motion_tv = options.max_num_iterations > 0
+                                        ? problem.motion_rows * subspace.tv
+                                        : Eigen::MatrixXd();
   int pass = 0;
   bool settled = false;
   bool jacobian_at_z = true;
@@ -298,7 +305,7 @@ int RefineWithinMotionBound(const CorrectionOptions& options,
       change(i) = at.deviations_um(i) - problem.d0()(i);
     Eigen::VectorXd z_qp;
     if (!SolveLinearisedQp(
-            problem, subspace, at.jacobian_um, change, *z, &z_qp)) {
+            problem, subspace, at.jacobian_um, change, *z, &z_qp, &motion_tv)) {
       *not_converged = "the constrained linear problem failed";
       break;
     }

@@ -34,13 +34,16 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
 // The QP in z at a linearisation (S_k = jacobian_k, exact change change_k at
 // z_k): minimise |W^1/2 (e + change_k + S_k T V_k (z - z_k))|^2 + lambda^2
 // |z|^2 subject to the bounds on delta = T V_k z and, in rework mode, the
-// linearised change <= 0 at every reached point.
+// linearised change <= 0 at every reached point. `motion_tv`, when given, is
+// problem.motion_rows * subspace.tv made once by a caller that solves many
+// QPs in one subspace (the same numbers as made here).
 bool SolveLinearisedQp(const CorrectionProblem& problem,
                        const KeptSubspace& subspace,
                        const Eigen::MatrixXd& jacobian_k,
                        const Eigen::VectorXd& change_k,
                        const Eigen::VectorXd& z_k,
-                       Eigen::VectorXd* z);
+                       Eigen::VectorXd* z,
+                       const Eigen::MatrixXd* motion_tv = nullptr);
 
 // Rework mode: sequential QPs on the exact model, re-linearised at the current
 // change until the predicted added material is within rework_tolerance_um (at
