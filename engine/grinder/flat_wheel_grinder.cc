@@ -66,23 +66,46 @@ ChainConstants MakeChainConstants(const GrindingSetup& setup) {
   return c;
 }
 
-// Axis values, rates dC_i/dphi1 and their rates d2C_i/dphi1^2 of `settings`
-// at roll `roll`.
-void AxisStateAndAcceleration(const MachineSettings& settings,
+// The six axis polynomials of one set of settings with the coefficients of
+// their first and second derivatives by phi1 (k a_k and k (k - 1) a_k), made
+// once per set of settings: every Newton step of every contact evaluates all
+// three at its roll (the products were a tenth of the contact Newton's
+// instructions, BENCHMARKS.md "The correction's CPU at the median").
+struct AxisPolynomials {
+  explicit AxisPolynomials(const MachineSettings& settings) {
+    for (int i = 0; i < kNumAxes; ++i) {
+      for (int k = 0; k < kCoefficientsPerAxis; ++k) {
+        const double a = settings.axes[i][k];
+        value[i][k] = a;
+        rate[i][k] = double(k) * a;
+        acceleration[i][k] = double(k * (k - 1)) * a;
+      }
+    }
+  }
+  double value[kNumAxes][kCoefficientsPerAxis];
+  double rate[kNumAxes][kCoefficientsPerAxis];          // k a_k
+  double acceleration[kNumAxes][kCoefficientsPerAxis];  // k (k - 1) a_k
+};
+
+// Axis values, rates dC_i/dphi1 and their rates d2C_i/dphi1^2 of `axes` at
+// roll `roll` (Horner).
+void AxisStateAndAcceleration(const AxisPolynomials& axes,
                               double roll,
                               double* value,
                               double* rate,
                               double* acceleration) {
   for (int i = 0; i < kNumAxes; ++i) {
-    const auto& a = settings.axes[i];
+    const double* a = axes.value[i];
+    const double* ra = axes.rate[i];
+    const double* sa = axes.acceleration[i];
     constexpr int n = kAxisPolynomialDegree;
     double v = a[n];
-    double r = n * a[n];
-    double s = n * (n - 1) * a[n];
+    double r = ra[n];
+    double s = sa[n];
     for (int k = n - 1; k >= 0; --k) {
       v = v * roll + a[k];
-      if (k >= 1) r = r * roll + double(k) * a[k];
-      if (k >= 2) s = s * roll + double(k * (k - 1)) * a[k];
+      if (k >= 1) r = r * roll + ra[k];
+      if (k >= 2) s = s * roll + sa[k];
     }
     value[i] = v;
     rate[i] = r;
@@ -308,7 +331,7 @@ struct WheelChain {
 // derivatives by u_w, phi_w and phi1 written out (columns 0, 1, 2 of
 // `derivatives`; rows R1_x, R1_y, R1_z, f). The Newton of every contact
 // evaluates this.
-void SurfaceWithDerivatives(const MachineSettings& settings,
+void SurfaceWithDerivatives(const AxisPolynomials& axes,
                             const ChainConstants& c,
                             const Profile& wheel,
                             double u,
@@ -318,7 +341,7 @@ void SurfaceWithDerivatives(const MachineSettings& settings,
                             double* f,
                             Eigen::Matrix<double, 4, 3>* derivatives) {
   double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
-  AxisStateAndAcceleration(settings, roll, value, rate, acceleration);
+  AxisStateAndAcceleration(axes, roll, value, rate, acceleration);
   const WheelChain chain(c, wheel, u, phi_w, value, rate);
   *r1 = chain.r1;
   *f = chain.f;
@@ -332,7 +355,7 @@ void SurfaceWithDerivatives(const MachineSettings& settings,
 
 // The 4 x 4 system G(u_w, phi_w, phi1, lambda) = [R1 - P - lambda n; f] and its
 // Jacobian.
-void SystemAndJacobian(const MachineSettings& settings,
+void SystemAndJacobian(const AxisPolynomials& axes,
                        const ChainConstants& c,
                        const Profile& wheel,
                        const FlankGridPoint& point,
@@ -343,7 +366,7 @@ void SystemAndJacobian(const MachineSettings& settings,
   double f = 0.0;
   Eigen::Matrix<double, 4, 3> derivatives;
   SurfaceWithDerivatives(
-      settings, c, wheel, x(0), x(1), x(2), &r1, &f, &derivatives);
+      axes, c, wheel, x(0), x(1), x(2), &r1, &f, &derivatives);
   const double lambda = x(3);
   (*g)(0) = r1.x - point.position_mm.x() - lambda * point.normal.x();
   (*g)(1) = r1.y - point.position_mm.y() - lambda * point.normal.y();
@@ -434,6 +457,8 @@ double WrapAngle(double angle) { return std::remainder(angle, 2.0 * kPi); }
 // held wheel profile, the pitch radius and the direction of the wheel-plane
 // normal n_w = M(A0, B0) F e_z in the y-z plane (for the first guesses).
 struct ContactFrame {
+  explicit ContactFrame(const MachineSettings& settings) : axes(settings) {}
+  AxisPolynomials axes;
   ChainConstants c;
   Profile wheel;
   double pitch_radius_mm = 0.0;
@@ -442,7 +467,7 @@ struct ContactFrame {
 
 ContactFrame MakeContactFrame(const GrindingSetup& setup,
                               const MachineSettings& settings) {
-  ContactFrame frame;
+  ContactFrame frame(settings);
   frame.c = MakeChainConstants(setup);
   frame.wheel = MakeProfile(settings.wheel);
   frame.pitch_radius_mm = setup.gear.PitchRadiusMm();
@@ -458,7 +483,6 @@ ContactFrame MakeContactFrame(const GrindingSetup& setup,
 // normal onto the wheel-plane normal n_w = M(A0, B0) F e_z; then the point,
 // carried into the wheel frame at that roll, gives u_w and phi_w.
 EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
-                                const MachineSettings& settings,
                                 const FlankGridPoint& point) {
   const ChainConstants& c = frame.c;
   EnvelopeContact contact;
@@ -468,7 +492,7 @@ EnvelopeContact PlaneWheelGuess(const ContactFrame& frame,
       WrapAngle(frame.wheel_normal_angle_rad - std::atan2(n.z(), n.y()));
   {
     double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
-    AxisStateAndAcceleration(settings, roll, value, rate, acceleration);
+    AxisStateAndAcceleration(frame.axes, roll, value, rate, acceleration);
     // q_f = Rot_x(C) P - D p; then w = M^T q_f and r_w = F w - [-K2, 0, K1].
     const double cc = std::cos(value[5]), sc = std::sin(value[5]);
     const Eigen::Vector3d& p = point.position_mm;
@@ -513,7 +537,6 @@ double MeshingSlopeAlongRoll(const Eigen::Matrix4d& jacobian,
 // plane-wheel guess where that did not converge).
 EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
                                     const EnvelopeOptions& options,
-                                    const MachineSettings& settings,
                                     const FlankGridPoint& point,
                                     const EnvelopeContact& start,
                                     double max_step_mm) {
@@ -535,7 +558,7 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
             Eigen::Vector4d g;
             Eigen::Matrix4d jacobian;
             SystemAndJacobian(
-                settings, c, frame.wheel, point, at, &g, &jacobian);
+                frame.axes, c, frame.wheel, point, at, &g, &jacobian);
             *dx = engine_internal::NormalLineNewtonStep(
                 jacobian, g, point.normal, tangents);
           },
@@ -572,11 +595,10 @@ EnvelopeContact SolveContactInFrame(const ContactFrame& frame,
 // (robustness benchmark, seed 2026, scenario 67, row 0, column 8).
 EnvelopeContact NominalStart(const ContactFrame& nominal_frame,
                              const EnvelopeOptions& options,
-                             const MachineSettings& nominal,
                              const FlankGridPoint& point) {
-  const EnvelopeContact guess = PlaneWheelGuess(nominal_frame, nominal, point);
+  const EnvelopeContact guess = PlaneWheelGuess(nominal_frame, point);
   const EnvelopeContact contact = SolveContactInFrame(
-      nominal_frame, options, nominal, point, guess, options.max_step_mm);
+      nominal_frame, options, point, guess, options.max_step_mm);
   return contact.status == PointStatus::kNotConverged ? guess : contact;
 }
 
@@ -614,7 +636,7 @@ EnvelopeContact SolveGroundContact(const GrindingSetup& setup,
                                    const EnvelopeContact& start) {
   const double max_step_mm = options.max_step_from_nominal_mm;
   EnvelopeContact direct =
-      SolveContactInFrame(frame, options, settings, point, start, max_step_mm);
+      SolveContactInFrame(frame, options, point, start, max_step_mm);
   if (direct.status != PointStatus::kNotConverged &&
       std::abs(direct.roll_rad - start.roll_rad) <= kNearContactRollRad)
     return direct;
@@ -630,7 +652,6 @@ EnvelopeContact SolveGroundContact(const GrindingSetup& setup,
                    from + (double(stage) / kContinuationStages) * change);
     followed = SolveContactInFrame(last ? frame : MakeContactFrame(setup, at),
                                    options,
-                                   at,
                                    point,
                                    followed,
                                    max_step_mm);
@@ -667,7 +688,7 @@ FlatWheelGrinder::FlatWheelGrinder(const GrindingSetup& setup,
   const ContactFrame frame = MakeContactFrame(setup_, nominal_);
   nominal_starts_.reserve(grid_.points.size());
   for (const FlankGridPoint& point : grid_.points) {
-    nominal_starts_.push_back(NominalStart(frame, options_, nominal_, point));
+    nominal_starts_.push_back(NominalStart(frame, options_, point));
     const EnvelopeContact& contact = nominal_starts_.back();
     if (contact.status == PointStatus::kNotConverged) continue;
     roll_min_rad_ = std::min(roll_min_rad_, contact.roll_rad);
@@ -731,7 +752,8 @@ Eigen::Vector3d FlatWheelGrinder::SurfacePoint(const MachineSettings& settings,
                                                double roll_rad,
                                                double* meshing) const {
   double value[kNumAxes], rate[kNumAxes], acceleration[kNumAxes];
-  AxisStateAndAcceleration(settings, roll_rad, value, rate, acceleration);
+  AxisStateAndAcceleration(
+      AxisPolynomials(settings), roll_rad, value, rate, acceleration);
   const WheelChain chain(MakeChainConstants(setup_),
                          MakeProfile(settings.wheel),
                          wheel_u_mm,
@@ -750,7 +772,7 @@ Eigen::Matrix<double, 4, 3> FlatWheelGrinder::SurfaceDerivatives(
   Vec3<double> r1;
   double f = 0.0;
   Eigen::Matrix<double, 4, 3> derivatives;
-  SurfaceWithDerivatives(settings,
+  SurfaceWithDerivatives(AxisPolynomials(settings),
                          MakeChainConstants(setup_),
                          MakeProfile(settings.wheel),
                          wheel_u_mm,
@@ -767,7 +789,7 @@ double FlatWheelGrinder::MeshingSlope(const MachineSettings& settings,
                                       const EnvelopeContact& contact) const {
   Eigen::Vector4d g;
   Eigen::Matrix4d jacobian;
-  SystemAndJacobian(settings,
+  SystemAndJacobian(AxisPolynomials(settings),
                     MakeChainConstants(setup_),
                     MakeProfile(settings.wheel),
                     point,
@@ -783,8 +805,8 @@ double FlatWheelGrinder::MeshingSlope(const MachineSettings& settings,
 
 EnvelopeContact FlatWheelGrinder::SolveContact(
     const MachineSettings& settings, const FlankGridPoint& point) const {
-  const EnvelopeContact start = NominalStart(
-      MakeContactFrame(setup_, nominal_), options_, nominal_, point);
+  const EnvelopeContact start =
+      NominalStart(MakeContactFrame(setup_, nominal_), options_, point);
   return SolveGroundContact(setup_,
                             MakeContactFrame(setup_, settings),
                             options_,
@@ -803,7 +825,8 @@ FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
   // The axes' accelerations d^2 C_i / d phi1^2 for the phi1 column of the
   // system.
   double value_d[kNumAxes], rate_d[kNumAxes], accel_d[kNumAxes];
-  AxisStateAndAcceleration(settings, roll, value_d, rate_d, accel_d);
+  AxisStateAndAcceleration(
+      AxisPolynomials(settings), roll, value_d, rate_d, accel_d);
   Eigen::Vector4d along_roll;
   const Eigen::Matrix<double, 4, kNumLocal> local = LocalDerivatives(
       settings.wheel, c, contact, value_d, rate_d, accel_d, &along_roll);
