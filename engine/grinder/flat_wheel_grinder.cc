@@ -912,9 +912,13 @@ void FlatWheelGrinder::AddJacobian(const Eigen::VectorXd& parameters,
     return;
   }
   const MachineSettings settings = MachineSettings::FromVector(parameters);
-  evaluation->jacobian_um.setZero(n, kNumGrinderParameters);
+  // Every row is written: the sensitivity's, or zeros where no contact.
+  evaluation->jacobian_um.resize(n, kNumGrinderParameters);
   for (int i = 0; i < n; ++i) {
-    if (evaluation->status[i] != PointStatus::kOk) continue;
+    if (evaluation->status[i] != PointStatus::kOk) {
+      evaluation->jacobian_um.row(i).setZero();
+      continue;
+    }
     // The sensitivity reads the contact's u_w, phi_w and phi1 only.
     EnvelopeContact contact;
     contact.status = PointStatus::kOk;
