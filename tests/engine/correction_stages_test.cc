@@ -249,6 +249,10 @@ TEST(ComputeSvd, FromTheGramMatrixOnlyWhereItResolvesTheRankThreshold) {
   const Svd fine = ComputeSvd(a, 1e-7 * sigma1);
   EXPECT_EQ(fine.resolved_down_to, 0.0);
   EXPECT_EQ(fine.sigma, jacobi.sigma);
+  // Just above the resolution (1e-5 sigma_1) A'A still serves: the shortcut
+  // to the Jacobi SVD (a threshold below 0.99e-5 |A|_F / sqrt(columns) <=
+  // 0.99e-5 sigma_1) never takes a threshold the gram route would resolve.
+  EXPECT_GT(ComputeSvd(a, 1.01e-5 * sigma1).resolved_down_to, 0.0);
 }
 
 TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
