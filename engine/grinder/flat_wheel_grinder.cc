@@ -442,6 +442,55 @@ Eigen::Matrix<double, 4, kNumLocal> LocalDerivatives(
   return local;
 }
 
+// FlatWheelGrinder::ContactSensitivity with what one set of settings shares
+// made by the caller (AddJacobian makes them once for all its contacts).
+Eigen::Matrix<double, 1, kNumGrinderParameters> SensitivityAtContact(
+    const ChainConstants& c,
+    const AxisPolynomials& axes,
+    const WheelProfile& wheel,
+    const FlankGridPoint& point,
+    const EnvelopeContact& contact) {
+  const double roll = contact.roll_rad;
+  // The axes' accelerations d^2 C_i / d phi1^2 for the phi1 column of the
+  // system.
+  double value_d[kNumAxes], rate_d[kNumAxes], accel_d[kNumAxes];
+  AxisStateAndAcceleration(axes, roll, value_d, rate_d, accel_d);
+  Eigen::Vector4d along_roll;
+  const Eigen::Matrix<double, 4, kNumLocal> local = LocalDerivatives(
+      wheel, c, contact, value_d, rate_d, accel_d, &along_roll);
+
+  // d G / d(u_w, phi_w, phi1, lambda).
+  Eigen::Matrix4d dg_dx;
+  dg_dx.col(0) = local.col(kLocalU);
+  dg_dx.col(1) = local.col(kLocalPhiW);
+  dg_dx.col(2) = along_roll;
+  dg_dx.col(3) << -point.normal, 0.0;
+
+  // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta =
+  // -y^T dG/dzeta with (dG/dx)^T y = e_4 (by the tangents, as the Newton's
+  // step).
+  const Eigen::Vector4d y = engine_internal::NormalLineLambdaRow(
+      dg_dx, point.normal, engine_internal::NormalLineTangents(point.normal));
+  const Eigen::Matrix<double, 1, kNumLocal> y_local = -y.transpose() * local;
+
+  Eigen::Matrix<double, 1, kNumGrinderParameters> sensitivity;
+  for (int i = 0; i < kNumAxes; ++i) {
+    // d C_i / d a_{k,i} = phi1^k, d C_i' / d a_{k,i} = k phi1^(k-1).
+    double power = 1.0;        // phi1^k
+    double power_below = 0.0;  // phi1^(k-1)
+    for (int k = 0; k < kCoefficientsPerAxis; ++k) {
+      sensitivity(i * kCoefficientsPerAxis + k) =
+          y_local(kLocalValue + i) * power +
+          y_local(kLocalRate + i) * k * power_below;
+      power_below = power;
+      power *= roll;
+    }
+  }
+  for (int m = 0; m < kNumWheelProfileParameters; ++m)
+    sensitivity(kNumAxisCoefficients + m) = y_local(kLocalWheel + m);
+  return sensitivity;
+}
+
 // How far beyond the rim a contact may lie and still count as on it [mm]:
 // rounding, far below any grinding tolerance.
 constexpr double kRimToleranceMm = 1e-9;
@@ -820,47 +869,11 @@ Eigen::Matrix<double, 1, kNumGrinderParameters>
 FlatWheelGrinder::ContactSensitivity(const MachineSettings& settings,
                                      const FlankGridPoint& point,
                                      const EnvelopeContact& contact) const {
-  const ChainConstants c = MakeChainConstants(setup_);
-  const double roll = contact.roll_rad;
-  // The axes' accelerations d^2 C_i / d phi1^2 for the phi1 column of the
-  // system.
-  double value_d[kNumAxes], rate_d[kNumAxes], accel_d[kNumAxes];
-  AxisStateAndAcceleration(
-      AxisPolynomials(settings), roll, value_d, rate_d, accel_d);
-  Eigen::Vector4d along_roll;
-  const Eigen::Matrix<double, 4, kNumLocal> local = LocalDerivatives(
-      settings.wheel, c, contact, value_d, rate_d, accel_d, &along_roll);
-
-  // d G / d(u_w, phi_w, phi1, lambda).
-  Eigen::Matrix4d dg_dx;
-  dg_dx.col(0) = local.col(kLocalU);
-  dg_dx.col(1) = local.col(kLocalPhiW);
-  dg_dx.col(2) = along_roll;
-  dg_dx.col(3) << -point.normal, 0.0;
-
-  // Implicit function theorem: d lambda / d zeta = -e_4^T (dG/dx)^-1 dG/dzeta =
-  // -y^T dG/dzeta with (dG/dx)^T y = e_4 (by the tangents, as the Newton's
-  // step).
-  const Eigen::Vector4d y = engine_internal::NormalLineLambdaRow(
-      dg_dx, point.normal, engine_internal::NormalLineTangents(point.normal));
-  const Eigen::Matrix<double, 1, kNumLocal> y_local = -y.transpose() * local;
-
-  Eigen::Matrix<double, 1, kNumGrinderParameters> sensitivity;
-  for (int i = 0; i < kNumAxes; ++i) {
-    // d C_i / d a_{k,i} = phi1^k, d C_i' / d a_{k,i} = k phi1^(k-1).
-    double power = 1.0;        // phi1^k
-    double power_below = 0.0;  // phi1^(k-1)
-    for (int k = 0; k < kCoefficientsPerAxis; ++k) {
-      sensitivity(i * kCoefficientsPerAxis + k) =
-          y_local(kLocalValue + i) * power +
-          y_local(kLocalRate + i) * k * power_below;
-      power_below = power;
-      power *= roll;
-    }
-  }
-  for (int m = 0; m < kNumWheelProfileParameters; ++m)
-    sensitivity(kNumAxisCoefficients + m) = y_local(kLocalWheel + m);
-  return sensitivity;
+  return SensitivityAtContact(MakeChainConstants(setup_),
+                              AxisPolynomials(settings),
+                              settings.wheel,
+                              point,
+                              contact);
 }
 
 void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
@@ -912,6 +925,8 @@ void FlatWheelGrinder::AddJacobian(const Eigen::VectorXd& parameters,
     return;
   }
   const MachineSettings settings = MachineSettings::FromVector(parameters);
+  const ChainConstants c = MakeChainConstants(setup_);
+  const AxisPolynomials axes(settings);
   // Every row is written: the sensitivity's, or zeros where no contact.
   evaluation->jacobian_um.resize(n, kNumGrinderParameters);
   for (int i = 0; i < n; ++i) {
@@ -926,7 +941,9 @@ void FlatWheelGrinder::AddJacobian(const Eigen::VectorXd& parameters,
     contact.wheel_phi_rad = evaluation->contact_unknowns(i, 1);
     contact.roll_rad = evaluation->contact_unknowns(i, 2);
     evaluation->jacobian_um.row(i) =
-        ContactSensitivity(settings, grid_.points[i], contact) * kMmToUm;
+        SensitivityAtContact(
+            c, axes, settings.wheel, grid_.points[i], contact) *
+        kMmToUm;
   }
 }
 
