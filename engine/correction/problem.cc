@@ -322,16 +322,40 @@ Eigen::MatrixXd MotionRowsAt(const CorrectionOptions& options,
   return m;
 }
 
-Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
-                                   const CorrectionProblem& problem,
-                                   int samples) {
+double LargestRelativeMotion(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const std::vector<double>& rolls_rad,
+                             const Eigen::VectorXd& delta) {
+  // MotionRowsAt's rows times delta, row by row without the matrix (each
+  // entry made as there and summed in the columns' order).
+  double largest = 0.0;
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = MotionBoundOf(options, block);
+    if (!(bound > 0.0)) continue;
+    for (const double phi : rolls_rad) {
+      double power = 1.0, motion = 0.0;
+      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
+        motion += (power / bound) * delta(block.first_index + k);
+      largest = std::max(largest, std::abs(motion));
+    }
+  }
+  return largest;
+}
+
+std::vector<double> RollSamples(const CorrectionProblem& problem, int samples) {
   std::vector<double> rolls_rad(samples);
   for (int s = 0; s < samples; ++s) {
     rolls_rad[s] =
         problem.roll_min_rad +
         (problem.roll_max_rad - problem.roll_min_rad) * s / (samples - 1.0);
   }
-  return MotionRowsAt(options, problem, rolls_rad);
+  return rolls_rad;
+}
+
+Eigen::MatrixXd RelativeMotionRows(const CorrectionOptions& options,
+                                   const CorrectionProblem& problem,
+                                   int samples) {
+  return MotionRowsAt(options, problem, RollSamples(problem, samples));
 }
 
 CorrectionProblem RelinearisedAt(const CorrectionProblem& problem,

@@ -182,6 +182,17 @@ Eigen::MatrixXd MotionRowsAt(const CorrectionOptions& options,
                              const CorrectionProblem& problem,
                              const std::vector<double>& rolls_rad);
 
+// The largest |MotionRowsAt(options, problem, rolls_rad) * delta|, 0 without
+// a bounded block, made without the rows.
+double LargestRelativeMotion(const CorrectionOptions& options,
+                             const CorrectionProblem& problem,
+                             const std::vector<double>& rolls_rad,
+                             const Eigen::VectorXd& delta);
+
+// `samples` roll angles evenly over `problem`'s roll range, both ends
+// included.
+std::vector<double> RollSamples(const CorrectionProblem& problem, int samples);
+
 // The axis motion dC(phi_s) / bound of every polynomial block with a bound
 // (options.max_axis_motion_mm / _rad) at `samples` roll angles evenly over
 // `problem`'s roll range, per unit of the parameter change (rows x

@@ -666,9 +666,8 @@ MachineErrorPrior MakeMachineErrorPrior(
 double AxisMotionRatio(const CorrectionOptions& options,
                        const CorrectionProblem& problem,
                        const Eigen::VectorXd& delta) {
-  const Eigen::MatrixXd rows =
-      RelativeMotionRows(options, problem, kMotionSamples);
-  return rows.rows() > 0 ? (rows * delta).cwiseAbs().maxCoeff() : 0.0;
+  return LargestRelativeMotion(
+      options, problem, RollSamples(problem, kMotionSamples), delta);
 }
 
 Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(

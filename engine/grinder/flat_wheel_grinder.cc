@@ -665,6 +665,42 @@ bool GroundsDeeper(const EnvelopeContact& a, const EnvelopeContact& b) {
          a.deviation_mm < b.deviation_mm;
 }
 
+// The frames of the continuation's stages between the nominal settings and
+// `settings` (the last stage is `settings`' own frame): the same for every
+// grid point of one evaluation, made at the first point that needs them.
+class ContinuationFrames {
+ public:
+  ContinuationFrames(const GrindingSetup& setup,
+                     const MachineSettings& nominal,
+                     const MachineSettings& settings,
+                     const ContactFrame& last)
+      : setup_(setup), nominal_(nominal), settings_(settings), last_(last) {}
+
+  // The frame of `stage` (1 .. kContinuationStages).
+  const ContactFrame& At(int stage) {
+    if (stage >= kContinuationStages) return last_;
+    if (stages_.empty()) {
+      const Eigen::VectorXd from = nominal_.ToVector();
+      const Eigen::VectorXd change = settings_.ToVector() - from;
+      stages_.reserve(kContinuationStages - 1);
+      for (int s = 1; s < kContinuationStages; ++s) {
+        stages_.push_back(MakeContactFrame(
+            setup_,
+            MachineSettings::FromVector(
+                from + (double(s) / kContinuationStages) * change)));
+      }
+    }
+    return stages_[stage - 1];
+  }
+
+ private:
+  const GrindingSetup& setup_;
+  const MachineSettings& nominal_;
+  const MachineSettings& settings_;
+  const ContactFrame& last_;
+  std::vector<ContactFrame> stages_;
+};
+
 // The contact at `settings` that grinds `point`: Newton from `start` (its
 // contact at the nominal settings) in steps of at most
 // max_step_from_nominal_mm. Where that fails or ends more than
@@ -676,34 +712,21 @@ bool GroundsDeeper(const EnvelopeContact& a, const EnvelopeContact& b) {
 // 0.14 mm correction moves a root-row contact from roll 0.275 to 0.167 rad;
 // Newton from 0.275 went to the other stationary point at 0.393 rad (8 um
 // more stock), the stages follow the contact to 0.167.
-EnvelopeContact SolveGroundContact(const GrindingSetup& setup,
-                                   const ContactFrame& frame,
+EnvelopeContact SolveGroundContact(ContinuationFrames* frames,
                                    const EnvelopeOptions& options,
-                                   const MachineSettings& nominal,
-                                   const MachineSettings& settings,
                                    const FlankGridPoint& point,
                                    const EnvelopeContact& start) {
   const double max_step_mm = options.max_step_from_nominal_mm;
-  EnvelopeContact direct =
-      SolveContactInFrame(frame, options, point, start, max_step_mm);
+  EnvelopeContact direct = SolveContactInFrame(
+      frames->At(kContinuationStages), options, point, start, max_step_mm);
   if (direct.status != PointStatus::kNotConverged &&
       std::abs(direct.roll_rad - start.roll_rad) <= kNearContactRollRad)
     return direct;
-  const Eigen::VectorXd from = nominal.ToVector();
-  const Eigen::VectorXd change = settings.ToVector() - from;
   EnvelopeContact followed = start;
   int iterations = direct.iterations;
   for (int stage = 1; stage <= kContinuationStages; ++stage) {
-    const bool last = stage == kContinuationStages;
-    const MachineSettings at =
-        last ? settings
-             : MachineSettings::FromVector(
-                   from + (double(stage) / kContinuationStages) * change);
-    followed = SolveContactInFrame(last ? frame : MakeContactFrame(setup, at),
-                                   options,
-                                   point,
-                                   followed,
-                                   max_step_mm);
+    followed = SolveContactInFrame(
+        frames->At(stage), options, point, followed, max_step_mm);
     iterations += followed.iterations;
     if (followed.status == PointStatus::kNotConverged) break;
   }
@@ -856,13 +879,9 @@ EnvelopeContact FlatWheelGrinder::SolveContact(
     const MachineSettings& settings, const FlankGridPoint& point) const {
   const EnvelopeContact start =
       NominalStart(MakeContactFrame(setup_, nominal_), options_, point);
-  return SolveGroundContact(setup_,
-                            MakeContactFrame(setup_, settings),
-                            options_,
-                            nominal_,
-                            settings,
-                            point,
-                            start);
+  const ContactFrame frame = MakeContactFrame(setup_, settings);
+  ContinuationFrames frames(setup_, nominal_, settings, frame);
+  return SolveGroundContact(&frames, options_, point, start);
 }
 
 Eigen::Matrix<double, 1, kNumGrinderParameters>
@@ -891,11 +910,11 @@ void FlatWheelGrinder::Evaluate(const Eigen::VectorXd& parameters,
       n, 3, std::numeric_limits<double>::quiet_NaN());
   evaluation->jacobian_um.resize(0, 0);
   const ContactFrame frame = MakeContactFrame(setup_, settings);
+  ContinuationFrames frames(setup_, nominal_, settings, frame);
   const double wheel_radius_mm = frame.c.wheel_radius_mm;
   for (int i = 0; i < n; ++i) {
-    const FlankGridPoint& point = grid_.points[i];
     const EnvelopeContact contact = SolveGroundContact(
-        setup_, frame, options_, nominal_, settings, point, nominal_starts_[i]);
+        &frames, options_, grid_.points[i], nominal_starts_[i]);
     evaluation->status[i] = contact.status;
     if (contact.status != PointStatus::kNotConverged) {
       const double margin_mm =
