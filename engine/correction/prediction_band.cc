@@ -54,21 +54,57 @@ double MeanSquareOverAll(const CorrectionProblem& problem,
   return (measured2 * n + others2) / *all;
 }
 
+// The next part's mean square over the points it has (MeanSquareOverAll) and
+// its sd; and, where the model grinds points the measurement lacks, the same
+// without them (the reading in which they stay unground: a point the
+// measurement lacks is most often one the machine did not reach, and the
+// model that grinds it is the one that did not foresee that), NaN otherwise.
+// Outliers count in both: the part has them.
+struct MeanSquareReadings {
+  double all2 = 0.0, sd2 = 0.0;
+  double unground2 = kNaN, unground_sd2 = kNaN;
+};
+
+template <class Flank>
+MeanSquareReadings ReadingsOverAll(const CorrectionProblem& problem,
+                                   const std::vector<bool>& measured,
+                                   double measured2,
+                                   double n,
+                                   double sd2_times_n,
+                                   Flank flank_um) {
+  MeanSquareReadings readings;
+  double all = 0.0;
+  readings.all2 =
+      MeanSquareOverAll(problem, measured, measured2, n, flank_um, &all);
+  readings.sd2 = sd2_times_n / all;
+  std::vector<bool> skipped = measured;
+  for (int i = 0; i < problem.num_points; ++i)
+    if (!std::isfinite(problem.measured_um(i))) skipped[i] = true;
+  double with_measurement = 0.0;
+  const double unground2 = MeanSquareOverAll(
+      problem, skipped, measured2, n, flank_um, &with_measurement);
+  if (with_measurement < all) {
+    readings.unground2 = unground2;
+    readings.unground_sd2 = sd2_times_n / with_measurement;
+  }
+  return readings;
+}
+
 // The next part's mean square true residual as the model at the commanded
 // settings predicts it after the step (problem linearised at an estimated
 // state): on the `predicted` points e + the change there (the state's
 // prediction where the commanded model has no contact before or after), less
-// `noise_bias2`; on the other points it grinds after the step, its flank. The
-// sd of that mean square is `sd2_times_n` over the points counted. False
-// when linearised at the commanded settings (nothing else to say).
+// `noise_bias2`; on the other points it grinds after the step, its flank
+// (ReadingsOverAll; the sd of the mean square is `sd2_times_n` over the
+// points counted). False when linearised at the commanded settings (nothing
+// else to say).
 bool CommandedEndPrediction(const CorrectionProblem& problem,
                             const CorrectionResult& result,
                             const std::vector<int>& predicted,
                             const std::vector<bool>& measured,
                             double noise_bias2,
                             double sd2_times_n,
-                            double* all2,
-                            double* sd2) {
+                            MeanSquareReadings* readings) {
   if (!problem.AtEstimatedState() ||
       problem.commanded_status.size() !=
           static_cast<size_t>(problem.num_points))
@@ -92,17 +128,15 @@ bool CommandedEndPrediction(const CorrectionProblem& problem,
     measured2 += r * r;
   }
   const double n = static_cast<double>(predicted.size());
-  double all = 0.0;
-  *all2 = MeanSquareOverAll(
+  *readings = ReadingsOverAll(
       problem,
       measured,
       std::max(0.0, measured2 / n - noise_bias2),
       n,
+      sd2_times_n,
       [&](int i) {
         return after_status[i] == PointStatus::kOk ? after_um(i) : kNaN;
-      },
-      &all);
-  *sd2 = sd2_times_n / all;
+      });
   return true;
 }
 
@@ -114,6 +148,16 @@ struct TrueRmsBands {
   double low2[2] = {0.0, 0.0};
   double high2[2] = {0.0, 0.0};
 };
+
+// Widens `bands` to reach over a reading of the next part's mean square
+// `mean2` with sd `sd2`.
+void ReachOver(double mean2, double sd2, TrueRmsBands* bands) {
+  for (int k = 1; k <= 2; ++k) {
+    bands->low2[k - 1] =
+        std::min(bands->low2[k - 1], std::max(0.0, mean2 - k * sd2));
+    bands->high2[k - 1] = std::max(bands->high2[k - 1], mean2 + k * sd2);
+  }
+}
 
 TrueRmsBands BandsAtNoise(const CorrectionProblem& problem,
                           const CorrectionResult& result,
@@ -139,41 +183,35 @@ TrueRmsBands BandsAtNoise(const CorrectionProblem& problem,
                                2.0 * mean_variance * mean_variance / n);
   // The points the model grinds after the step that the prediction has no
   // measurement of (unmeasured, outliers) count at the model's flank: the
-  // true part has them too.
+  // true part has them. Those the measurement lacks may stay unground: the
+  // band reaches over that reading too.
   std::vector<bool> measured(problem.num_points, false);
   for (int i : predicted) measured[i] = true;
-  double all = 0.0;
-  const double all2 = MeanSquareOverAll(
-      problem,
-      measured,
-      expected2,
-      n,
-      [&](int i) { return result.predicted_change_um(i) + problem.d0()(i); },
-      &all);
-  const double all_sd2 = sd2 * n / all;
-  bands.expected2 = all2;
+  const MeanSquareReadings readings =
+      ReadingsOverAll(problem, measured, expected2, n, sd2 * n, [&](int i) {
+        return result.predicted_change_um(i) + problem.d0()(i);
+      });
+  bands.expected2 = readings.all2;
   for (int k = 1; k <= 2; ++k) {
-    bands.low2[k - 1] = std::max(0.0, all2 - k * all_sd2);
-    bands.high2[k - 1] = all2 + k * all_sd2;
+    bands.low2[k - 1] = std::max(0.0, readings.all2 - k * readings.sd2);
+    bands.high2[k - 1] = readings.all2 + k * readings.sd2;
   }
+  if (std::isfinite(readings.unground2))
+    ReachOver(readings.unground2, readings.unground_sd2, &bands);
   // Linearised at an estimated state: the same step on the model at the
   // commanded settings, the other end of what the machine may be running,
   // predicts the part too; the band reaches over both.
-  double commanded_all2 = 0.0, commanded_sd2 = 0.0;
+  MeanSquareReadings commanded;
   if (CommandedEndPrediction(problem,
                              result,
                              predicted,
                              measured,
                              mean_variance * (1.0 - 2.0 * dof / n),
                              sd2 * n,
-                             &commanded_all2,
-                             &commanded_sd2)) {
-    for (int k = 1; k <= 2; ++k) {
-      bands.low2[k - 1] = std::min(
-          bands.low2[k - 1], std::max(0.0, commanded_all2 - k * commanded_sd2));
-      bands.high2[k - 1] =
-          std::max(bands.high2[k - 1], commanded_all2 + k * commanded_sd2);
-    }
+                             &commanded)) {
+    ReachOver(commanded.all2, commanded.sd2, &bands);
+    if (std::isfinite(commanded.unground2))
+      ReachOver(commanded.unground2, commanded.unground_sd2, &bands);
   }
   return bands;
 }
