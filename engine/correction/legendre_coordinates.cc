@@ -62,15 +62,25 @@ Eigen::MatrixXd CoordinateMap(const std::vector<ParameterBlock>& blocks,
                               double roll_max_rad,
                               const std::map<std::string, double>& scales) {
   Eigen::MatrixXd t = Eigen::MatrixXd::Zero(num_parameters, num_parameters);
+  // One basis change per polynomial degree: the axes share it (the six axes
+  // made it six times, 1 % of a correction's instructions).
+  std::map<int, Eigen::MatrixXd> basis_change;
   for (const ParameterBlock& b : blocks) {
     const double s = BlockScale(b, scales);
     if (b.is_polynomial) {
+      auto known = basis_change.find(b.num_coefficients);
+      if (known == basis_change.end()) {
+        known =
+            basis_change
+                .emplace(b.num_coefficients,
+                         LegendreToMonomial(
+                             b.num_coefficients, roll_min_rad, roll_max_rad))
+                .first;
+      }
       t.block(b.first_index,
               b.first_index,
               b.num_coefficients,
-              b.num_coefficients) =
-          s *
-          LegendreToMonomial(b.num_coefficients, roll_min_rad, roll_max_rad);
+              b.num_coefficients) = s * known->second;
     } else {
       for (int k = 0; k < b.num_coefficients; ++k)
         t(b.first_index + k, b.first_index + k) = s;
