@@ -162,6 +162,7 @@ void ReachOver(double mean2, double sd2, TrueRmsBands* bands) {
 TrueRmsBands BandsAtNoise(const CorrectionProblem& problem,
                           const CorrectionResult& result,
                           const std::vector<int>& predicted,
+                          const ModelEvaluation* after_step,
                           double mean_variance) {
   const CorrectionSummary& summary = result.summary;
   TrueRmsBands bands;
@@ -187,10 +188,20 @@ TrueRmsBands BandsAtNoise(const CorrectionProblem& problem,
   // band reaches over that reading too.
   std::vector<bool> measured(problem.num_points, false);
   for (int i : predicted) measured[i] = true;
+  // The model's flank after the step: d0 + the change where it grinds the
+  // point before the step too, its evaluation after the step where only
+  // there (a row the part lacks, ground again).
+  const auto flank_after = [&](int i) {
+    if (std::isfinite(result.predicted_change_um(i)))
+      return result.predicted_change_um(i) + problem.d0()(i);
+    if (after_step != nullptr &&
+        problem.evaluation.status[i] != PointStatus::kOk &&
+        after_step->status[i] == PointStatus::kOk)
+      return after_step->deviations_um(i);
+    return kNaN;
+  };
   const MeanSquareReadings readings =
-      ReadingsOverAll(problem, measured, expected2, n, sd2 * n, [&](int i) {
-        return result.predicted_change_um(i) + problem.d0()(i);
-      });
+      ReadingsOverAll(problem, measured, expected2, n, sd2 * n, flank_after);
   bands.expected2 = readings.all2;
   for (int k = 1; k <= 2; ++k) {
     bands.low2[k - 1] = std::max(0.0, readings.all2 - k * readings.sd2);
@@ -241,7 +252,22 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
   }
   if (predicted.empty()) return;
   mean_variance /= static_cast<double>(predicted.size());
-  TrueRmsBands bands = BandsAtNoise(problem, *result, predicted, mean_variance);
+  // Where the model has points without a contact at the linearisation point,
+  // the step may grind them: the model after the step (the exact
+  // prediction's evaluation, from the correction's memo).
+  ModelEvaluation after_step;
+  const ModelEvaluation* after = nullptr;
+  const bool some_unground = std::any_of(
+      problem.evaluation.status.begin(),
+      problem.evaluation.status.end(),
+      [](PointStatus status) { return status != PointStatus::kOk; });
+  if (some_unground && problem.model != nullptr &&
+      result->parameters.size() == problem.num_parameters) {
+    problem.model->Evaluate(result->parameters, false, &after_step);
+    after = &after_step;
+  }
+  TrueRmsBands bands =
+      BandsAtNoise(problem, *result, predicted, after, mean_variance);
   // A noise estimated from the state's misfit above what a probe scatters
   // (kStateNoiseCeilingUm) may be flank the state cannot explain, which the
   // next part keeps (seed 11, scenario 138: 3.9 um left, the part stays at
@@ -253,7 +279,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
       band.noise_sigma_um > ceiling_um) {
     const double share = ceiling_um / band.noise_sigma_um;
     const TrueRmsBands as_flank = BandsAtNoise(
-        problem, *result, predicted, mean_variance * share * share);
+        problem, *result, predicted, after, mean_variance * share * share);
     for (int k = 0; k < 2; ++k) {
       bands.low2[k] = std::min(bands.low2[k], as_flank.low2[k]);
       bands.high2[k] = std::max(bands.high2[k], as_flank.high2[k]);

@@ -34,7 +34,8 @@
 // (not delivered: most often not reached) may stay unground in the next part
 // too: the bands also reach over the reading without them (rounds from a
 // part lacking 9 or more points: 2-sigma coverage 80.3 -> 92.1 % of 471 on
-// the quick count).
+// the quick count). A point the model reaches only after the step counts at
+// its flank there (the model after the step, from the correction's memo).
 // Linearised at an estimated machine state, the model at the commanded
 // settings (the other end of what the machine may be running) predicts the
 // same step too: e + its change on the measured points, its flank on the

@@ -1876,6 +1876,59 @@ TEST(EstimatePredictionBand, ReachesOverTheCommandedSettingsPrediction) {
   }
 }
 
+// A point the model does not reach at the linearisation point but grinds
+// after the step (EdgeModel's point 0: 0.35 mm outside the wheel, 0.35 mm
+// inside after the step), unmeasured, 5 um off its target there: the
+// expected rms counts it at the model's flank after the step (before, it was
+// left out: the step's change there is not defined, and a row the part
+// lacked and the next part ground again came out far above the band), and
+// the band reaches down to the reading in which it stays unground.
+TEST(EstimatePredictionBand, CountsThePointsTheStepGrindsAgain) {
+  const EdgeModel model(16, -0.35);
+  const int n = model.NumPoints();
+  Eigen::VectorXd step = Eigen::VectorXd::Zero(model.NumParameters());
+  step(4) = -1e-3;
+  ModelEvaluation before, after;
+  model.Evaluate(Eigen::VectorXd::Zero(model.NumParameters()), false, &before);
+  model.Evaluate(step, false, &after);
+  ASSERT_NE(before.status[0], PointStatus::kOk);
+  ASSERT_EQ(after.status[0], PointStatus::kOk);
+  constexpr double kOffTargetUm = 5.0;
+  CorrectionInput input;
+  input.model = &model;
+  input.current_parameters = Eigen::VectorXd::Zero(model.NumParameters());
+  // The part the step makes exactly, but at point 0.
+  input.measured_um =
+      before.deviations_um - (after.deviations_um - before.deviations_um);
+  input.measured_um(0) = std::numeric_limits<double>::quiet_NaN();
+  input.target_um = Eigen::VectorXd::Zero(n);
+  input.target_um(0) = after.deviations_um(0) - kOffTargetUm;
+  CorrectionOptions options;
+  options.probe_noise_um = 0.1;
+  const CorrectionProblem problem = PreparedProblem(options, input);
+  CorrectionResult result;
+  result.delta = step;
+  result.parameters = problem.parameters + step;
+  result.predicted_change_um = Eigen::VectorXd::Constant(n, kNaN);
+  result.predicted_residual_um = Eigen::VectorXd::Constant(n, kNaN);
+  for (int i = 1; i < n; ++i) {
+    result.predicted_change_um(i) =
+        after.deviations_um(i) - before.deviations_um(i);
+    result.predicted_residual_um(i) =
+        problem.error_um(i) + result.predicted_change_um(i);
+  }
+  result.summary.num_points_used = static_cast<int>(problem.used.size());
+  result.summary.effective_dof = 5.0;
+  result.summary.residual_rms_um = 0.0;
+  EstimatePredictionBand(problem, &result);
+  const PredictionBand& band = result.summary.prediction_band;
+  EXPECT_NEAR(band.expected_true_rms_um,
+              kOffTargetUm / std::sqrt(static_cast<double>(n)),
+              /*tol_um=*/1e-9);
+  EXPECT_GE(band.true_rms_high_um[1], band.expected_true_rms_um);
+  EXPECT_LT(band.true_rms_low_um[1], 0.1);
+}
+
 TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   const LinearModel model(14);
   const CorrectionProblem problem =
