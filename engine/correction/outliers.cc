@@ -73,10 +73,15 @@ std::vector<double> Isolation(const Eigen::VectorXd& x, int rows, int columns) {
 }  // namespace
 
 RobustFit RobustLinearFit(const CorrectionOptions& options,
-                          const CorrectionProblem& problem,
+                          CorrectionProblem* problem,
                           const std::vector<int>& used,
                           Svd* svd_at_weights) {
-  CorrectionProblem weighted = problem;
+  // The passes reweight `problem` in place (a copy of the whole problem per
+  // fit was 0.75 % of a correction's instructions) and give it back as it
+  // came: its weights and signal_noise_um are restored below.
+  const Eigen::VectorXd weights = problem->weights;
+  const double signal_noise_um = problem->signal_noise_um;
+  CorrectionProblem& weighted = *problem;
   // The isolation test looks at the directions a smooth machine error takes,
   // one Tikhonov level over those above min_flank_effect_um: the weak
   // directions the per-direction filter may follow have a lone point's shape,
@@ -93,18 +98,17 @@ RobustFit RobustLinearFit(const CorrectionOptions& options,
     std::vector<double> size(used.size());
     for (size_t r = 0; r < used.size(); ++r)
       size[r] = std::abs(residual(r) / std::sqrt(weighted.weights(used[r])));
-    const double scale =
-        std::max(1.4826 * Median(size), std::max(problem.probe_noise_um, 1e-3));
+    const double scale = std::max(1.4826 * Median(size),
+                                  std::max(weighted.probe_noise_um, 1e-3));
     double largest_change = 0.0;
     for (size_t r = 0; r < used.size(); ++r) {
       const int i = used[r];
       const double w =
-          problem.weights(i) *
+          weights(i) *
           std::min(1.0, kHuberK * scale / std::max(size[r], 1e-12));
-      if (problem.weights(i) > 0.0)
-        largest_change =
-            std::max(largest_change,
-                     std::abs(w - weighted.weights(i)) / problem.weights(i));
+      if (weights(i) > 0.0)
+        largest_change = std::max(
+            largest_change, std::abs(w - weighted.weights(i)) / weights(i));
       weighted.weights(i) = w;
     }
     // Weights settled: one more pass would not move the fit.
@@ -117,7 +121,10 @@ RobustFit RobustLinearFit(const CorrectionOptions& options,
   // The fit at the last weights, with its hat matrix.
   const SubspaceFit fit =
       TikhonovFitAlong(weighted, used, directions, ls.lambda, true);
-  return RobustFit{fit.residual, fit.leverage, weighted.weights};
+  RobustFit robust{fit.residual, fit.leverage, weighted.weights};
+  problem->weights = weights;
+  problem->signal_noise_um = signal_noise_um;
+  return robust;
 }
 
 std::vector<double> StandardisedResiduals(const RobustFit& fit,
@@ -233,7 +240,7 @@ void RemoveGrossOutliers(const CorrectionOptions& options,
                                   problem->outliers_found_before.end());
   for (int drop = 0; drop < max_drop; ++drop) {
     Svd at_weights;
-    const RobustFit fit = RobustLinearFit(options, *problem, used, &at_weights);
+    const RobustFit fit = RobustLinearFit(options, problem, used, &at_weights);
     const int worst = FindGrossOutlier(StandardisedResiduals(fit, used),
                                        used,
                                        problem->model->GridRows(),

@@ -26,14 +26,15 @@ namespace correction_internal {
 // min_flank_effect_um); the passes refit along its directions at its level
 // (TikhonovFitAlong). Returns the fit at the last weights and those weights;
 // the SVD of the first fit, at problem.weights, goes to `svd_at_weights` when
-// asked.
+// asked. `problem` is reweighted in place and given back as it came (weights
+// and signal_noise_um restored).
 struct RobustFit {
   Eigen::VectorXd residual;  // weighted, over `used`
   Eigen::VectorXd leverage;  // the hat matrix's diagonal, over `used`
   Eigen::VectorXd weights;   // every grid point
 };
 RobustFit RobustLinearFit(const CorrectionOptions& options,
-                          const CorrectionProblem& problem,
+                          CorrectionProblem* problem,
                           const std::vector<int>& used,
                           Svd* svd_at_weights = nullptr);
 

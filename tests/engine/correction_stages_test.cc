@@ -617,11 +617,15 @@ TEST(RobustLinearFit, StandsTheSpikesOutWithTheFitAtItsWeights) {
   const std::vector<int> spikes = {8, 26, 43};
   CorrectionOptions options;
   options.probe_noise_um = kNoiseUm;
-  const CorrectionProblem problem =
+  CorrectionProblem problem =
       NoiseProblem(model, options, 5, 0.0, spikes, 29.0);
+  const CorrectionProblem as_given = problem;
   Svd first_svd;
   const RobustFit fit =
-      RobustLinearFit(options, problem, problem.used, &first_svd);
+      RobustLinearFit(options, &problem, problem.used, &first_svd);
+  // Given back as it came.
+  EXPECT_EQ(problem.weights, as_given.weights);
+  EXPECT_EQ(problem.signal_noise_um, as_given.signal_noise_um);
   for (int i : spikes) EXPECT_LT(fit.weights(i), 0.1 * problem.weights(i));
   const std::vector<double> loo = StandardisedResiduals(fit, problem.used);
   for (size_t r = 0; r < problem.used.size(); ++r) {
