@@ -77,6 +77,7 @@ MeanSquareReadings ReadingsOverAll(const CorrectionProblem& problem,
   readings.all2 =
       MeanSquareOverAll(problem, measured, measured2, n, flank_um, &all);
   readings.sd2 = sd2_times_n / all;
+  if (problem.measured_um.size() != problem.num_points) return readings;
   std::vector<bool> skipped = measured;
   for (int i = 0; i < problem.num_points; ++i)
     if (!std::isfinite(problem.measured_um(i))) skipped[i] = true;
@@ -262,9 +263,12 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
       problem.evaluation.status.end(),
       [](PointStatus status) { return status != PointStatus::kOk; });
   if (some_unground && problem.model != nullptr &&
+      problem.evaluation.status.size() ==
+          static_cast<size_t>(problem.num_points) &&
       result->parameters.size() == problem.num_parameters) {
     problem.model->Evaluate(result->parameters, false, &after_step);
-    after = &after_step;
+    if (after_step.status.size() == static_cast<size_t>(problem.num_points))
+      after = &after_step;
   }
   TrueRmsBands bands =
       BandsAtNoise(problem, *result, predicted, after, mean_variance);
