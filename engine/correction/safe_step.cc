@@ -346,13 +346,11 @@ constexpr int kOutsideSamples = 9;
 // samples inside keep it to kMotionFill of the bound).
 constexpr double kOutsideMotionTolerance = 0.01;
 
-// The motion rows (problem.motion_rows') at kOutsideSamples roll angles over
-// each stretch of [lo, hi] outside the problem's roll range; none where there
-// is no such stretch.
-Eigen::MatrixXd MotionRowsOutsideRollRange(const CorrectionOptions& options,
-                                           const CorrectionProblem& problem,
-                                           double lo,
-                                           double hi) {
+// kOutsideSamples roll angles over each stretch of [lo, hi] outside the
+// problem's roll range; none where there is no such stretch.
+std::vector<double> RollsOutsideRollRange(const CorrectionProblem& problem,
+                                          double lo,
+                                          double hi) {
   std::vector<double> rolls_rad;
   for (int s = 0; s < kOutsideSamples; ++s) {
     const double t = (s + 1.0) / kOutsideSamples;
@@ -363,8 +361,7 @@ Eigen::MatrixXd MotionRowsOutsideRollRange(const CorrectionOptions& options,
       rolls_rad.push_back(problem.roll_max_rad +
                           t * (hi - problem.roll_max_rad));
   }
-  if (rolls_rad.empty()) return Eigen::MatrixXd(0, problem.num_parameters);
-  return MotionRowsAt(options, problem, rolls_rad);
+  return rolls_rad;
 }
 
 // Whether `delta` moves an axis by more than its bound anywhere in [lo, hi]
@@ -379,10 +376,9 @@ bool MovesBeyondBoundOutsideRollRange(const CorrectionOptions& options,
                                       const Eigen::VectorXd& delta,
                                       double lo,
                                       double hi) {
-  const Eigen::MatrixXd rows =
-      MotionRowsOutsideRollRange(options, problem, lo, hi);
-  return rows.rows() > 0 &&
-         (rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance;
+  return LargestRelativeMotion(
+             options, problem, RollsOutsideRollRange(problem, lo, hi), delta) >
+         1.0 + kOutsideMotionTolerance;
 }
 
 // The model after the step at the plausible end (CorrectionProblem's;
@@ -691,14 +687,13 @@ Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(
     problem.model->Evaluate(problem.commanded_parameters + delta, false, &eval);
     JoinContactRolls(problem, eval, &lo, &hi);
   }
-  const Eigen::MatrixXd rows =
-      MotionRowsOutsideRollRange(options, problem, lo, hi);
-  if (rows.rows() == 0 ||
-      !((rows * delta).cwiseAbs().maxCoeff() > 1.0 + kOutsideMotionTolerance))
+  const std::vector<double> rolls_rad = RollsOutsideRollRange(problem, lo, hi);
+  if (!(LargestRelativeMotion(options, problem, rolls_rad, delta) >
+        1.0 + kOutsideMotionTolerance))
     return none;
   if (lo_rad != nullptr) *lo_rad = lo;
   if (hi_rad != nullptr) *hi_rad = hi;
-  return rows;
+  return MotionRowsAt(options, problem, rolls_rad);
 }
 
 Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
