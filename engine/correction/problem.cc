@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -239,6 +240,7 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
                               CorrectionSummary* summary,
                               std::string* error) {
   p->model = input.model;
+  p->svd_memo = std::make_shared<SvdMemo>();
   p->blocks = input.model->ParameterBlocks();
   p->num_parameters = input.model->NumParameters();
   p->num_points = input.model->NumPoints();

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,8 @@
 
 namespace gearloop {
 namespace correction_internal {
+
+class SvdMemo;  // svd_memo.h
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -46,6 +49,10 @@ constexpr int kMotionBoundSamples = 17;
 
 struct CorrectionProblem {
   const MachineModel* model = nullptr;
+  // The SVDs of the correction's linear systems, remembered (svd_memo.h):
+  // made by PrepareCorrectionProblem and shared by the problems copied from
+  // this one (the state fit's, the relinearised ones); nullptr: none kept.
+  std::shared_ptr<SvdMemo> svd_memo;
   std::vector<ParameterBlock> blocks;
   int num_parameters = 0;
   int num_points = 0;

@@ -105,42 +105,41 @@ int CountRank(const Eigen::VectorXd& sigma, double rank_threshold) {
 // u alike). Below it the values are good to about 1e-7 sigma_1 only.
 constexpr double kGramResolvedShare = 1e-5;
 
-Svd ComputeResolvedSvd(const Eigen::MatrixXd& a, double rank_threshold) {
+Svd ComputeResolvedSvd(const Eigen::MatrixXd& a,
+                       double rank_threshold,
+                       SvdMemo* memo) {
   Svd s;
   if (a.rows() == 0 || a.cols() == 0) return s;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(
-      a, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  s.u = svd.matrixU();
-  s.sigma = svd.singularValues();
-  s.v = svd.matrixV();
+  if (const Svd* made =
+          memo != nullptr ? memo->Find(a, SvdMemo::Route::kJacobi) : nullptr) {
+    s = *made;
+  } else {
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(
+        a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    s.u = svd.matrixU();
+    s.sigma = svd.singularValues();
+    s.v = svd.matrixV();
+    if (memo != nullptr) memo->Remember(a, SvdMemo::Route::kJacobi, s);
+  }
   s.rank = CountRank(s.sigma, rank_threshold);
   return s;
 }
 
-Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
-  const int p = static_cast<int>(std::min(a.rows(), a.cols()));
-  if (p == 0 || a.rows() < a.cols())
-    return ComputeResolvedSvd(a, rank_threshold);
-  // sigma_1 >= |A|_F / sqrt(columns): where the threshold lies below
-  // kGramResolvedShare of that (with a margin far above the eigenvalue's
-  // rounding), the eigen-decomposition below would be made only to be
-  // refused (the linear screen of orders 4-6 on 45 columns).
-  constexpr double kCertainlyUnresolvedMargin = 0.99;
-  if (rank_threshold < kCertainlyUnresolvedMargin * kGramResolvedShare *
-                           a.norm() / std::sqrt(double(a.cols())))
-    return ComputeResolvedSvd(a, rank_threshold);
+namespace {
+
+// The singular values and vectors of A (rows >= columns > 0) from the eigen-
+// decomposition of A'A, resolved_down_to set and the rank not counted; sigma
+// empty where the decomposition failed or A is zero.
+Svd GramSvd(const Eigen::MatrixXd& a) {
+  Svd s;
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(a.cols(), a.cols());
   gram.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
-  if (eigen.info() != Eigen::Success)
-    return ComputeResolvedSvd(a, rank_threshold);
+  if (eigen.info() != Eigen::Success) return s;
   // Ascending eigenvalues: the singular values descending.
   const int q = static_cast<int>(a.cols());
   const double sigma1 = std::sqrt(std::max(eigen.eigenvalues()(q - 1), 0.0));
-  const double resolved = kGramResolvedShare * sigma1;
-  if (!(sigma1 > 0.0) || !(rank_threshold >= resolved))
-    return ComputeResolvedSvd(a, rank_threshold);
-  Svd s;
+  if (!(sigma1 > 0.0)) return s;
   s.sigma.resize(q);
   s.v.resize(q, q);
   for (int i = 0; i < q; ++i) {
@@ -154,8 +153,35 @@ Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold) {
     else
       s.u.col(i).setZero();
   }
+  s.resolved_down_to = kGramResolvedShare * sigma1;
+  return s;
+}
+
+}  // namespace
+
+Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold, SvdMemo* memo) {
+  const int p = static_cast<int>(std::min(a.rows(), a.cols()));
+  if (p == 0 || a.rows() < a.cols())
+    return ComputeResolvedSvd(a, rank_threshold, memo);
+  // sigma_1 >= |A|_F / sqrt(columns): where the threshold lies below
+  // kGramResolvedShare of that (with a margin far above the eigenvalue's
+  // rounding), the eigen-decomposition below would be made only to be
+  // refused (the linear screen of orders 4-6 on 45 columns).
+  constexpr double kCertainlyUnresolvedMargin = 0.99;
+  if (rank_threshold < kCertainlyUnresolvedMargin * kGramResolvedShare *
+                           a.norm() / std::sqrt(double(a.cols())))
+    return ComputeResolvedSvd(a, rank_threshold, memo);
+  Svd s;
+  if (const Svd* made =
+          memo != nullptr ? memo->Find(a, SvdMemo::Route::kGram) : nullptr) {
+    s = *made;
+  } else {
+    s = GramSvd(a);
+    if (memo != nullptr) memo->Remember(a, SvdMemo::Route::kGram, s);
+  }
+  if (s.sigma.size() == 0 || !(rank_threshold >= s.resolved_down_to))
+    return ComputeResolvedSvd(a, rank_threshold, memo);
   s.rank = CountRank(s.sigma, rank_threshold);
-  s.resolved_down_to = resolved;
   return s;
 }
 
@@ -346,7 +372,7 @@ LinearSolve SolveRegularisedLinear(const CorrectionOptions& options,
     ls.svd = *svd_of_a;
     ls.svd.rank = CountRank(ls.svd.sigma, rank_threshold);
   } else {
-    ls.svd = ComputeSvd(a, rank_threshold);
+    ls.svd = ComputeSvd(a, rank_threshold, problem.svd_memo.get());
   }
   const int rank = ls.svd.rank;
   ls.k = rank;
@@ -434,7 +460,8 @@ double ReachableSignal2(const CorrectionOptions& options,
   const Svd svd =
       ComputeSvd(a,
                  kWeakFlankEffectShare * options.min_flank_effect_um *
-                     std::sqrt(weight_sum));
+                     std::sqrt(weight_sum),
+                 problem.svd_memo.get());
   const Eigen::VectorXd share = NoiseShareAlong(problem, rows, svd.u, svd.rank);
   const double noise2 = noise_um > 0.0 ? noise_um * noise_um : 0.0;
   double signal2 = 0.0;
@@ -470,7 +497,7 @@ Svd ResolvedSvdOfWeightedSystem(const CorrectionProblem& problem,
   Eigen::MatrixXd a;
   Eigen::VectorXd b;
   WeightedSystem(problem, rows, &a, &b);
-  return ComputeResolvedSvd(a, rank_threshold);
+  return ComputeResolvedSvd(a, rank_threshold, problem.svd_memo.get());
 }
 
 }  // namespace correction_internal

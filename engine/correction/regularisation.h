@@ -15,20 +15,10 @@
 
 #include "engine/correction/correction.h"
 #include "engine/correction/problem.h"
+#include "engine/correction/svd_memo.h"
 
 namespace gearloop {
 namespace correction_internal {
-
-struct Svd {
-  Eigen::MatrixXd u;      // n x p
-  Eigen::VectorXd sigma;  // p, descending
-  Eigen::MatrixXd v;      // q x p
-  int rank = 0;
-  // The singular values (and their vectors) below this are not resolved: the
-  // eigen-decomposition of A'A gives them to about sqrt(p eps) sigma_1 only.
-  // 0: every one resolved (the Jacobi SVD).
-  double resolved_down_to = 0.0;
-};
 
 // Thin SVD of A; the numerical rank counts singular values >= rank_threshold
 // (and > 0). Where every singular value at or above rank_threshold is at least
@@ -36,9 +26,15 @@ struct Svd {
 // (about 4 x faster at 45 x 25-43; u_i = A v_i / sigma_i; the directions at or
 // above the threshold agree with the Jacobi SVD's to 1e-7 relative on the
 // robustness benchmark), with resolved_down_to set; else the Jacobi SVD.
-Svd ComputeSvd(const Eigen::MatrixXd& a, double rank_threshold);
+// With a memo, a decomposition of the same A made before is answered from it
+// (svd_memo.h: the same numbers).
+Svd ComputeSvd(const Eigen::MatrixXd& a,
+               double rank_threshold,
+               SvdMemo* memo = nullptr);
 // The Jacobi SVD of A, every singular value resolved (resolved_down_to 0).
-Svd ComputeResolvedSvd(const Eigen::MatrixXd& a, double rank_threshold);
+Svd ComputeResolvedSvd(const Eigen::MatrixXd& a,
+                       double rank_threshold,
+                       SvdMemo* memo = nullptr);
 // The Jacobi SVD of the solve's own A (A = W^1/2 S T over `rows`): for the
 // directions below the resolution of a solve's SVD (the exact search's wide
 // directions).

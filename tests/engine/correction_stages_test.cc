@@ -255,6 +255,66 @@ TEST(ComputeSvd, FromTheGramMatrixOnlyWhereItResolvesTheRankThreshold) {
   EXPECT_GT(ComputeSvd(a, 1.01e-5 * sigma1).resolved_down_to, 0.0);
 }
 
+// The memo answers a repeated A with the decomposition made for it, bit for
+// bit what ComputeSvd makes without it, by the route the threshold asks (A'A
+// or Jacobi); the rank is counted at the new threshold. A matrix a rounding
+// apart is another A, and the oldest of more than eight is forgotten.
+void ExpectSameSvd(const Svd& a, const Svd& b) {
+  EXPECT_EQ(a.rank, b.rank);
+  EXPECT_EQ(a.resolved_down_to, b.resolved_down_to);
+  EXPECT_EQ(a.sigma, b.sigma);
+  EXPECT_EQ(a.u, b.u);
+  EXPECT_EQ(a.v, b.v);
+}
+
+TEST(SvdMemo, AnswersTheSameMatrixByTheRouteTheThresholdAsks) {
+  const Eigen::MatrixXd a = GradedMatrix();
+  const double sigma1 = ComputeResolvedSvd(a, 0.0).sigma(0);
+  SvdMemo memo;
+  const Svd gram = ComputeSvd(a, 1e-4 * sigma1, &memo);
+  ASSERT_GT(gram.resolved_down_to, 0.0);
+  EXPECT_EQ(memo.decompositions(), 1);
+  EXPECT_EQ(memo.answered(), 0);
+  ExpectSameSvd(ComputeSvd(a, 1e-4 * sigma1, &memo), gram);
+  EXPECT_EQ(memo.answered(), 1);
+  // Another threshold the gram route resolves: the same decomposition, the
+  // rank counted anew.
+  const Svd coarse = ComputeSvd(a, 1e-2 * sigma1, &memo);
+  ExpectSameSvd(coarse, ComputeSvd(a, 1e-2 * sigma1));
+  EXPECT_LT(coarse.rank, gram.rank);
+  EXPECT_EQ(memo.decompositions(), 1);
+  EXPECT_EQ(memo.answered(), 2);
+  // Below the resolution: the Jacobi SVD, made once.
+  const Svd fine = ComputeSvd(a, 1e-7 * sigma1, &memo);
+  ExpectSameSvd(fine, ComputeSvd(a, 1e-7 * sigma1));
+  EXPECT_EQ(fine.resolved_down_to, 0.0);
+  EXPECT_EQ(memo.decompositions(), 2);
+  EXPECT_EQ(memo.answered(), 2);  // far below: straight to the Jacobi SVD
+  ExpectSameSvd(ComputeResolvedSvd(a, 1e-7 * sigma1, &memo), fine);
+  EXPECT_EQ(memo.decompositions(), 2);
+  EXPECT_EQ(memo.answered(), 3);
+}
+
+TEST(SvdMemo, ARoundingApartIsAnotherMatrixAndTheOldestIsForgotten) {
+  const Eigen::MatrixXd a = GradedMatrix();
+  const double threshold = 1e-4 * ComputeResolvedSvd(a, 0.0).sigma(0);
+  SvdMemo memo;
+  ComputeSvd(a, threshold, &memo);
+  Eigen::MatrixXd apart = a;
+  apart(3, 2) = std::nextafter(apart(3, 2), 1e300);
+  ExpectSameSvd(ComputeSvd(apart, threshold, &memo),
+                ComputeSvd(apart, threshold));
+  EXPECT_EQ(memo.decompositions(), 2);
+  EXPECT_EQ(memo.answered(), 0);
+  // Eight more matrices push A out.
+  for (int k = 1; k <= 8; ++k)
+    ComputeSvd(a * (1.0 + 0.01 * k), threshold, &memo);
+  EXPECT_EQ(memo.decompositions(), 10);
+  ComputeSvd(a, threshold, &memo);
+  EXPECT_EQ(memo.decompositions(), 11);
+  EXPECT_EQ(memo.answered(), 0);
+}
+
 TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
   CorrectionOptions options;
   struct Case {
