@@ -2141,6 +2141,56 @@ TEST(ReachableSignal2, CountsTheReachableErrorAboveTheNoise) {
   EXPECT_GT(counted, 0.1 * fitted);
 }
 
+// The screen's SVD from the smaller Gram matrix where its threshold lies below
+// ComputeSvd's resolution (1e-5 sigma_1) but above 2e-6 sigma_1: the same
+// reachable signal as the Jacobi SVD's directions give, to 1e-6 relative, on a
+// 45 x 43 system with singular values over eight decades, tall (every point)
+// and wide (40 of the 45 points).
+TEST(ReachableSignal2, TheScreenFromTheGramMatrixAgreesWithTheJacobiSvd) {
+  constexpr double kRelativeTol = 1e-6;
+  constexpr double kNoiseUm = 0.05;
+  std::mt19937 rng(17);
+  std::normal_distribution<double> gauss;
+  CorrectionProblem problem;
+  problem.st.resize(45, 43);
+  for (int j = 0; j < 43; ++j)
+    for (int i = 0; i < 45; ++i)
+      problem.st(i, j) = gauss(rng) * std::pow(10.0, -8.0 * j / 42.0);
+  problem.free.resize(43);
+  for (int j = 0; j < 43; ++j) problem.free[j] = j;
+  problem.weights = Eigen::VectorXd::Ones(45);
+  problem.noise_share = Eigen::VectorXd::Ones(45);
+  problem.error_um.resize(45);
+  for (int i = 0; i < 45; ++i) problem.error_um(i) = gauss(rng);
+  for (const int num_rows : {45, 40}) {
+    std::vector<int> rows(num_rows);
+    for (int r = 0; r < num_rows; ++r) rows[r] = r;
+    const Eigen::MatrixXd a = problem.st.topRows(num_rows);
+    const Svd jacobi = ComputeResolvedSvd(a, 0.0);
+    // The screen's threshold, kWeakFlankEffectShare x min_flank_effect_um x
+    // sqrt(sum w), at 5e-6 sigma_1.
+    CorrectionOptions options;
+    options.min_flank_effect_um =
+        5e-6 * jacobi.sigma(0) / (kWeakFlankEffectShare * std::sqrt(num_rows));
+    const double threshold = 5e-6 * jacobi.sigma(0);
+    double expected = 0.0;
+    int rank = 0;
+    for (int i = 0; i < jacobi.sigma.size(); ++i) {
+      if (!(jacobi.sigma(i) >= threshold)) continue;
+      ++rank;
+      const double beta = jacobi.u.col(i).dot(-problem.error_um.head(num_rows));
+      expected += std::max(0.0, beta * beta - kNoiseUm * kNoiseUm);
+    }
+    expected /= num_rows;
+    ASSERT_GT(rank, 20) << num_rows;
+    ASSERT_LT(rank, std::min(num_rows, 43)) << num_rows;
+    EXPECT_NEAR(ReachableSignal2(options, problem, rows, kNoiseUm),
+                expected,
+                kRelativeTol * expected)
+        << num_rows;
+  }
+}
+
 // A part whose exact answer moves the axis block 3 times beyond its bound:
 // the sequential QPs keep every sampled motion within the bound, hold it on at
 // least one sample, and leave less error than the answer scaled down whole.
