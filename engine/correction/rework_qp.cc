@@ -26,9 +26,15 @@ Eigen::VectorXd TimesSparse(const Eigen::MatrixXd& r_mat,
 // The dual of SolveConvexQp, min 1/2 mu' Q mu - q' mu, mu >= 0 with Q = R' R,
 // by the active-set method of Lawson and Hanson. Q is never formed: the
 // dual's gradient needs R' (R mu), which only the passive columns of R enter,
-// and the passive block Q_pp = R_p' R_p.
+// and the passive block Q_pp = R_p' R_p. `r_once` is R with one column of each
+// pair (SolveConvexQp: R's first `single` columns, then the pairs' first
+// columns): R' (R mu) is made over it, a pair's second entry the first's
+// negated.
 Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
-                                     const Eigen::VectorXd& q_vec) {
+                                     const Eigen::VectorXd& q_vec,
+                                     const Eigen::MatrixXd& r_once,
+                                     int single) {
+  const int pairs = static_cast<int>(r_once.cols()) - single;
   const int m = static_cast<int>(q_vec.size());
   const double tol =
       1e-12 * std::max(1.0, r_mat.colwise().squaredNorm().maxCoeff());
@@ -52,8 +58,14 @@ Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
   };
   for (int outer = 0; outer < 3 * m + 10; ++outer) {
     // Minus the gradient of the dual, q - Q mu.
-    const Eigen::VectorXd w =
-        q_vec - r_mat.transpose() * TimesSparse(r_mat, mu);
+    const Eigen::VectorXd q_mu_once =
+        r_once.transpose() * TimesSparse(r_mat, mu);
+    Eigen::VectorXd w(m);
+    w.head(single) = q_vec.head(single) - q_mu_once.head(single);
+    for (int p = 0; p < pairs; ++p) {
+      w(single + 2 * p) = q_vec(single + 2 * p) - q_mu_once(single + p);
+      w(single + 2 * p + 1) = q_vec(single + 2 * p + 1) + q_mu_once(single + p);
+    }
     int best = -1;
     double best_w = tol;
     for (int i = 0; i < m; ++i) {
@@ -109,7 +121,8 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
                    const Eigen::VectorXd& g,
                    const Eigen::MatrixXd& constraints,
                    const Eigen::VectorXd& limits,
-                   Eigen::VectorXd* y) {
+                   Eigen::VectorXd* y,
+                   int paired_from) {
   const Eigen::LLT<Eigen::MatrixXd> llt(hessian);
   if (llt.info() != Eigen::Success) return false;
   const Eigen::VectorXd y_free = llt.solve(g);
@@ -118,10 +131,28 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
     *y = y_free;
     return true;
   }
-  // With H = L L': Q = G H^-1 G' = R' R for R = L^-1 G' (k x m).
-  const Eigen::MatrixXd r_mat = llt.matrixL().solve(constraints.transpose());
-  const Eigen::VectorXd mu =
-      SolveDualNonNegative(r_mat, constraints * y_free - limits);
+  // With H = L L': Q = G H^-1 G' = R' R for R = L^-1 G' (k x m). A pair's
+  // second column is the first's negated: L^-1 (-g) is -(L^-1 g) to the bit
+  // (rounding is symmetric in sign), so the solve is made for the first only.
+  const int m = static_cast<int>(constraints.rows());
+  const int single =
+      paired_from >= 0 && paired_from <= m && (m - paired_from) % 2 == 0
+          ? paired_from
+          : m;
+  const int pairs = (m - single) / 2;
+  Eigen::MatrixXd solved(constraints.cols(), single + pairs);
+  solved.leftCols(single) = constraints.topRows(single).transpose();
+  for (int p = 0; p < pairs; ++p)
+    solved.col(single + p) = constraints.row(single + 2 * p).transpose();
+  llt.matrixL().solveInPlace(solved);
+  Eigen::MatrixXd r_mat(constraints.cols(), m);
+  r_mat.leftCols(single) = solved.leftCols(single);
+  for (int p = 0; p < pairs; ++p) {
+    r_mat.col(single + 2 * p) = solved.col(single + p);
+    r_mat.col(single + 2 * p + 1) = -solved.col(single + p);
+  }
+  const Eigen::VectorXd mu = SolveDualNonNegative(
+      r_mat, constraints * y_free - limits, solved, single);
   // y = y_free - H^-1 G' mu = y_free - L'^-1 (R mu).
   *y = y_free - llt.matrixU().solve(TimesSparse(r_mat, mu));
   return true;
@@ -180,11 +211,12 @@ bool SolveLinearisedQp(const CorrectionProblem& problem,
     if (std::isfinite(problem.upper(j))) add(tv.row(j), problem.upper(j));
     if (std::isfinite(problem.lower(j))) add(-tv.row(j), -problem.lower(j));
   }
+  const int paired_from = row;
   for (int r = 0; r < motion.rows(); ++r) {
     add(motion.row(r), 1.0);
     add(-motion.row(r), 1.0);
   }
-  return SolveConvexQp(hess, grad, g_mat, h_vec, z);
+  return SolveConvexQp(hess, grad, g_mat, h_vec, z, paired_from);
 }
 
 int RunReworkPasses(const CorrectionOptions& options,

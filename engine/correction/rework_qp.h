@@ -24,12 +24,15 @@ namespace correction_internal {
 // its dual min 1/2 mu'Q mu - q'mu, mu >= 0 with Q = G H^-1 G', q = G H^-1 g -
 // h, solved by the active-set method of Lawson and Hanson (NNLS, "Solving Least
 // Squares Problems", 1974, ch. 23), which needs only Q and q; y = H^-1 (g - G'
-// mu). False when H is not positive definite.
+// mu). False when H is not positive definite. `paired_from` >= 0: the rows of
+// G from it on come in pairs (g, -g) (a bound on |g y|), and the solve of H's
+// factor against G' is made for one row of each pair (the same numbers).
 bool SolveConvexQp(const Eigen::MatrixXd& hessian,
                    const Eigen::VectorXd& g,
                    const Eigen::MatrixXd& constraints,
                    const Eigen::VectorXd& limits,
-                   Eigen::VectorXd* y);
+                   Eigen::VectorXd* y,
+                   int paired_from = -1);
 
 // The QP in z at a linearisation (S_k = jacobian_k, exact change change_k at
 // z_k): minimise |W^1/2 (e + change_k + S_k T V_k (z - z_k))|^2 + lambda^2

@@ -3,6 +3,7 @@
 // tested in correction_test.cc.
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -1043,6 +1044,48 @@ TEST(SolveConvexQp, KnownAnswers) {
                              g_two,
                              Eigen::Vector2d(0.2, 1.0),
                              &y));
+}
+
+// A bound on |g y| as the pair (g, -g): told that the rows come in pairs, the
+// QP makes the factor's solve for one row of each and gives the answer it gives
+// untold (to rounding; the robustness benchmark's JSON is identical bit for
+// bit), also with a single row before the pairs and a row in a pair active.
+TEST(SolveConvexQp, PairedRowsGiveTheAnswerOfTheRowsUntold) {
+  constexpr double kRelativeTol = 1e-12;
+  std::mt19937 rng(23);
+  std::normal_distribution<double> gauss;
+  constexpr int k = 7;
+  Eigen::MatrixXd root(k, k);
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < k; ++j) root(i, j) = gauss(rng);
+  const Eigen::MatrixXd hessian =
+      root.transpose() * root + Eigen::MatrixXd::Identity(k, k);
+  Eigen::VectorXd g(k);
+  for (int i = 0; i < k; ++i) g(i) = 10.0 * gauss(rng);
+  constexpr int kSingle = 2, kPairs = 9;
+  Eigen::MatrixXd rows(kSingle + 2 * kPairs, k);
+  Eigen::VectorXd limits(kSingle + 2 * kPairs);
+  for (int r = 0; r < kSingle; ++r) {
+    for (int j = 0; j < k; ++j) rows(r, j) = gauss(rng);
+    limits(r) = 0.5;
+  }
+  for (int p = 0; p < kPairs; ++p) {
+    for (int j = 0; j < k; ++j) rows(kSingle + 2 * p, j) = gauss(rng);
+    rows.row(kSingle + 2 * p + 1) = -rows.row(kSingle + 2 * p);
+    limits(kSingle + 2 * p) = limits(kSingle + 2 * p + 1) = 1.0;
+  }
+  Eigen::VectorXd untold, told;
+  ASSERT_TRUE(SolveConvexQp(hessian, g, rows, limits, &untold));
+  ASSERT_TRUE(SolveConvexQp(hessian, g, rows, limits, &told, kSingle));
+  // The constraints bind (the free optimum H^-1 g violates them).
+  const Eigen::VectorXd free = hessian.llt().solve(g);
+  ASSERT_GT((rows * free - limits).maxCoeff(), 1.0);
+  EXPECT_LE((rows * told - limits).maxCoeff(), 1e-9);
+  EXPECT_LT((told - untold).norm(), kRelativeTol * untold.norm());
+  // Rows that do not pair up from paired_from on are solved as untold.
+  Eigen::VectorXd odd;
+  ASSERT_TRUE(SolveConvexQp(hessian, g, rows, limits, &odd, kSingle + 1));
+  EXPECT_LT((odd - untold).norm(), kRelativeTol * untold.norm());
 }
 
 // ---------------------------------------------------------------------------------------------
