@@ -104,7 +104,7 @@ class SubspaceSearch {
     subspace.sigma1 = svd.sigma(0);
     subspace.ridge = 1e-12 * subspace.sigma1 * subspace.sigma1;
     subspace.vk = svd.v.leftCols(directions);
-    subspace.tv = problem_.t_map * subspace.vk;
+    subspace.tv = RowRunsTimes(problem_.t_map, subspace.vk);
     subspace.mu = (kSearchDampingShare * svd.sigma.head(directions))
                       .cwiseMax(kSearchDampingShare * ls_.rank_threshold);
     Eigen::VectorXd z = subspace.vk.transpose() * Coordinates(start);

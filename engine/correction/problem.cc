@@ -231,7 +231,7 @@ void LineariseAt(const Eigen::VectorXd& parameters,
   p->jacobian_um =
       given_jacobian.size() != 0 ? given_jacobian : p->evaluation.jacobian_um;
   SelectPoints(p);
-  if (p->t_map.size() != 0) p->st = p->jacobian_um * p->t_map;
+  if (p->t_map.size() != 0) p->st = TimesColumnRuns(p->jacobian_um, p->t_map);
 }
 
 bool PrepareCorrectionProblem(const CorrectionOptions& options,
@@ -278,7 +278,7 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
     return false;
   }
   BuildCoordinates(options, p);
-  p->st = p->jacobian_um * p->t_map;  // n x nf
+  p->st = TimesColumnRuns(p->jacobian_um, p->t_map);  // n x nf
   SetBounds(options, p);
   p->motion_rows = RelativeMotionRows(options, *p, kMotionBoundSamples);
   return true;
@@ -298,6 +298,30 @@ double MotionBoundOf(const CorrectionOptions& options,
 }
 
 }  // namespace
+
+Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
+                                const Eigen::MatrixXd& right) {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(left.rows(), right.cols());
+  for (int j = 0; j < right.cols(); ++j) {
+    int first = 0, last = static_cast<int>(right.rows()) - 1;
+    while (first <= last && right(first, j) == 0.0) ++first;
+    while (last >= first && right(last, j) == 0.0) --last;
+    for (int r = first; r <= last; ++r) out.col(j) += left.col(r) * right(r, j);
+  }
+  return out;
+}
+
+Eigen::MatrixXd RowRunsTimes(const Eigen::MatrixXd& left,
+                             const Eigen::MatrixXd& right) {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(left.rows(), right.cols());
+  for (int i = 0; i < left.rows(); ++i) {
+    int first = 0, last = static_cast<int>(left.cols()) - 1;
+    while (first <= last && left(i, first) == 0.0) ++first;
+    while (last >= first && left(i, last) == 0.0) --last;
+    for (int c = first; c <= last; ++c) out.row(i) += left(i, c) * right.row(c);
+  }
+  return out;
+}
 
 Eigen::MatrixXd MotionRowsAt(const CorrectionOptions& options,
                              const CorrectionProblem& problem,

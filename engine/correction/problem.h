@@ -181,6 +181,19 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
                               CorrectionSummary* summary,
                               std::string* error);
 
+// left * right where each column of `right` is nonzero over one run of rows
+// (the coordinate map T: a free coordinate moves one axis's coefficients),
+// summed over that run only, row by row in order: the numbers of the full
+// product wherever Eigen's product sums each entry in row order (at 45 rows,
+// its blocks are one), for 45 / 7 of its work.
+Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
+                                const Eigen::MatrixXd& right);
+// left * right where each row of `left` is nonzero over one run of columns
+// (T's rows: a coefficient is moved by one axis's coordinates), summed over
+// that run only, in order (as TimesColumnRuns).
+Eigen::MatrixXd RowRunsTimes(const Eigen::MatrixXd& left,
+                             const Eigen::MatrixXd& right);
+
 // The axis motion dC(phi) / bound of every polynomial block with a bound
 // (options.max_axis_motion_mm / _rad) at each of `rolls_rad`, per unit of the
 // parameter change (blocks x rolls rows, num_parameters columns; no rows

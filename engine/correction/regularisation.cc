@@ -533,7 +533,7 @@ KeptSubspace KeepSubspace(const LinearSolve& ls, const Eigen::MatrixXd& t_map) {
     s.mu(j) = ls.mu(i);
     s.z(j) = ls.filter(i) * ls.beta(i) / ls.svd.sigma(i);
   }
-  s.tv = t_map * s.vk;  // np x k
+  s.tv = RowRunsTimes(t_map, s.vk);  // np x k
   return s;
 }
 

@@ -316,6 +316,36 @@ TEST(SvdMemo, ARoundingApartIsAnotherMatrixAndTheOldestIsForgotten) {
   EXPECT_EQ(memo.answered(), 0);
 }
 
+// The products over the runs of nonzeros: the full product's numbers (to
+// rounding; the robustness benchmark's JSON is identical bit for bit) for a
+// map with one axis's 7 coefficients per column, an empty column, a dense one,
+// and its transpose on the left.
+TEST(TimesColumnRuns, TheFullProductOverTheRunsOfNonzeros) {
+  constexpr double kRelativeTol = 1e-14;
+  std::mt19937 rng(31);
+  std::normal_distribution<double> gauss;
+  Eigen::MatrixXd s(45, 45), t = Eigen::MatrixXd::Zero(45, 30);
+  for (int i = 0; i < 45; ++i)
+    for (int j = 0; j < 45; ++j) s(i, j) = gauss(rng);
+  for (int c = 0; c < 28; ++c)
+    for (int r = 7 * (c / 5); r < 7 * (c / 5) + 7; ++r) t(r, c) = gauss(rng);
+  for (int r = 0; r < 45; ++r) t(r, 29) = gauss(rng);  // column 28 stays 0
+  const Eigen::MatrixXd full = s * t;
+  const Eigen::MatrixXd runs = TimesColumnRuns(s, t);
+  ASSERT_EQ(runs.rows(), 45);
+  ASSERT_EQ(runs.cols(), 30);
+  EXPECT_LE((runs - full).cwiseAbs().maxCoeff(),
+            kRelativeTol * full.cwiseAbs().maxCoeff());
+  EXPECT_TRUE(runs.col(28).isZero(0.0));
+  const Eigen::MatrixXd v = s.leftCols(12);
+  const Eigen::MatrixXd left = t.transpose();  // rows with runs
+  const Eigen::MatrixXd full_left = left * v;
+  const Eigen::MatrixXd runs_left = RowRunsTimes(left, v);
+  EXPECT_LE((runs_left - full_left).cwiseAbs().maxCoeff(),
+            kRelativeTol * full_left.cwiseAbs().maxCoeff());
+  EXPECT_TRUE(runs_left.row(28).isZero(0.0));
+}
+
 TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
   CorrectionOptions options;
   struct Case {
