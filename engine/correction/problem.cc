@@ -302,6 +302,8 @@ double MotionBoundOf(const CorrectionOptions& options,
 Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
                                 const Eigen::MatrixXd& right) {
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(left.rows(), right.cols());
+  // No column of `left` to take (an empty block is no column to offset).
+  if (left.rows() == 0 || left.cols() == 0) return out;
   for (int j = 0; j < right.cols(); ++j) {
     int first = 0, last = static_cast<int>(right.rows()) - 1;
     while (first <= last && right(first, j) == 0.0) ++first;
@@ -314,6 +316,8 @@ Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
 Eigen::MatrixXd RowRunsTimes(const Eigen::MatrixXd& left,
                              const Eigen::MatrixXd& right) {
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(left.rows(), right.cols());
+  // No row of `right` to take (no kept direction: right is np x 0).
+  if (right.rows() == 0 || right.cols() == 0) return out;
   for (int i = 0; i < left.rows(); ++i) {
     int first = 0, last = static_cast<int>(left.cols()) - 1;
     while (first <= last && left(i, first) == 0.0) ++first;

@@ -344,6 +344,14 @@ TEST(TimesColumnRuns, TheFullProductOverTheRunsOfNonzeros) {
   EXPECT_LE((runs_left - full_left).cwiseAbs().maxCoeff(),
             kRelativeTol * full_left.cwiseAbs().maxCoeff());
   EXPECT_TRUE(runs_left.row(28).isZero(0.0));
+  // No kept direction (k = 0) and no free coordinate: empty products.
+  const Eigen::MatrixXd none = RowRunsTimes(left, Eigen::MatrixXd(30, 0));
+  EXPECT_EQ(none.rows(), 30);
+  EXPECT_EQ(none.cols(), 0);
+  const Eigen::MatrixXd no_free = TimesColumnRuns(s, Eigen::MatrixXd(45, 0));
+  EXPECT_EQ(no_free.rows(), 45);
+  EXPECT_EQ(no_free.cols(), 0);
+  EXPECT_TRUE(TimesColumnRuns(Eigen::MatrixXd(0, 45), t).size() == 0);
 }
 
 TEST(ChooseRegularisationRule, FromTheSolverAndTheProbeNoise) {
