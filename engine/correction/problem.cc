@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/correction/legendre_coordinates.h"
@@ -297,6 +298,16 @@ double MotionBoundOf(const CorrectionOptions& options,
   return bound > 0.0 ? bound : 0.0;
 }
 
+// The first and last index of the run of `v` from its first nonzero entry to
+// its last (first > last: no nonzero entry).
+template <typename Vector>
+std::pair<int, int> NonzeroSpan(const Vector& v) {
+  int first = 0, last = static_cast<int>(v.size()) - 1;
+  while (first <= last && v(first) == 0.0) ++first;
+  while (last >= first && v(last) == 0.0) --last;
+  return {first, last};
+}
+
 }  // namespace
 
 Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
@@ -305,9 +316,7 @@ Eigen::MatrixXd TimesColumnRuns(const Eigen::MatrixXd& left,
   // No column of `left` to take (an empty block is no column to offset).
   if (left.rows() == 0 || left.cols() == 0) return out;
   for (int j = 0; j < right.cols(); ++j) {
-    int first = 0, last = static_cast<int>(right.rows()) - 1;
-    while (first <= last && right(first, j) == 0.0) ++first;
-    while (last >= first && right(last, j) == 0.0) --last;
+    const auto [first, last] = NonzeroSpan(right.col(j));
     for (int r = first; r <= last; ++r) out.col(j) += left.col(r) * right(r, j);
   }
   return out;
@@ -319,9 +328,7 @@ Eigen::MatrixXd RowRunsTimes(const Eigen::MatrixXd& left,
   // No row of `right` to take (no kept direction: right is np x 0).
   if (right.rows() == 0 || right.cols() == 0) return out;
   for (int i = 0; i < left.rows(); ++i) {
-    int first = 0, last = static_cast<int>(left.cols()) - 1;
-    while (first <= last && left(i, first) == 0.0) ++first;
-    while (last >= first && left(i, last) == 0.0) --last;
+    const auto [first, last] = NonzeroSpan(left.row(i));
     for (int c = first; c <= last; ++c) out.row(i) += left(i, c) * right.row(c);
   }
   return out;

@@ -14,30 +14,40 @@ namespace correction_internal {
 
 namespace {
 
+// The columns of R = L^-1 G' (SolveConvexQp) held once per pair: `solved`
+// has R's first `single` columns, then the first column of each pair; the
+// pair's second column is the first negated (to the bit: rounding is
+// symmetric in sign, and so is every product taken with it below).
+struct PairedColumns {
+  const Eigen::MatrixXd& solved;
+  int single;
+  // The column of `solved` that holds R's column i, and its sign.
+  int Held(int i) const { return i < single ? i : single + (i - single) / 2; }
+  double Sign(int i) const {
+    return i < single || (i - single) % 2 == 0 ? 1.0 : -1.0;
+  }
+};
+
 // R v for a v that is zero off a few entries (the passive multipliers).
-Eigen::VectorXd TimesSparse(const Eigen::MatrixXd& r_mat,
-                            const Eigen::VectorXd& v) {
-  Eigen::VectorXd out = Eigen::VectorXd::Zero(r_mat.rows());
+Eigen::VectorXd TimesSparse(const PairedColumns& r, const Eigen::VectorXd& v) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(r.solved.rows());
   for (int i = 0; i < v.size(); ++i)
-    if (v(i) != 0.0) out += v(i) * r_mat.col(i);
+    if (v(i) != 0.0) out += (r.Sign(i) * v(i)) * r.solved.col(r.Held(i));
   return out;
 }
 
 // The dual of SolveConvexQp, min 1/2 mu' Q mu - q' mu, mu >= 0 with Q = R' R,
 // by the active-set method of Lawson and Hanson. Q is never formed: the
 // dual's gradient needs R' (R mu), which only the passive columns of R enter,
-// and the passive block Q_pp = R_p' R_p. `r_once` is R with one column of each
-// pair (SolveConvexQp: R's first `single` columns, then the pairs' first
-// columns): R' (R mu) is made over it, a pair's second entry the first's
-// negated.
-Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
-                                     const Eigen::VectorXd& q_vec,
-                                     const Eigen::MatrixXd& r_once,
-                                     int single) {
-  const int pairs = static_cast<int>(r_once.cols()) - single;
+// and the passive block Q_pp = R_p' R_p. R' (R mu) is made over the columns
+// held once (PairedColumns), a pair's second entry the first's negated.
+Eigen::VectorXd SolveDualNonNegative(const PairedColumns& r,
+                                     const Eigen::VectorXd& q_vec) {
+  const int single = r.single;
+  const int pairs = static_cast<int>(r.solved.cols()) - single;
   const int m = static_cast<int>(q_vec.size());
   const double tol =
-      1e-12 * std::max(1.0, r_mat.colwise().squaredNorm().maxCoeff());
+      1e-12 * std::max(1.0, r.solved.colwise().squaredNorm().maxCoeff());
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(m);
   std::vector<bool> passive(m, false), refused(m, false);
   auto solve_passive = [&](Eigen::VectorXd* z) {
@@ -46,10 +56,10 @@ Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
       if (passive[i]) idx.push_back(i);
     z->setZero(m);
     if (idx.empty()) return;
-    Eigen::MatrixXd rp(r_mat.rows(), idx.size());
+    Eigen::MatrixXd rp(r.solved.rows(), idx.size());
     Eigen::VectorXd rhs(idx.size());
     for (size_t a = 0; a < idx.size(); ++a) {
-      rp.col(a) = r_mat.col(idx[a]);
+      rp.col(a) = r.Sign(idx[a]) * r.solved.col(r.Held(idx[a]));
       rhs(a) = q_vec(idx[a]);
     }
     const Eigen::MatrixXd qpp = rp.transpose() * rp;
@@ -58,8 +68,7 @@ Eigen::VectorXd SolveDualNonNegative(const Eigen::MatrixXd& r_mat,
   };
   for (int outer = 0; outer < 3 * m + 10; ++outer) {
     // Minus the gradient of the dual, q - Q mu.
-    const Eigen::VectorXd q_mu_once =
-        r_once.transpose() * TimesSparse(r_mat, mu);
+    const Eigen::VectorXd q_mu_once = r.solved.transpose() * TimesSparse(r, mu);
     Eigen::VectorXd w(m);
     w.head(single) = q_vec.head(single) - q_mu_once.head(single);
     for (int p = 0; p < pairs; ++p) {
@@ -145,16 +154,11 @@ bool SolveConvexQp(const Eigen::MatrixXd& hessian,
   for (int p = 0; p < pairs; ++p)
     solved.col(single + p) = constraints.row(single + 2 * p).transpose();
   llt.matrixL().solveInPlace(solved);
-  Eigen::MatrixXd r_mat(constraints.cols(), m);
-  r_mat.leftCols(single) = solved.leftCols(single);
-  for (int p = 0; p < pairs; ++p) {
-    r_mat.col(single + 2 * p) = solved.col(single + p);
-    r_mat.col(single + 2 * p + 1) = -solved.col(single + p);
-  }
-  const Eigen::VectorXd mu = SolveDualNonNegative(
-      r_mat, constraints * y_free - limits, solved, single);
+  const PairedColumns r{solved, single};
+  const Eigen::VectorXd mu =
+      SolveDualNonNegative(r, constraints * y_free - limits);
   // y = y_free - H^-1 G' mu = y_free - L'^-1 (R mu).
-  *y = y_free - llt.matrixU().solve(TimesSparse(r_mat, mu));
+  *y = y_free - llt.matrixU().solve(TimesSparse(r, mu));
   return true;
 }
 
