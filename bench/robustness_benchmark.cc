@@ -13,11 +13,12 @@
 //   build/bench/robustness_benchmark
 //       [--scenarios 200] [--bevel 10] [--seed 2026]
 //       [--orders default|cubic|both] [--threads 1] [--json FILE] [--verbose]
-//       [--only I] [--bound-wheel] [--reach-iterations 300]
+//       [--only I] [--only-bevel I] [--bound-wheel] [--reach-iterations 300]
 //       [--fix BLOCK]... [--no-state] [--solver pso] [--compare pso]
 //       [--error-scale 1] [--noise-scale 1] [--told-noise-scale 1]
 //
-// --only I runs the flat-wheel scenario I alone, drawn as in the full run.
+// --only I runs the flat-wheel scenario I alone, drawn as in the full run;
+// --only-bevel I the bevel generator's scenario I.
 // --bound-wheel bounds the reference's wheel profile (bench/best_reachable.h).
 // --fix BLOCK (repeatable) fixes a parameter block in every configuration
 // (max_order[BLOCK] = -1); --no-state turns estimate_machine_state off. Both
@@ -981,7 +982,7 @@ void WriteJson(const char* path,
 
 // The command line (see the file comment).
 struct Args {
-  int scenarios = 200, bevel = 10, threads = 1, only = -1;
+  int scenarios = 200, bevel = 10, threads = 1, only = -1, only_bevel = -1;
   std::uint64_t seed = 2026;
   std::string orders = "both", solver = "regularised", compare;
   const char* json = nullptr;
@@ -1016,6 +1017,8 @@ bool ParseArgs(int argc, char** argv, Args* a) {
       a->json = argv[++i];
     } else if (std::strcmp(argv[i], "--only") == 0 && has_value) {
       a->only = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--only-bevel") == 0 && has_value) {
+      a->only_bevel = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--reach-iterations") == 0 && has_value) {
       a->reach_iterations = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--fix") == 0 && has_value) {
@@ -1048,6 +1051,7 @@ bool ParseArgs(int argc, char** argv, Args* a) {
                    "[--seed S] [--orders default|cubic|both] "
                    "[--solver NAME] [--compare NAME] "
                    "[--threads N] [--json FILE] [--verbose] [--only I] "
+                   "[--only-bevel I] "
                    "[--error-scale F] [--noise-scale F] "
                    "[--told-noise-scale F]\n");
       return false;
@@ -1177,13 +1181,18 @@ int main(int argc, char** argv) {
   std::vector<Config> configs;
   if (!BuildConfigs(a, &configs)) return 2;
 
-  // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone
-  // (for diagnosis; drawn exactly as in the full run).
+  // The jobs: (bevel?, index). --only I runs the flat-wheel scenario I alone,
+  // --only-bevel I the bevel generator's (for diagnosis; drawn exactly as in
+  // the full run).
   std::vector<std::pair<bool, int>> jobs;
   if (a.only >= 0) {
     jobs.push_back({false, a.only});
     a.scenarios = 1;
     a.bevel = 0;
+  } else if (a.only_bevel >= 0) {
+    jobs.push_back({true, a.only_bevel});
+    a.scenarios = 0;
+    a.bevel = 1;
   } else {
     for (int i = 0; i < a.scenarios; ++i) jobs.push_back({false, i});
     for (int i = 0; i < a.bevel; ++i) jobs.push_back({true, i});

@@ -55,12 +55,17 @@ struct OutlierTest {
 // used point of a grid_rows x grid_columns row-major grid), or -1: the point
 // whose smallest distance from the median and from the mean of its neighbours
 // along the row, the column and both diagonals is largest, when that distance
-// exceeds max(threshold max(1.4826 MAD, sigma), min_um).
+// exceeds max(threshold max(1.4826 MAD, sigma), min_um). Where `alone` (per
+// point; empty: every point) marks some of the points beyond that limit, the
+// most isolated of those: RemoveGrossOutliers marks the points that also stand
+// alone in the measured machine error, so that a spike's neighbour, which the
+// fit's bend toward the spike may leave the larger misfit, is not taken first.
 int FindGrossOutlier(const std::vector<double>& standardised,
                      const std::vector<int>& used,
                      int grid_rows,
                      int grid_columns,
-                     const OutlierTest& test);
+                     const OutlierTest& test,
+                     const std::vector<bool>& alone = {});
 
 // Drops gross outliers from problem->used one at a time (at most
 // max_outlier_fraction of them), refitting in between; reports them sorted in
