@@ -352,6 +352,9 @@ struct Summary {
   int scenarios = 0, rounds = 0, worse = 0, worse_on_common = 0,
       worse_regained = 0, worse_at_a_maximum = 0, unusable = 0, lost_points = 0,
       motion_violations = 0, within = 0, banded = 0, in_band[2] = {0, 0};
+  // The outlier tests against the simulator's spikes (RoundRecord).
+  int spikes_drawn = 0, outliers_dropped = 0, dropped_without_spike = 0,
+      spikes_kept = 0;
   std::vector<std::string> worse_list;
   std::vector<double> ratio, cpu, achieved_over_predicted,
       achieved_over_expected, best, final_rms, initial, max_linear, max_angular,
@@ -375,6 +378,10 @@ Summary Summarise(const std::vector<ScenarioOutcome>& outcomes,
       const RoundRecord& round = c.loop.rounds[r];
       ++s.rounds;
       s.cpu.push_back(round.cpu_ms);
+      s.spikes_drawn += round.spikes_drawn;
+      s.outliers_dropped += round.outliers_dropped;
+      s.dropped_without_spike += round.dropped_without_spike;
+      s.spikes_kept += round.spikes_kept;
       if (round.worse) {
         ++s.worse;
         s.worse_on_common += round.worse_on_common_points;
@@ -449,6 +456,13 @@ void PrintSummary(const Summary& s, const std::string& title) {
       "roll | %d |\n",
       s.worse_at_a_maximum);
   std::printf("| unusable corrections (settings kept) | %d |\n", s.unusable);
+  std::printf(
+      "| outlier tests: spikes drawn / points left out / of them without a "
+      "spike / spikes kept | %d / %d / %d / %d |\n",
+      s.spikes_drawn,
+      s.outliers_dropped,
+      s.dropped_without_spike,
+      s.spikes_kept);
   std::printf(
       "| rounds that lost grid points (wheel no longer reaches) | %d |\n",
       s.lost_points);
@@ -878,7 +892,9 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                "\"band_2sigma_um\": [%s, %s], \"at_state\": %s, "
                "\"motion_scale\": %s, \"step_fraction\": %s, "
                "\"shortened_because\": %s, \"regained_points\": %d, "
-               "\"true_points_at_a_maximum\": %d, "
+               "\"true_points_at_a_maximum\": %d, \"spikes_drawn\": %d, "
+               "\"outliers_dropped\": %d, \"dropped_without_spike\": %d, "
+               "\"spikes_kept\": %d, "
                "\"common_rms_before_um\": %s, \"common_rms_after_um\": %s, "
                "\"worse_on_common_points\": %s, \"order_choice\": %s, "
                "\"motion_bound_beyond_roll_range\": %s, "
@@ -909,6 +925,10 @@ void WriteRoundJson(FILE* f, const RoundRecord& x, bool first) {
                JsonString(x.shortened_because).c_str(),
                x.regained_points,
                x.true_points_at_a_maximum,
+               x.spikes_drawn,
+               x.outliers_dropped,
+               x.dropped_without_spike,
+               x.spikes_kept,
                JsonNum(x.common_rms_before_um).c_str(),
                JsonNum(x.common_rms_after_um).c_str(),
                x.worse_on_common_points ? "true" : "false",

@@ -664,6 +664,14 @@ struct RoundRecord {
   // maximum of the deviation along the roll (PointsAtAMaximum): the
   // simulated machine grinds them at a height no real wheel leaves.
   int true_points_at_a_maximum = 0;
+  // The outlier tests against the simulator's spikes: grid points with a
+  // spike drawn (on any tooth), points the correction left out as outliers
+  // (summary outlier_indices and tooth_outlier_indices), of those the points
+  // with no spike, and the spikes it kept.
+  int spikes_drawn = 0;
+  int outliers_dropped = 0;
+  int dropped_without_spike = 0;
+  int spikes_kept = 0;
   double common_rms_before_um = 0.0;
   double common_rms_after_um = 0.0;
   bool worse_on_common_points = false;
@@ -777,6 +785,26 @@ inline int PointsAtAMaximum(const MachineModel& model,
 // part. The solver is told the scenario's noise (or -1) and the measured teeth;
 // the measuring machine's seed advances by one per part. An unusable correction
 // leaves the settings as they were.
+// RoundRecord's outlier counts: `spikes` the grid points the simulator put a
+// spike at, against what `summary` left out.
+inline void CountOutliers(const std::vector<int>& spikes,
+                          const CorrectionSummary& summary,
+                          RoundRecord* round) {
+  std::vector<int> dropped = summary.outlier_indices;
+  dropped.insert(dropped.end(),
+                 summary.tooth_outlier_indices.begin(),
+                 summary.tooth_outlier_indices.end());
+  std::sort(dropped.begin(), dropped.end());
+  dropped.erase(std::unique(dropped.begin(), dropped.end()), dropped.end());
+  const auto has = [](const std::vector<int>& v, int i) {
+    return std::find(v.begin(), v.end(), i) != v.end();
+  };
+  round->spikes_drawn = static_cast<int>(spikes.size());
+  round->outliers_dropped = static_cast<int>(dropped.size());
+  for (int i : dropped) round->dropped_without_spike += !has(spikes, i);
+  for (int i : spikes) round->spikes_kept += !has(dropped, i);
+}
+
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {
@@ -824,6 +852,7 @@ inline LoopRecord RunClosedLoop(const Scenario& s,
     round.roll_min_rad = result.summary.roll_min_rad;
     round.roll_max_rad = result.summary.roll_max_rad;
     round.at_state = result.summary.machine_state_estimated;
+    CountOutliers(cmm.outlier_indices, result.summary, &round);
     if (round.usable) {
       MaxAxisMotion(model,
                     result.delta,

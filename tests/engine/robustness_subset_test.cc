@@ -115,6 +115,21 @@ TEST(ClosedLoop, TellsThePointsThePartLackedFromTheCommonOnes) {
 // beats the cubic answer by max(0.05-0.1 um, 20 %), docs/correction-safety.md:
 // the full benchmark went from 7 worse rounds of 600 to 1, seed 2026; the
 // default since the screen before the every-order solve).
+// The outlier tests are scored against the simulator's spikes: a point left
+// out by either test counts once, a left-out point without a spike is a false
+// drop, a spike not left out is kept.
+TEST(ClosedLoop, CountsTheOutlierTestsAgainstTheSpikesDrawn) {
+  CorrectionSummary summary;
+  summary.outlier_indices = {5, 7, 9};
+  summary.tooth_outlier_indices = {9, 12};
+  bench::RoundRecord round;
+  bench::CountOutliers({1, 5, 9}, summary, &round);
+  EXPECT_EQ(round.spikes_drawn, 3);
+  EXPECT_EQ(round.outliers_dropped, 4);       // 5, 7, 9, 12
+  EXPECT_EQ(round.dropped_without_spike, 2);  // 7, 12
+  EXPECT_EQ(round.spikes_kept, 1);            // 1
+}
+
 TEST(RobustnessSubset, DefaultOptionsMakeNoPartWorse) {
   ExpectNoWorsePart(CorrectionOptions());
 }
