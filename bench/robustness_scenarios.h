@@ -781,10 +781,6 @@ inline int PointsAtAMaximum(const MachineModel& model,
   return count;
 }
 
-// Grind -> measure -> correct, `rounds` times, then grind and measure the last
-// part. The solver is told the scenario's noise (or -1) and the measured teeth;
-// the measuring machine's seed advances by one per part. An unusable correction
-// leaves the settings as they were.
 // RoundRecord's outlier counts: `spikes` the grid points the simulator put a
 // spike at, against what `summary` left out.
 inline void CountOutliers(const std::vector<int>& spikes,
@@ -805,6 +801,10 @@ inline void CountOutliers(const std::vector<int>& spikes,
   for (int i : spikes) round->spikes_kept += !has(dropped, i);
 }
 
+// Grind -> measure -> correct, `rounds` times, then grind and measure the last
+// part. The solver is told the scenario's noise (or -1) and the measured teeth;
+// the measuring machine's seed advances by one per part. An unusable correction
+// leaves the settings as they were.
 inline LoopRecord RunClosedLoop(const Scenario& s,
                                 const CorrectionOptions& base_options,
                                 int rounds) {

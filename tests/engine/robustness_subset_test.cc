@@ -110,11 +110,6 @@ TEST(ClosedLoop, TellsThePointsThePartLackedFromTheCommonOnes) {
   EXPECT_TRUE(std::isnan(after_rms));
 }
 
-// With the default options, every order 0-6 open, no round may make a part
-// worse (enabled since orders 4-6 answer only where their exact prediction
-// beats the cubic answer by max(0.05-0.1 um, 20 %), docs/correction-safety.md:
-// the full benchmark went from 7 worse rounds of 600 to 1, seed 2026; the
-// default since the screen before the every-order solve).
 // The outlier tests are scored against the simulator's spikes: a point left
 // out by either test counts once, a left-out point without a spike is a false
 // drop, a spike not left out is kept.
@@ -130,6 +125,11 @@ TEST(ClosedLoop, CountsTheOutlierTestsAgainstTheSpikesDrawn) {
   EXPECT_EQ(round.spikes_kept, 1);            // 1
 }
 
+// With the default options, every order 0-6 open, no round may make a part
+// worse (enabled since orders 4-6 answer only where their exact prediction
+// beats the cubic answer by max(0.05-0.1 um, 20 %), docs/correction-safety.md:
+// the full benchmark went from 7 worse rounds of 600 to 1, seed 2026; the
+// default since the screen before the every-order solve).
 TEST(RobustnessSubset, DefaultOptionsMakeNoPartWorse) {
   ExpectNoWorsePart(CorrectionOptions());
 }
