@@ -491,6 +491,30 @@ TEST(Outliers, TheCubicAnswersOutliersStayAsideAtEveryOrder) {
   }
 }
 
+// Nor does it set aside the spikes' genuine neighbours (order_choice.cc):
+// with a corner's own direction free, the every-order outlier test takes the
+// points next to a spike for outliers and leaves the corner to orders 4-6.
+// Seed 625, scenario 78, round 1 (z 44, a 20.5 um tip relief; a +23 um spike
+// at the tip-end corner): orders 4-6 set aside its two row neighbours,
+// predicted 0.43 um and made 13.2 -> 19.9 um; seed 529, scenario 176, round
+// 2 (a -27 um spike at the same corner): 0.41 -> 2.0 um. Now the cubic
+// answer answers there, and neither loop makes a part worse.
+TEST(Outliers, TheSpikesNeighboursStayInAtEveryOrder) {
+  struct Case {
+    std::uint64_t seed;
+    int index;
+    int round;
+  };
+  for (const Case& c : {Case{625, 78, 1}, Case{529, 176, 2}}) {
+    const bench::LoopRecord loop = LoopMakingNoPartWorse(c.seed, c.index);
+    const std::string& choice = loop.rounds[c.round - 1].order_choice;
+    EXPECT_EQ(choice.rfind("orders 0-3 used", 0), 0u)
+        << "seed " << c.seed << ", scenario " << c.index << ": " << choice;
+    EXPECT_NE(choice.find("probe spike(s) they set aside"), std::string::npos)
+        << "seed " << c.seed << ", scenario " << c.index << ": " << choice;
+  }
+}
+
 // A relief the cubic terms cannot make is no probe spike: the cubic answer
 // may leave its corner out as a gross outlier, but the measured machine
 // error m - d(commanded) is smooth there, so the every-order solve keeps the
