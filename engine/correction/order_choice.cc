@@ -286,20 +286,20 @@ bool BetterAtTheCubicState(const CorrectionInput& input,
 // then, where SolveWithEveryOrder says so, with every order asked; the higher
 // orders answer only when their exact prediction beats the cubic one by
 // max(OrderGainMinUm, kOrderGainShare of it), they found a safe step, beside
-// probe spikes they set aside no measured point the cubic answer keeps, they
-// keep the measured points at the commanded settings, and, linearised at the
-// commanded settings where the cubic answer estimated a machine state, they
-// are predicted better by the same margin at that state
-// (BetterAtTheCubicState). Robustness benchmark, seed 10, scenario 166: at
-// the commanded settings orders 4-6 predicted 1.08 um against 4.17 held to
-// the cubic terms, with 0.4 um and 0.14 mrad of motion, and made 4.08 ->
-// 4.51 um; now the loop ends at 0.16 um. Ten seeds x 200 scenarios (2026, 7,
-// 1, 4, 11 and the five never tuned on, 5, 6, 8, 9, 10), default options:
-// within 1.2 x best + noise 1911 -> 1927 of 2000 (no seed lower; 6 and 8 from
-// 94 % to 96.5 and 95.5 %), rounds worse 9 -> 8 of 6000. Refusing orders 4-6
-// wherever the every-order answer had no state: 1922 and 8, and the
-// published cutter's fifth-order case (machine on its commanded settings,
-// exact data) lost them (BENCHMARKS.md, "Ten seeds").
+// probe spikes they set aside no measured point the cubic answer keeps (where
+// that answer changes the settings), they keep the measured points at the
+// commanded settings, and, linearised at the commanded settings where the
+// cubic answer estimated a machine state, they are predicted better by the
+// same margin at that state (BetterAtTheCubicState). Robustness benchmark, seed
+// 10, scenario 166: at the commanded settings orders 4-6 predicted 1.08 um
+// against 4.17 held to the cubic terms, with 0.4 um and 0.14 mrad of motion,
+// and made 4.08 -> 4.51 um; now the loop ends at 0.16 um. Ten seeds x 200
+// scenarios (2026, 7, 1, 4, 11 and the five never tuned on, 5, 6, 8, 9, 10),
+// default options: within 1.2 x best + noise 1911 -> 1927 of 2000 (no seed
+// lower; 6 and 8 from 94 % to 96.5 and 95.5 %), rounds worse 9 -> 8 of 6000.
+// Refusing orders 4-6 wherever the every-order answer had no state: 1922 and 8,
+// and the published cutter's fifth-order case (machine on its commanded
+// settings, exact data) lost them (BENCHMARKS.md, "Ten seeds").
 CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
                                         const CorrectionInput& input,
                                         CorrectionAtFreedom correct) {
