@@ -365,10 +365,14 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
                                   FormatUm(cubic_rms) + " um";
     if (left_out > 0 && !spikes.empty() && !KeepsTheSettings(cubic)) {
       // Beside probe spikes the every-order answer sets aside measured points
-      // the cubic answer keeps: the spikes are out of its fit, but orders 4-6
-      // give a grid corner a direction of its own, and its outlier test takes
-      // the spike's genuine neighbours for outliers and leaves the corner to
-      // the high orders (robustness benchmark, seed 625, scenario 78, round
+      // the cubic answer keeps: the spikes are out of its correction's fit,
+      // but its state fit selects its points afresh and takes them back
+      // (MachineStateProblem; BENCHMARKS.md, thirty-sixth session: keeping
+      // them out there is the fix at the root, measured, not yet landed);
+      // with a grid corner's own direction in orders 4-6, that fit bends to
+      // a corner spike, its outlier test takes the spike's genuine
+      // neighbours for outliers, and the high orders shape the corner
+      // (robustness benchmark, seed 625, scenario 78, round
       // 1: a +23 um spike at the tip-end corner, its two row neighbours set
       // aside, predicted 0.43 um and made 13.2 -> 19.9 um; seed 529, scenario
       // 176, round 2, a -27 um corner spike, 0.41 -> 2.0 um). The cubic

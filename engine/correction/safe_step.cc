@@ -286,9 +286,8 @@ StateUncertainty MakeStateUncertainty(const CorrectionProblem& problem) {
       // rounds against 26 so; held at 1000 units, 28. With orders 4-6 free
       // the take-up runs through high-order combinations as well, and a
       // step in them spreads by 7-20 um: taken up through orders 0-3 only,
-      // such steps passed and the quick count had 27 worse rounds against
-      // 21 (test
-      // SafeStep.HoldsAnEveryOrderStepTheParabolaTakeUpCouldMakeWorse).
+      // such steps passed and the quick count had 27 worse rounds against 21
+      // (SafeStep.HoldsAnEveryOrderStepTheParabolaTakeUpCouldMakeWorse).
       Eigen::MatrixXd info = gram;
       info.diagonal().array() += 1e-9 * std::max(gram.trace() / nf, 1e-12);
       u.absorbed = info.ldlt().solve(stja);

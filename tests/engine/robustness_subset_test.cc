@@ -492,8 +492,9 @@ TEST(Outliers, TheCubicAnswersOutliersStayAsideAtEveryOrder) {
 }
 
 // Nor does it set aside the spikes' genuine neighbours (order_choice.cc):
-// with a corner's own direction free, the every-order outlier test takes the
-// points next to a spike for outliers and leaves the corner to orders 4-6.
+// the every-order state fit takes the spikes back, bends to a corner spike
+// with the corner's own direction free, its outlier test takes the points
+// next to the spike for outliers, and orders 4-6 shape the corner.
 // Seed 625, scenario 78, round 1 (z 44, a 20.5 um tip relief; a +23 um spike
 // at the tip-end corner): orders 4-6 set aside its two row neighbours,
 // predicted 0.43 um and made 13.2 -> 19.9 um; seed 529, scenario 176, round
