@@ -285,21 +285,20 @@ bool BetterAtTheCubicState(const CorrectionInput& input,
 // (docs/correction-safety.md): the request held to the cubic terms first,
 // then, where SolveWithEveryOrder says so, with every order asked; the higher
 // orders answer only when their exact prediction beats the cubic one by
-// max(OrderGainMinUm, kOrderGainShare of it), they found a safe step, beside
-// probe spikes they set aside no measured point the cubic answer keeps (where
-// that answer changes the settings), they keep the measured points at the
-// commanded settings, and, linearised at the commanded settings where the
-// cubic answer estimated a machine state, they are predicted better by the
-// same margin at that state (BetterAtTheCubicState). Robustness benchmark, seed
-// 10, scenario 166: at the commanded settings orders 4-6 predicted 1.08 um
-// against 4.17 held to the cubic terms, with 0.4 um and 0.14 mrad of motion,
-// and made 4.08 -> 4.51 um; now the loop ends at 0.16 um. Ten seeds x 200
-// scenarios (2026, 7, 1, 4, 11 and the five never tuned on, 5, 6, 8, 9, 10),
-// default options: within 1.2 x best + noise 1911 -> 1927 of 2000 (no seed
-// lower; 6 and 8 from 94 % to 96.5 and 95.5 %), rounds worse 9 -> 8 of 6000.
-// Refusing orders 4-6 wherever the every-order answer had no state: 1922 and 8,
-// and the published cutter's fifth-order case (machine on its commanded
-// settings, exact data) lost them (BENCHMARKS.md, "Ten seeds").
+// max(OrderGainMinUm, kOrderGainShare of it), they found a safe step, they
+// keep the measured points at the commanded settings, and, linearised at the
+// commanded settings where the cubic answer estimated a machine state, they
+// are predicted better by the same margin at that state
+// (BetterAtTheCubicState). Robustness benchmark, seed 10, scenario 166: at
+// the commanded settings orders 4-6 predicted 1.08 um against 4.17 held to
+// the cubic terms, with 0.4 um and 0.14 mrad of motion, and made 4.08 ->
+// 4.51 um; now the loop ends at 0.16 um. Ten seeds x 200 scenarios (2026, 7,
+// 1, 4, 11 and the five never tuned on, 5, 6, 8, 9, 10), default options:
+// within 1.2 x best + noise 1911 -> 1927 of 2000 (no seed lower; 6 and 8 from
+// 94 % to 96.5 and 95.5 %), rounds worse 9 -> 8 of 6000. Refusing orders 4-6
+// wherever the every-order answer had no state: 1922 and 8, and the
+// published cutter's fifth-order case (machine on its commanded settings,
+// exact data) lost them (BENCHMARKS.md, "Ten seeds").
 CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
                                         const CorrectionInput& input,
                                         CorrectionAtFreedom correct) {
@@ -334,10 +333,11 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
   // the cubic answer (leverage 0.3) and fitted by the every-order one
   // (leverage 0.98); orders 4-6 answered, predicted 0.55 um over the points
   // the cubic answer keeps, and ground the corner at +18.1 um (the part 0.50
-  // -> 2.77 um).
-  const std::vector<int> spikes =
-      ProbeSpikes(options, input, cubic.summary.outlier_indices);
-  CorrectionResult full = correct(every_order, input, spikes);
+  // -> 2.77 um). They stay out of its state fit too (MachineStateProblem).
+  CorrectionResult full =
+      correct(every_order,
+              input,
+              ProbeSpikes(options, input, cubic.summary.outlier_indices));
   const bool full_usable =
       full.summary.IsSolutionUsable() &&
       full.summary.status != CorrectionStatus::kNoSafeImprovement;
@@ -363,29 +363,7 @@ CorrectionResult CorrectWithOrderChoice(const CorrectionOptions& options,
     const std::string predicted = "orders 4-6 predicted rms " +
                                   FormatUm(full_compared) + " um against " +
                                   FormatUm(cubic_rms) + " um";
-    if (left_out > 0 && !spikes.empty() && !KeepsTheSettings(cubic)) {
-      // Beside probe spikes the every-order answer sets aside measured points
-      // the cubic answer keeps: the spikes are out of its correction's fit,
-      // but its state fit selects its points afresh and takes them back
-      // (MachineStateProblem; BENCHMARKS.md, thirty-sixth session: keeping
-      // them out there is the fix at the root, measured, not yet landed);
-      // with a grid corner's own direction in orders 4-6, that fit bends to
-      // a corner spike, its outlier test takes the spike's genuine
-      // neighbours for outliers, and the high orders shape the corner
-      // (robustness benchmark, seed 625, scenario 78, round
-      // 1: a +23 um spike at the tip-end corner, its two row neighbours set
-      // aside, predicted 0.43 um and made 13.2 -> 19.9 um; seed 529, scenario
-      // 176, round 2, a -27 um corner spike, 0.41 -> 2.0 um). The cubic
-      // answer, which tells its outliers with less leverage, answers where
-      // it changes the settings (where it keeps them, refusing orders 4-6
-      // left a part with every hidden error x3 at 32.4 um for three rounds:
-      // seed 34, scenario 13, which they took to 3.85 um).
-      why = "orders 0-3 used: " + predicted + ", but beside " +
-            std::to_string(spikes.size()) + " probe spike(s) they set aside " +
-            std::to_string(left_out) +
-            " measured point(s) the cubic answer keeps";
-    } else if (!KeepsTheMeasuredPointsAtTheCommandedEnd(
-                   options, input, full.delta)) {
+    if (!KeepsTheMeasuredPointsAtTheCommandedEnd(options, input, full.delta)) {
       why = "orders 0-3 used: " + predicted +
             ", but they lose a measured point at the commanded settings";
     } else if (!BetterAtTheCubicState(input, cubic, full, margin)) {
