@@ -379,6 +379,65 @@ double LargestRelativeMotion(const CorrectionOptions& options,
   return largest;
 }
 
+double LargestRelativeMotionOverRollRange(const CorrectionOptions& options,
+                                          const CorrectionProblem& problem,
+                                          int samples,
+                                          const Eigen::VectorXd& delta) {
+  // Golden-section steps on a bracket of two sample spacings: 0.618^48 of it
+  // (below 1e-9 of the roll range at 41 samples).
+  constexpr int kGoldenSteps = 48;
+  const double golden = 0.5 * (std::sqrt(5.0) - 1.0);
+  const std::vector<double> rolls_rad = RollSamples(problem, samples);
+  const int n = static_cast<int>(rolls_rad.size());
+  double largest = 0.0;
+  for (const ParameterBlock& block : problem.blocks) {
+    const double bound = MotionBoundOf(options, block);
+    if (!(bound > 0.0)) continue;
+    const auto motion = [&](double phi) {
+      double power = 1.0, sum = 0.0;
+      for (int k = 0; k < block.num_coefficients; ++k, power *= phi)
+        sum += (power / bound) * delta(block.first_index + k);
+      return std::abs(sum);
+    };
+    std::vector<double> at(n);
+    for (int s = 0; s < n; ++s) {
+      at[s] = motion(rolls_rad[s]);
+      largest = std::max(largest, at[s]);
+    }
+    // Each sample at least as large as its neighbours brackets a maximum of
+    // |motion| between them (an end sample: between it and its one
+    // neighbour, where the motion may rise from the end and fall again
+    // before the next sample); a polynomial of order <= 6 has at most 5
+    // turning points, and 41 samples leave one per bracket.
+    for (int s = 0; s < n; ++s) {
+      const bool above_before = s == 0 || at[s] >= at[s - 1];
+      const bool above_after = s + 1 == n || at[s] >= at[s + 1];
+      if (!(above_before && above_after)) continue;
+      double lo = rolls_rad[std::max(s - 1, 0)];
+      double hi = rolls_rad[std::min(s + 1, n - 1)];
+      double a = hi - golden * (hi - lo), b = lo + golden * (hi - lo);
+      double fa = motion(a), fb = motion(b);
+      for (int step = 0; step < kGoldenSteps; ++step) {
+        if (fa >= fb) {
+          hi = b;
+          b = a;
+          fb = fa;
+          a = hi - golden * (hi - lo);
+          fa = motion(a);
+        } else {
+          lo = a;
+          a = b;
+          fa = fb;
+          b = lo + golden * (hi - lo);
+          fb = motion(b);
+        }
+      }
+      largest = std::max(largest, std::max(fa, fb));
+    }
+  }
+  return largest;
+}
+
 std::vector<double> RollSamples(const CorrectionProblem& problem, int samples) {
   std::vector<double> rolls_rad(samples);
   for (int s = 0; s < samples; ++s) {

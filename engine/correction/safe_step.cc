@@ -12,9 +12,8 @@ namespace gearloop {
 namespace correction_internal {
 namespace {
 
-// Samples of the roll range for the motion bound: the largest motion of a
-// polynomial of order <= 6 over the range lies within ~1 % of its value on 41
-// evenly spaced samples.
+// Samples of the roll range for the motion bound: each maximum they bracket
+// is refined between them (LargestRelativeMotionOverRollRange).
 constexpr int kMotionSamples = 41;
 
 // How far the change predicted at the commanded parameters may differ from
@@ -666,8 +665,8 @@ MachineErrorPrior MakeMachineErrorPrior(
 double AxisMotionRatio(const CorrectionOptions& options,
                        const CorrectionProblem& problem,
                        const Eigen::VectorXd& delta) {
-  return LargestRelativeMotion(
-      options, problem, RollSamples(problem, kMotionSamples), delta);
+  return LargestRelativeMotionOverRollRange(
+      options, problem, kMotionSamples, delta);
 }
 
 Eigen::MatrixXd MotionRowsWhereTheNextContactsGo(
@@ -704,8 +703,8 @@ Eigen::VectorXd BoundAxisMotion(const CorrectionOptions& options,
                                 const CorrectionProblem& problem,
                                 const Eigen::VectorXd& delta,
                                 SafeStepOutcome* outcome) {
-  // Scaled to kMotionFill of the bound: the largest motion may lie between
-  // the samples (within ~1 %).
+  // Scaled to kMotionFill of the bound, its largest over the whole roll
+  // range (AxisMotionRatio): 1 % below it.
   constexpr double kMotionFill = 0.99;
   const double ratio = problem.motion_rows.rows() > 0
                            ? AxisMotionRatio(options, problem, delta)

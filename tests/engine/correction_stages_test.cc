@@ -2165,7 +2165,7 @@ TEST(BoundAxisMotion, ScalesTheChangeToTheLargestAllowedMotion) {
   SafeStepOutcome outcome;
   const Eigen::VectorXd bounded =
       BoundAxisMotion(options, problem, delta, &outcome);
-  // To 99 % of the bound: the largest motion may lie between the samples.
+  // To 99 % of the bound.
   EXPECT_NEAR(outcome.motion_scale, 0.99 * 0.2 / 1.1, 1e-12);
   EXPECT_TRUE(bounded.isApprox(delta * (0.99 * 0.2 / 1.1)));
   // Within the bound: unchanged.
@@ -2595,6 +2595,49 @@ TEST(PrepareCorrectionProblem, RollRangeJoinsTheNominalRangeAndTheContacts) {
       SafeStepProblem(model, Eigen::VectorXd::Constant(5, 1e-3));
   EXPECT_EQ(problem.roll_min_rad, -0.4);  // nominal
   EXPECT_EQ(problem.roll_max_rad, 0.3);   // contacts
+}
+
+// The bound holds between the samples too (AxisMotionRatio through
+// LargestRelativeMotionOverRollRange): dP(phi) = 1 - 20 (phi - phi0)^2 mm
+// with its vertex halfway between two of the 41 samples over [-0.2, 0.3]
+// (phi0 = 0.00625 rad); its largest motion is 1 mm there, 5 x the 0.2 mm
+// bound, where the samples see 1 - 20 x 0.00625^2 mm (robustness benchmark,
+// seed 313, scenario 102, round 1: 1.0108 x the bound between the samples).
+TEST(BoundAxisMotion, FindsTheLargestMotionBetweenTheSamples) {
+  constexpr double kVertexRad = 0.00625;
+  constexpr double kCurvature = 20.0;  // mm / rad^2
+  const LinearModel model(14);
+  const CorrectionProblem problem =
+      SafeStepProblem(model, Eigen::VectorXd::Constant(5, 1e-3));
+  ASSERT_DOUBLE_EQ(problem.roll_min_rad, -0.2);
+  ASSERT_DOUBLE_EQ(problem.roll_max_rad, 0.3);
+  CorrectionOptions options;
+  options.max_axis_motion_mm = 0.2;
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(5);
+  delta(0) = 1.0 - kCurvature * kVertexRad * kVertexRad;
+  delta(1) = 2.0 * kCurvature * kVertexRad;
+  delta(2) = -kCurvature;
+  const double sampled =
+      LargestRelativeMotion(options, problem, RollSamples(problem, 41), delta);
+  EXPECT_NEAR(
+      sampled, (1.0 - kCurvature * kVertexRad * kVertexRad) / 0.2, 1e-12);
+  EXPECT_NEAR(AxisMotionRatio(options, problem, delta), 1.0 / 0.2, 1e-9);
+  SafeStepOutcome outcome;
+  const Eigen::VectorXd bounded =
+      BoundAxisMotion(options, problem, delta, &outcome);
+  EXPECT_NEAR(AxisMotionRatio(options, problem, bounded), 0.99, 1e-9);
+  // A maximum between an end sample and the next, both below it: dP(phi) =
+  // 1 - 4 (phi - phi1)^2 mm, phi1 = -0.196 rad (the samples at -0.2 and
+  // -0.1875 see 1 - 4 x 0.004^2 and 1 - 4 x 0.0085^2 mm).
+  constexpr double kNearEndRad = -0.196;
+  constexpr double kFlatCurvature = 4.0;  // mm / rad^2
+  delta(0) = 1.0 - kFlatCurvature * kNearEndRad * kNearEndRad;
+  delta(1) = 2.0 * kFlatCurvature * kNearEndRad;
+  delta(2) = -kFlatCurvature;
+  EXPECT_LT(
+      LargestRelativeMotion(options, problem, RollSamples(problem, 41), delta),
+      1.0 / 0.2 - 1e-4);
+  EXPECT_NEAR(AxisMotionRatio(options, problem, delta), 1.0 / 0.2, 1e-9);
 }
 
 }  // namespace
