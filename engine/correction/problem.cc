@@ -268,7 +268,27 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   summary->roll_max_rad = p->roll_max_rad;
   summary->missing_indices = p->missing;
   if (p->used.empty()) {
-    *error = "no usable grid point (all missing, zero weight or not reached)";
+    int measured = 0, not_reached = 0, not_converged = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!(std::isfinite(p->error_um(i)) && p->weights(i) > 0.0)) continue;
+      ++measured;
+      if (p->evaluation.status[i] == PointStatus::kNotReached) ++not_reached;
+      if (p->evaluation.status[i] == PointStatus::kNotConverged)
+        ++not_converged;
+    }
+    if (measured == 0) {
+      *error =
+          "no usable grid point: every point is missing or has zero weight";
+    } else {
+      *error =
+          "no usable grid point: the model at the current settings has "
+          "no contact at any of the " +
+          std::to_string(measured) + " measured grid point(s) (" +
+          std::to_string(not_reached) + " not reached by the wheel, " +
+          std::to_string(not_converged) +
+          " with no envelope point found); check the settings against "
+          "the machine and the grid against the flank";
+    }
     return false;
   }
   if (!SelectFreeParameters(options, p->blocks, &p->free, error)) return false;
