@@ -268,14 +268,16 @@ bool PrepareCorrectionProblem(const CorrectionOptions& options,
   summary->roll_max_rad = p->roll_max_rad;
   summary->missing_indices = p->missing;
   if (p->used.empty()) {
-    int measured = 0, not_reached = 0, not_converged = 0;
-    for (int i = 0; i < n; ++i) {
-      if (!(std::isfinite(p->error_um(i)) && p->weights(i) > 0.0)) continue;
-      ++measured;
-      if (p->evaluation.status[i] == PointStatus::kNotReached) ++not_reached;
-      if (p->evaluation.status[i] == PointStatus::kNotConverged)
-        ++not_converged;
-    }
+    // With no point used, every measured point is one the model does not
+    // reach (SelectPoints).
+    const int measured = static_cast<int>(p->measured_not_reached.size());
+    const int not_reached = static_cast<int>(std::count_if(
+        p->measured_not_reached.begin(),
+        p->measured_not_reached.end(),
+        [p](int i) {
+          return p->evaluation.status[i] == PointStatus::kNotReached;
+        }));
+    const int not_converged = measured - not_reached;
     if (measured == 0) {
       *error =
           "no usable grid point: every point is missing or has zero weight";
