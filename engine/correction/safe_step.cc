@@ -503,10 +503,10 @@ const char* ModelsDisagree(const CorrectionProblem& problem,
     sum += d * d;
     ++count;
   }
-  if (lost_at_commanded_end && kept_at_commanded_end == 0)
-    return "loses every measured point at the commanded settings: the next "
-           "measurement could not be corrected from them";
   if (lost_at_commanded_end) {
+    if (kept_at_commanded_end == 0)
+      return "loses every measured point at the commanded settings: the next "
+             "measurement could not be corrected from them";
     const double share = std::min(0.5, problem.plausible_share);
     ModelEvaluation midway;
     problem.model->Evaluate(
