@@ -19,10 +19,12 @@
 // estimated from the machine-state fit's misfit (pure noise
 // when the model explains the part; the state the passes reached) or,
 // without a state, from the correction's own linear misfit (which also holds
-// what the machine cannot reach: wider). A state's estimate above
-// kStateNoiseCeilingUm (machine_state.h) is more than a probe scatters: the
-// bands reach over it read as noise and read as the ceiling's noise with the
-// rest as flank the next part keeps; the expected value stays the first's.
+// what the machine cannot reach: wider). An estimate above
+// kStateNoiseCeilingUm (machine_state.h), the state's or the correction's
+// own, is more than a probe scatters: the bands reach over it read as noise
+// and read as the ceiling's noise with the rest as flank the next part keeps,
+// and the expected value is the second reading's (a misfit read as noise
+// would predict the part that keeps it near 0 um).
 // The model's own error (a wrong state estimate) enters only through k_m;
 // the robustness benchmark measures how often the achieved rms falls inside.
 // The points the model grinds after the step without a measurement the

@@ -1070,6 +1070,50 @@ TEST(EstimatePredictionBand, ReachesOverThePointsTheMeasurementLacksUnground) {
   EXPECT_GE(d.inside, 0.9 * kDraws);
 }
 
+// With the noise not stated, a part the model cannot make whole: a 3 um
+// checkerboard (no parameter moves the flank point to point) on a smoothly
+// correctable error, measured without noise. The noise the band estimates
+// from the misfit (about 3 um) is more than a probe scatters
+// (kStateNoiseCeilingUm): the next part keeps that flank, and the expected
+// value says so (before, the misfit read as noise made it 0.98 um against the
+// 3.02 um the next part has, with the state estimate asked for or not), the
+// 2-sigma band holding it too.
+TEST(EstimatePredictionBand, ExpectsTheNextPartToKeepAMisfitAboveTheCeiling) {
+  const SmoothModel model;
+  const int n = model.NumPoints();
+  constexpr double kCheckerUm = 3.0;
+  Eigen::VectorXd checker(n);
+  for (int i = 0; i < n; ++i)
+    checker(i) = ((i % GridModel::kColumns + i / GridModel::kColumns) % 2 == 0)
+                     ? kCheckerUm
+                     : -kCheckerUm;
+  for (const bool with_state : {true, false}) {
+    Eigen::VectorXd hidden(5);
+    hidden << 4e-3, -2e-3, 3e-3, 1e-5, -1e-3;
+    CorrectionInput input = PartGroundWith(model, hidden);
+    input.measured_um += checker;
+    CorrectionOptions options;  // probe_noise_um < 0: not stated
+    options.estimate_machine_state = with_state;
+    const CorrectionResult result = ComputeCorrection(options, input);
+    ASSERT_TRUE(result.summary.IsSolutionUsable()) << result.summary.message;
+    const PredictionBand& band = result.summary.prediction_band;
+    ASSERT_FALSE(band.noise_stated);
+    ASSERT_GT(band.noise_sigma_um, kStateNoiseCeilingUm);
+    // The next part on the machine that ground this one.
+    ModelEvaluation next;
+    model.Evaluate(hidden + result.delta, false, &next);
+    const double true_rms_um =
+        std::sqrt((next.deviations_um + checker).squaredNorm() / n);
+    EXPECT_GT(true_rms_um, 0.9 * kCheckerUm);
+    EXPECT_NEAR(band.expected_true_rms_um,
+                true_rms_um,
+                /*tol_um=*/0.1 * true_rms_um)
+        << "state estimate " << with_state;
+    EXPECT_LE(band.true_rms_low_um[1], true_rms_um);
+    EXPECT_GE(band.true_rms_high_um[1], true_rms_um);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // The convex QP.
 
