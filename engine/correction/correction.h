@@ -377,6 +377,10 @@ struct PredictionBand {
   // point to point, machine_state.h RaiseContradictedNoise): noise_sigma_um
   // is then that scatter and noise_stated false. NaN otherwise.
   double stated_noise_um = std::numeric_limits<double>::quiet_NaN();
+  // The noise was estimated from a misfit above what a probe scatters (1 um,
+  // prediction_band.h): the expected value reads the rest as flank the next
+  // part keeps, the bands reach over both readings.
+  bool misfit_read_as_flank = false;
   double expected_true_rms_um = 0.0;
   double true_rms_low_um[2] = {0.0, 0.0};   // 1 sigma, 2 sigma
   double true_rms_high_um[2] = {0.0, 0.0};  // 1 sigma, 2 sigma

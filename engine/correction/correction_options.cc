@@ -196,6 +196,9 @@ std::string CorrectionSummary::BriefReport() const {
     if (std::isfinite(band.stated_noise_um))
       out << " from the measurement's scatter; " << band.stated_noise_um
           << " um stated is contradicted";
+    if (band.misfit_read_as_flank)
+      out << " from a misfit, more than a probe scatters: the expected value "
+             "counts all but 1 um of it as flank the next part keeps";
     out << ")";
   }
   return out.str();

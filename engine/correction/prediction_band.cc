@@ -294,6 +294,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
     const TrueRmsBands as_flank = BandsAtNoise(
         problem, *result, predicted, after, mean_variance * share * share);
     bands.expected2 = as_flank.expected2;
+    band.misfit_read_as_flank = true;
     for (int k = 0; k < 2; ++k) {
       bands.low2[k] = std::min(bands.low2[k], as_flank.low2[k]);
       bands.high2[k] = std::max(bands.high2[k], as_flank.high2[k]);

@@ -1039,6 +1039,7 @@ TEST(EstimatePredictionBand,
   EXPECT_TRUE(band.noise_stated);
   EXPECT_EQ(band.noise_sigma_um, 0.3);
   EXPECT_TRUE(std::isnan(band.stated_noise_um));
+  EXPECT_FALSE(band.misfit_read_as_flank);
   EXPECT_NE(result.summary.machine_state_reason.find(
                 "um from point to point, less than the 0.3 um probe noise "
                 "stated: the stated noise is kept"),
@@ -1099,6 +1100,13 @@ TEST(EstimatePredictionBand, ExpectsTheNextPartToKeepAMisfitAboveTheCeiling) {
     const PredictionBand& band = result.summary.prediction_band;
     ASSERT_FALSE(band.noise_stated);
     ASSERT_GT(band.noise_sigma_um, kStateNoiseCeilingUm);
+    EXPECT_TRUE(band.misfit_read_as_flank);
+    EXPECT_NE(result.summary.BriefReport().find(
+                  "from a misfit, more than a probe scatters: the expected "
+                  "value counts all but 1 um of it as flank the next part "
+                  "keeps"),
+              std::string::npos)
+        << result.summary.BriefReport();
     // The next part on the machine that ground this one.
     ModelEvaluation next;
     model.Evaluate(hidden + result.delta, false, &next);
