@@ -410,6 +410,9 @@
           fmt(b.noise_sigma_um, 3) + " \u00b5m " + (b.noise_stated ? "stated" : "estimated") +
           (isNum(b.stated_noise_um)
             ? " from the measurement's scatter; " + fmt(b.stated_noise_um, 3) + " \u00b5m stated is contradicted"
+            : "") +
+          (b.misfit_read_as_flank
+            ? " from a misfit, more than a probe scatters: the expected value counts all but 1 \u00b5m of it as flank the next part keeps"
             : "") + ")",
       ]);
     }

@@ -454,6 +454,7 @@ nlohmann::json PredictionBandJson(const PredictionBand& band) {
   return {{"noise_sigma_um", FiniteOrNull(band.noise_sigma_um)},
           {"noise_stated", band.noise_stated},
           {"stated_noise_um", FiniteOrNull(band.stated_noise_um)},
+          {"misfit_read_as_flank", band.misfit_read_as_flank},
           {"expected_true_rms_um", FiniteOrNull(band.expected_true_rms_um)},
           {"true_rms_1sigma_um",
            {FiniteOrNull(band.true_rms_low_um[0]),

@@ -287,6 +287,7 @@ TEST_F(GearloopServerTest, SaysWhenTheMeasurementContradictsTheStatedNoise) {
   const nlohmann::json right = created.body["result"]["prediction_band"];
   EXPECT_EQ(right["noise_stated"], true);
   EXPECT_TRUE(right["stated_noise_um"].is_null());
+  EXPECT_EQ(right["misfit_read_as_flank"], false);
   EXPECT_EQ(right["noise_sigma_um"], 0.3);
 
   request["options"]["probe_noise_um"] = 0.1;
