@@ -337,10 +337,11 @@ void PrintPredictionBand(const json& result) {
     if (stated.is_number())
       std::cout << " from the measurement's scatter; " << Fixed(stated)
                 << " um stated is contradicted";
-    if (band.value("misfit_read_as_flank", false))
+    const json probe = band.value("noise_read_as_probe_um", json());
+    if (band.value("misfit_read_as_flank", false) && probe.is_number())
       std::cout << " from a misfit, more than a probe scatters: the expected "
-                   "value counts all but 1 um of it as flank the next part "
-                   "keeps";
+                   "value counts all but "
+                << Fixed(probe) << " um of it as flank the next part keeps";
     std::cout << ")\n";
   }
   const json safe_step = result.value("safe_step", json());

@@ -411,8 +411,9 @@
           (isNum(b.stated_noise_um)
             ? " from the measurement's scatter; " + fmt(b.stated_noise_um, 3) + " \u00b5m stated is contradicted"
             : "") +
-          (b.misfit_read_as_flank
-            ? " from a misfit, more than a probe scatters: the expected value counts all but 1 \u00b5m of it as flank the next part keeps"
+          (b.misfit_read_as_flank && isNum(b.noise_read_as_probe_um)
+            ? " from a misfit, more than a probe scatters: the expected value counts all but " +
+              fmt(b.noise_read_as_probe_um, 3) + " \u00b5m of it as flank the next part keeps"
             : "") + ")",
       ]);
     }

@@ -381,6 +381,10 @@ struct PredictionBand {
   // prediction_band.h): the expected value reads the rest as flank the next
   // part keeps, the bands reach over both readings.
   bool misfit_read_as_flank = false;
+  // Where misfit_read_as_flank: the share of the estimated noise the expected
+  // value reads as probe scatter [um] (kStateNoiseCeilingUm); NaN otherwise.
+  // The reports print it, so a change of the ceiling reaches every client.
+  double noise_read_as_probe_um = std::numeric_limits<double>::quiet_NaN();
   double expected_true_rms_um = 0.0;
   double true_rms_low_um[2] = {0.0, 0.0};   // 1 sigma, 2 sigma
   double true_rms_high_um[2] = {0.0, 0.0};  // 1 sigma, 2 sigma

@@ -198,7 +198,9 @@ std::string CorrectionSummary::BriefReport() const {
           << " um stated is contradicted";
     if (band.misfit_read_as_flank)
       out << " from a misfit, more than a probe scatters: the expected value "
-             "counts all but 1 um of it as flank the next part keeps";
+             "counts all but "
+          << band.noise_read_as_probe_um
+          << " um of it as flank the next part keeps";
     out << ")";
   }
   return out.str();

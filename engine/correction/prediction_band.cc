@@ -295,6 +295,7 @@ void EstimatePredictionBand(const CorrectionProblem& problem,
         problem, *result, predicted, after, mean_variance * share * share);
     bands.expected2 = as_flank.expected2;
     band.misfit_read_as_flank = true;
+    band.noise_read_as_probe_um = ceiling_um;
     for (int k = 0; k < 2; ++k) {
       bands.low2[k] = std::min(bands.low2[k], as_flank.low2[k]);
       bands.high2[k] = std::max(bands.high2[k], as_flank.high2[k]);

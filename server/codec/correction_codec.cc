@@ -455,6 +455,7 @@ nlohmann::json PredictionBandJson(const PredictionBand& band) {
           {"noise_stated", band.noise_stated},
           {"stated_noise_um", FiniteOrNull(band.stated_noise_um)},
           {"misfit_read_as_flank", band.misfit_read_as_flank},
+          {"noise_read_as_probe_um", FiniteOrNull(band.noise_read_as_probe_um)},
           {"expected_true_rms_um", FiniteOrNull(band.expected_true_rms_um)},
           {"true_rms_1sigma_um",
            {FiniteOrNull(band.true_rms_low_um[0]),

@@ -117,6 +117,29 @@ class CliTest(unittest.TestCase):
         self.assertRegex(human.stdout, r"\(noise [0-9.]+ um estimated from the measurement's scatter; "
                                        r"0\.010 um stated is contradicted\)")
 
+    def test_submit_says_when_the_estimated_noise_is_a_misfit_read_as_flank(self) -> None:
+        # A +-3 um checkerboard on the example measurement: no axis motion makes it, no noise is
+        # stated, so the noise is estimated from the misfit, above what a probe scatters; the line
+        # says the expected value keeps all but the server's noise_read_as_probe_um of it as flank.
+        measurement = json.loads((EXAMPLES / "measurement.json").read_text())
+        for r, row in enumerate(measurement["deviations_um"]):
+            for c, value in enumerate(row):
+                if value is not None:
+                    row[c] = value + (3.0 if (r + c) % 2 == 0 else -3.0)
+        path = self.dir / "checkerboard.json"
+        path.write_text(json.dumps(measurement))
+        done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(path))
+        self.assertIn(done.returncode, (0, 5), done.stderr)
+        band = json.loads(done.stdout)["result"]["prediction_band"]
+        self.assertFalse(band["noise_stated"])
+        self.assertTrue(band["misfit_read_as_flank"])
+        self.assertEqual(band["noise_read_as_probe_um"], 1.0)
+        self.assertGreater(band["noise_sigma_um"], 1.0)
+        human = self.run_cli("submit", str(EXAMPLES / "request.json"), str(path))
+        self.assertIn(human.returncode, (0, 5), human.stderr)
+        self.assertRegex(human.stdout, r"\(noise [0-9.]+ um estimated from a misfit, more than a probe scatters: "
+                                       r"the expected value counts all but 1\.000 um of it as flank the next part keeps\)")
+
     def test_submit_several_teeth_shows_their_mean(self) -> None:
         data = Path(__file__).resolve().parent / "data"
         done = self.run_cli("--json", "submit", str(EXAMPLES / "request.json"), str(data / "measurement_teeth.json"))

@@ -1040,6 +1040,7 @@ TEST(EstimatePredictionBand,
   EXPECT_EQ(band.noise_sigma_um, 0.3);
   EXPECT_TRUE(std::isnan(band.stated_noise_um));
   EXPECT_FALSE(band.misfit_read_as_flank);
+  EXPECT_TRUE(std::isnan(band.noise_read_as_probe_um));
   EXPECT_NE(result.summary.machine_state_reason.find(
                 "um from point to point, less than the 0.3 um probe noise "
                 "stated: the stated noise is kept"),
@@ -1101,6 +1102,7 @@ TEST(EstimatePredictionBand, ExpectsTheNextPartToKeepAMisfitAboveTheCeiling) {
     ASSERT_FALSE(band.noise_stated);
     ASSERT_GT(band.noise_sigma_um, kStateNoiseCeilingUm);
     EXPECT_TRUE(band.misfit_read_as_flank);
+    EXPECT_EQ(band.noise_read_as_probe_um, kStateNoiseCeilingUm);
     EXPECT_NE(result.summary.BriefReport().find(
                   "from a misfit, more than a probe scatters: the expected "
                   "value counts all but 1 um of it as flank the next part "

@@ -288,6 +288,7 @@ TEST_F(GearloopServerTest, SaysWhenTheMeasurementContradictsTheStatedNoise) {
   EXPECT_EQ(right["noise_stated"], true);
   EXPECT_TRUE(right["stated_noise_um"].is_null());
   EXPECT_EQ(right["misfit_read_as_flank"], false);
+  EXPECT_TRUE(right["noise_read_as_probe_um"].is_null());
   EXPECT_EQ(right["noise_sigma_um"], 0.3);
 
   request["options"]["probe_noise_um"] = 0.1;

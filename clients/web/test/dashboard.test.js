@@ -279,7 +279,7 @@ async function main() {
       answerRows["next part true rms (2\u03c3 band)"] ===
         band.expected_true_rms_um.toFixed(3) + " \u00b5m (" + band.true_rms_2sigma_um[0].toFixed(3) + " \u2013 " + band.true_rms_2sigma_um[1].toFixed(3) + " \u00b5m; noise " + band.noise_sigma_um.toFixed(3) + " \u00b5m " + (band.noise_stated ? "stated" : "estimated") +
           (typeof band.stated_noise_um === "number" ? " from the measurement's scatter; " + band.stated_noise_um.toFixed(3) + " \u00b5m stated is contradicted" : "") +
-          (band.misfit_read_as_flank === true ? " from a misfit, more than a probe scatters: the expected value counts all but 1 \u00b5m of it as flank the next part keeps" : "") + ")",
+          (band.misfit_read_as_flank === true ? " from a misfit, more than a probe scatters: the expected value counts all but " + band.noise_read_as_probe_um.toFixed(3) + " \u00b5m of it as flank the next part keeps" : "") + ")",
       JSON.stringify(answerRows)
     );
     const parabola = again.result.safe_step.wheel_parabola;
